@@ -1,0 +1,17 @@
+"""symrl: symbolic structures in numeric reinforcement (Hailu, 2001) with PyTorch and TorchRL.
+
+Importing symrl registers the Gymnasium env ``symrl/Hailu2001-v0``. Heavy modules (torch,
+torchrl) are imported only by the parts that need them, so ``import symrl`` stays cheap.
+"""
+
+import gymnasium
+
+__version__ = "0.1.0"
+
+ENV_ID = "symrl/Hailu2001-v0"
+
+if ENV_ID not in gymnasium.registry:
+    # The env truncates itself at `max_actions` (200, SPEC section 4), so no TimeLimit wrapper.
+    gymnasium.register(id=ENV_ID, entry_point="symrl.world.env:Hailu2001Env")
+
+__all__ = ["ENV_ID", "__version__"]

@@ -1,0 +1,165 @@
+"""The ``symrl`` command line: one subcommand per job, each a thin layer over the public API.
+
+Parsing lives here; the work lives in the modules named by each handler, imported lazily so
+``symrl --help`` is instant and a command only pays for the libraries it uses.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Sequence
+
+
+def parse_pose(text: str) -> tuple[float, float, float]:
+    """Read ``X,Y,HEADING`` (metres, metres, radians) or ``X,Y`` (heading 0)."""
+    parts = text.split(",")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--start {text!r}: expected X,Y,HEADING as numbers, e.g. 0,0,0"
+        ) from None
+    if len(values) not in (2, 3) or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"--start {text!r}: expected X,Y[,HEADING] finite numbers")
+    if len(values) == 2:
+        values.append(0.0)
+    return values[0], values[1], values[2]
+
+
+def _drive(args: argparse.Namespace) -> int:
+    from symrl.drive import drive_command
+
+    return drive_command(args)
+
+
+def _train(args: argparse.Namespace) -> int:
+    from symrl.train import train_command
+
+    return train_command(args)
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from symrl.train import evaluate_command
+
+    return evaluate_command(args)
+
+
+def _study(args: argparse.Namespace) -> int:
+    from symrl.studies.repeatability import study_command
+
+    return study_command(args)
+
+
+def _ablate(args: argparse.Namespace) -> int:
+    from symrl.studies.ablation import ablate_command
+
+    return ablate_command(args)
+
+
+def _plan(args: argparse.Namespace) -> int:
+    from symrl.studies.planner import plan_command
+
+    return plan_command(args)
+
+
+def _baseline(args: argparse.Namespace) -> int:
+    from symrl.studies.ppo import baseline_command
+
+    return baseline_command(args)
+
+
+def _generalise(args: argparse.Namespace) -> int:
+    from symrl.studies.generalisation import generalise_command
+
+    return generalise_command(args)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="symrl",
+        description="Symbolic structures in numeric reinforcement (Hailu, 2001): "
+        "a robot that learns a short, safe path in a handful of trials.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    p = sub.add_parser("drive", help="let the fuzzy reflex drive one trial and save its path")
+    p.add_argument("--start", type=parse_pose, default=None, help="start pose X,Y,HEADING")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--out", default="out/drive", help="output folder (default out/drive)")
+    p.add_argument("--map", default="hailu2001", help="built-in map name or map file")
+    p.add_argument("--no-noise", action="store_true", help="turn every noise source off")
+    p.set_defaults(handler=_drive)
+
+    p = sub.add_parser("train", help="train a recipe online, trial by trial")
+    p.add_argument("recipe", help="recipe name (paper, paper_literal, ...) or a YAML file")
+    p.add_argument("--trials", type=int, default=None, help="number of trials (recipe default)")
+    p.add_argument("--seed", type=int, default=None, help="random seed (recipe default)")
+    p.add_argument("--logdir", default=None, help="run folder (default runs/RECIPE__sSEED__TIME)")
+    p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
+    p.set_defaults(handler=_train)
+
+    p = sub.add_parser("evaluate", help="drive a saved controller greedily and save its path")
+    p.add_argument("checkpoint", help="checkpoint file written by `symrl train`")
+    p.add_argument("--start", type=parse_pose, default=None, help="start pose X,Y,HEADING")
+    p.add_argument("--seed", type=int, default=0, help="random seed for the world's noise")
+    p.add_argument("--out", default=None, help="output folder (default: beside the checkpoint)")
+    p.set_defaults(handler=_evaluate)
+
+    p = sub.add_parser("study", help="repeatability study: N sets x M trials (Table 1, Figs 5-9)")
+    p.add_argument("recipe")
+    p.add_argument("--sets", type=int, default=10)
+    p.add_argument("--trials", type=int, default=20)
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: cores)")
+    p.add_argument("--seed", type=int, default=100, help="first seed; set k uses seed + k")
+    p.add_argument("--out", default=None, help="results folder (default results/study-RECIPE)")
+    p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
+    p.set_defaults(handler=_study)
+
+    p = sub.add_parser("ablate", help="the study for every recipe with the same seeds")
+    p.add_argument("--sets", type=int, default=10)
+    p.add_argument("--trials", type=int, default=20)
+    p.add_argument("--workers", type=int, default=None)
+    p.add_argument("--seed", type=int, default=100)
+    p.add_argument("--recipes", default=None, help="comma-separated subset of recipes")
+    p.add_argument("--out", default="results/ablate")
+    p.set_defaults(handler=_ablate)
+
+    p = sub.add_parser("plan", help="shortest collision-free path to the goal (the optimum)")
+    p.add_argument("--map", default="hailu2001")
+    p.add_argument("--start", type=parse_pose, default=None)
+    p.add_argument("--out", default="results/plan")
+    p.set_defaults(handler=_plan)
+
+    p = sub.add_parser("baseline", help="baselines on the same env (ppo)")
+    p.add_argument("algorithm", choices=["ppo"])
+    p.add_argument("--episodes", type=int, default=20, help="training budget in episodes")
+    p.add_argument("--seeds", default="100", help="comma-separated seeds")
+    p.add_argument("--out", default="results/baseline-ppo")
+    p.set_defaults(handler=_baseline)
+
+    p = sub.add_parser("generalise", help="learned controller from other starts, new obstacle, noise")
+    p.add_argument("--recipe", default="paper")
+    p.add_argument("--sets", type=int, default=5)
+    p.add_argument("--trials", type=int, default=20)
+    p.add_argument("--workers", type=int, default=None)
+    p.add_argument("--seed", type=int, default=100)
+    p.add_argument("--out", default="results/generalise")
+    p.set_defaults(handler=_generalise)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.handler(args) or 0)
+    except (ValueError, FileNotFoundError) as err:
+        # Configuration and input errors: one clear line, no deep traceback.
+        print(f"symrl {args.command}: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""The learner: growing RBF experts, the mixture-of-experts policy, the TESEO update, configs."""

@@ -1,0 +1,1 @@
+"""Studies: repeatability (Table 1), ablations, the optimum planner, baselines, figures."""

@@ -1,0 +1,371 @@
+"""The world as data: load, validate and hold a map file (walls, start, goal, region rules).
+
+A map is a YAML file (see ``maps/hailu2001.yaml``). Everything the simulator, the region
+mapper and the planner need about the world comes from here, so a user can swap in another
+world without touching code. Every fault in a map file raises :class:`MapError` naming the
+field and the offending value, never a bare ``TypeError`` from deep inside.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+__all__ = [
+    "MapError",
+    "Pose",
+    "Goal",
+    "Condition",
+    "RegionRule",
+    "RegionSpec",
+    "WorldMap",
+    "load_map",
+    "builtin_maps",
+]
+
+_COND = re.compile(r"^\s*([xy])\s*([<>])\s*([A-Za-z_][A-Za-z0-9_]*)\s*$")
+_TOP_KEYS = {"name", "boundary", "obstacles", "segments", "start", "goal", "regions"}
+
+
+class MapError(ValueError):
+    """A map file or map dict is malformed; the message names the field and the value."""
+
+
+@dataclass(frozen=True)
+class Pose:
+    x: float
+    y: float
+    heading: float = 0.0
+
+
+@dataclass(frozen=True)
+class Goal:
+    x: float
+    y: float
+    radius: float
+
+
+@dataclass(frozen=True)
+class Condition:
+    """``axis op line``: e.g. ``x > l3`` is axis 0, sign +1, the x-intercept of l3."""
+
+    axis: int  # 0 for x, 1 for y
+    greater: bool  # True for ">", False for "<"
+    threshold: float
+    text: str
+
+
+@dataclass(frozen=True)
+class RegionRule:
+    region: str
+    conditions: tuple[Condition, ...]
+
+
+@dataclass(frozen=True)
+class RegionSpec:
+    """The symbolic partition (paper section 6.1): named lines and first-match rules."""
+
+    names: tuple[str, ...]
+    lines: dict[str, tuple[str, float]]  # name -> ("x" | "y", intercept)
+    rules: tuple[RegionRule, ...]
+
+    def region_of(self, x: float, y: float) -> str:
+        """Scalar reference implementation of the rules (the torch module batches this)."""
+        for rule in self.rules:
+            if all(
+                (x, y)[c.axis] > c.threshold if c.greater else (x, y)[c.axis] < c.threshold
+                for c in rule.conditions
+            ):
+                return rule.region
+        raise MapError(f"regions.rules: no rule matches the pose ({x}, {y}); add a default rule")
+
+
+@dataclass(frozen=True)
+class WorldMap:
+    """A validated world. Walls are all given as segments ``(n, 4)``: x0, y0, x1, y1."""
+
+    name: str
+    boundary: np.ndarray  # (k, 2) free-area polygon
+    obstacles: tuple[np.ndarray, ...]  # solid polygons inside the free area
+    extra_segments: np.ndarray  # (m, 4) thin walls
+    start: Pose
+    goal: Goal
+    regions: RegionSpec
+    source: str = field(default="<dict>")
+
+    @property
+    def segments(self) -> np.ndarray:
+        """Every wall as one ``(n, 4)`` float64 array (boundary edges, obstacle edges, segments)."""
+        parts = [_edges(self.boundary)] + [_edges(p) for p in self.obstacles]
+        parts.append(self.extra_segments.reshape(-1, 4))
+        return np.concatenate(parts, axis=0)
+
+    def in_free_area(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
+        """True where the point is inside the boundary and outside every obstacle."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        inside = _point_in_polygon(x, y, self.boundary)
+        for poly in self.obstacles:
+            inside &= ~_point_in_polygon(x, y, poly)
+        return inside
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, xmax, ymin, ymax) of the boundary polygon."""
+        b = self.boundary
+        return float(b[:, 0].min()), float(b[:, 0].max()), float(b[:, 1].min()), float(b[:, 1].max())
+
+    def with_obstacle(self, polygon: list[list[float]] | np.ndarray) -> WorldMap:
+        """A copy of this map with one more solid polygon (for the new-obstacle study)."""
+        poly = _polygon(polygon, f"obstacles[{len(self.obstacles)}]")
+        return WorldMap(
+            self.name + "+obstacle",
+            self.boundary,
+            self.obstacles + (poly,),
+            self.extra_segments,
+            self.start,
+            self.goal,
+            self.regions,
+            self.source,
+        )
+
+
+def builtin_maps() -> list[str]:
+    """Names of the maps shipped with symrl."""
+    folder = resources.files("symrl.world") / "maps"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
+
+
+def load_map(source: str | Path | dict[str, Any] = "hailu2001") -> WorldMap:
+    """Load a map by built-in name, file path, or an already-parsed dict, and validate it."""
+    if isinstance(source, dict):
+        return parse_map(source, "<dict>")
+    text_source = str(source)
+    path = Path(text_source)
+    if not path.suffix and not path.exists():
+        if text_source not in builtin_maps():
+            raise MapError(
+                f"map {text_source!r}: not a file and not a built-in map "
+                f"(built-in: {', '.join(builtin_maps())})"
+            )
+        path = Path(str(resources.files("symrl.world") / "maps" / f"{text_source}.yaml"))
+    if not path.exists():
+        raise MapError(f"map file {str(path)!r} does not exist")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise MapError(f"map file {str(path)!r} is not valid YAML: {err}") from None
+    return parse_map(data, str(path))
+
+
+def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
+    """Validate a parsed map document and build a :class:`WorldMap`."""
+    if not isinstance(data, dict):
+        raise MapError(f"{source}: a map must be a mapping of fields, got {type(data).__name__}")
+    unknown = set(data) - _TOP_KEYS
+    if unknown:
+        raise MapError(f"{source}: unknown field(s) {sorted(unknown)}; allowed: {sorted(_TOP_KEYS)}")
+    for key in ("boundary", "start", "goal", "regions"):
+        if key not in data:
+            raise MapError(f"{source}: missing required field {key!r}")
+    name = data.get("name", Path(source).stem)
+    if not isinstance(name, str) or not name:
+        raise MapError(f"{source}: field 'name' must be a non-empty string, got {name!r}")
+
+    boundary = _polygon(data["boundary"], "boundary")
+    obstacles_raw = data.get("obstacles") or []
+    if not isinstance(obstacles_raw, list):
+        raise MapError(f"field 'obstacles' must be a list of polygons, got {obstacles_raw!r}")
+    obstacles = tuple(_polygon(p, f"obstacles[{i}]") for i, p in enumerate(obstacles_raw))
+    segments = _segments(data.get("segments") or [])
+    start = _pose(data["start"])
+    goal = _goal(data["goal"])
+    regions = _regions(data["regions"])
+
+    world = WorldMap(name, boundary, obstacles, segments, start, goal, regions, source)
+    for label, (px, py) in (("start", (start.x, start.y)), ("goal", (goal.x, goal.y))):
+        if not bool(world.in_free_area(px, py)):
+            raise MapError(f"field {label!r}: the point ({px}, {py}) is not in the free area")
+    return world
+
+
+# --- field validators -------------------------------------------------------------------
+
+
+def _number(value: Any, field_name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise MapError(f"field {field_name!r} must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise MapError(f"field {field_name!r} must be finite, got {value!r}")
+    return float(value)
+
+
+def _point(value: Any, field_name: str) -> tuple[float, float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise MapError(f"field {field_name!r} must be a point [x, y], got {value!r}")
+    return _number(value[0], f"{field_name}[0]"), _number(value[1], f"{field_name}[1]")
+
+
+def _polygon(value: Any, field_name: str) -> np.ndarray:
+    if not isinstance(value, (list, tuple, np.ndarray)) or len(value) < 3:
+        raise MapError(f"field {field_name!r} must be a polygon of at least 3 points, got {value!r}")
+    pts = np.array([_point(p, f"{field_name}[{i}]") for i, p in enumerate(value)])
+    area = 0.5 * float(np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1]))
+    if abs(area) < 1e-12:
+        raise MapError(f"field {field_name!r}: the polygon has zero area: {value!r}")
+    edges = _edges(pts)
+    for i in range(len(edges)):
+        for j in range(i + 1, len(edges)):
+            if j == i + 1 or (i == 0 and j == len(edges) - 1):
+                continue  # neighbours share a vertex
+            if _segments_cross(edges[i], edges[j]):
+                raise MapError(
+                    f"field {field_name!r}: the polygon crosses itself (edges {i} and {j})"
+                )
+    return pts
+
+
+def _segments(value: Any) -> np.ndarray:
+    if not isinstance(value, list):
+        raise MapError(f"field 'segments' must be a list of [[x0, y0], [x1, y1]], got {value!r}")
+    out = []
+    for i, seg in enumerate(value):
+        if not isinstance(seg, (list, tuple)) or len(seg) != 2:
+            raise MapError(f"field 'segments[{i}]' must be [[x0, y0], [x1, y1]], got {seg!r}")
+        a = _point(seg[0], f"segments[{i}][0]")
+        b = _point(seg[1], f"segments[{i}][1]")
+        if a == b:
+            raise MapError(f"field 'segments[{i}]' has zero length: {seg!r}")
+        out.append((*a, *b))
+    return np.array(out, dtype=np.float64).reshape(-1, 4)
+
+
+def _pose(value: Any) -> Pose:
+    if not isinstance(value, dict) or not {"x", "y"} <= set(value):
+        raise MapError(f"field 'start' must be a mapping {{x, y, heading}}, got {value!r}")
+    extra = set(value) - {"x", "y", "heading"}
+    if extra:
+        raise MapError(f"field 'start' has unknown key(s) {sorted(extra)}")
+    return Pose(
+        _number(value["x"], "start.x"),
+        _number(value["y"], "start.y"),
+        _number(value.get("heading", 0.0), "start.heading"),
+    )
+
+
+def _goal(value: Any) -> Goal:
+    if not isinstance(value, dict) or not {"x", "y", "radius"} <= set(value):
+        raise MapError(f"field 'goal' must be a mapping {{x, y, radius}}, got {value!r}")
+    extra = set(value) - {"x", "y", "radius"}
+    if extra:
+        raise MapError(f"field 'goal' has unknown key(s) {sorted(extra)}")
+    radius = _number(value["radius"], "goal.radius")
+    if radius <= 0:
+        raise MapError(f"field 'goal.radius' must be positive, got {radius!r}")
+    return Goal(_number(value["x"], "goal.x"), _number(value["y"], "goal.y"), radius)
+
+
+def _regions(value: Any) -> RegionSpec:
+    if not isinstance(value, dict):
+        raise MapError(f"field 'regions' must be a mapping {{names, lines, rules}}, got {value!r}")
+    for key in ("names", "lines", "rules"):
+        if key not in value:
+            raise MapError(f"field 'regions' is missing {key!r}")
+    names = value["names"]
+    if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+        raise MapError(f"field 'regions.names' must be a non-empty list of strings, got {names!r}")
+    if len(set(names)) != len(names):
+        raise MapError(f"field 'regions.names' has duplicates: {names!r}")
+
+    lines_raw = value["lines"]
+    if not isinstance(lines_raw, dict):
+        raise MapError(f"field 'regions.lines' must be a mapping name -> {{x: .}} or {{y: .}}")
+    lines: dict[str, tuple[str, float]] = {}
+    for lname, spec in lines_raw.items():
+        if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in ("x", "y"):
+            raise MapError(
+                f"field 'regions.lines.{lname}' must be {{x: value}} or {{y: value}}, got {spec!r}"
+            )
+        axis, intercept = next(iter(spec.items()))
+        lines[str(lname)] = (axis, _number(intercept, f"regions.lines.{lname}.{axis}"))
+
+    rules_raw = value["rules"]
+    if not isinstance(rules_raw, list) or not rules_raw:
+        raise MapError(f"field 'regions.rules' must be a non-empty list, got {rules_raw!r}")
+    rules = []
+    for i, rule in enumerate(rules_raw):
+        where = f"regions.rules[{i}]"
+        if not isinstance(rule, dict) or "region" not in rule:
+            raise MapError(f"field {where!r} must be a mapping with 'region', got {rule!r}")
+        if rule["region"] not in names:
+            raise MapError(
+                f"field '{where}.region': unknown region {rule['region']!r} (names: {names})"
+            )
+        when = rule.get("when", [])
+        if not isinstance(when, list):
+            raise MapError(f"field '{where}.when' must be a list of conditions, got {when!r}")
+        conds = []
+        for j, text in enumerate(when):
+            m = _COND.match(text) if isinstance(text, str) else None
+            if m is None:
+                raise MapError(
+                    f"field '{where}.when[{j}]': cannot read condition {text!r} "
+                    "(expected e.g. 'x > l3' or 'y < l1')"
+                )
+            axis, op, lname = m.groups()
+            if lname not in lines:
+                raise MapError(f"field '{where}.when[{j}]': unknown line {lname!r} in {text!r}")
+            line_axis, intercept = lines[lname]
+            if line_axis != axis:
+                raise MapError(
+                    f"field '{where}.when[{j}]': {text!r} compares {axis} with line {lname!r}, "
+                    f"which is a {line_axis}-line"
+                )
+            conds.append(Condition(0 if axis == "x" else 1, op == ">", intercept, text))
+        rules.append(RegionRule(rule["region"], tuple(conds)))
+    if rules[-1].conditions:
+        raise MapError(
+            "field 'regions.rules': the last rule must be a default (no 'when'), "
+            f"got {rules_raw[-1]!r}"
+        )
+    unreachable = [n for n in names if n not in {r.region for r in rules}]
+    if unreachable:
+        raise MapError(f"field 'regions.names': region(s) {unreachable} have no rule")
+    return RegionSpec(tuple(names), lines, tuple(rules))
+
+
+# --- small geometry helpers (validation only; the simulator has its own vectorised ones) ----
+
+
+def _edges(poly: np.ndarray) -> np.ndarray:
+    return np.concatenate([poly, np.roll(poly, -1, axis=0)], axis=1)
+
+
+def _segments_cross(a: np.ndarray, b: np.ndarray) -> bool:
+    def orient(p, q, r):
+        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+
+    p1, p2, p3, p4 = a[:2], a[2:], b[:2], b[2:]
+    d1, d2 = orient(p3, p4, p1), orient(p3, p4, p2)
+    d3, d4 = orient(p1, p2, p3), orient(p1, p2, p4)
+    return (d1 * d2 < 0) and (d3 * d4 < 0)
+
+
+def _point_in_polygon(x: np.ndarray, y: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Even-odd rule, vectorised over points."""
+    inside = np.zeros(np.broadcast(x, y).shape, dtype=bool)
+    x0, y0 = poly[:, 0], poly[:, 1]
+    x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
+    for ax, ay, bx, by in zip(x0, y0, x1, y1):
+        crosses = (ay > y) != (by > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xint = ax + (y - ay) * (bx - ax) / (by - ay)
+        inside ^= crosses & (x < xint)
+    return inside
