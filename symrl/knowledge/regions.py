@@ -1,0 +1,103 @@
+"""The symbolic region mapper of Hailu (2001) section 6.1, as a batched torch module.
+
+The paper cuts the world "at its joints" with a few lines and first-match rules
+(corridor, concave, room, door) that route every odometry pose to exactly one expert. The
+rules are data in the map file; this module compiles them once into tensors so that a whole
+batch of poses is classified with a handful of comparisons and no Python loop over poses.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+from torch import nn
+
+from symrl.world.worldmap import RegionSpec, WorldMap, load_map
+
+__all__ = ["RegionMapper"]
+
+
+class RegionMapper(nn.Module):
+    """Odometry poses ``(..., 2 or 3)`` -> region ids ``(...,)`` (long, in the order of ``names``).
+
+    Each rule is a conjunction of strict comparisons ``axis > threshold`` / ``axis < threshold``
+    (strict as in the paper: a pose exactly on a line satisfies neither side); the first rule
+    whose conditions all hold names the region, and the map guarantees a final default rule.
+
+    Compiled buffers (R rules, C = most conditions in a rule):
+      ``axis`` (R, C) long, ``greater`` (R, C) bool, ``threshold`` (R, C) float64,
+      ``used`` (R, C) bool (padding mask), ``rule_region`` (R,) long.
+    Comparisons run in float64 so that results agree exactly with the scalar reference
+    ``RegionSpec.region_of`` whatever the pose dtype.
+    """
+
+    axis: torch.Tensor
+    greater: torch.Tensor
+    threshold: torch.Tensor
+    used: torch.Tensor
+    rule_region: torch.Tensor
+
+    def __init__(self, spec: RegionSpec) -> None:
+        super().__init__()
+        if not isinstance(spec, RegionSpec):
+            raise TypeError(f"RegionMapper: spec must be a RegionSpec, got {type(spec).__name__}")
+        if not spec.rules or spec.rules[-1].conditions:
+            raise ValueError(
+                "RegionMapper: regions.rules must end with a default rule (no conditions), "
+                f"got {spec.rules[-1] if spec.rules else spec.rules!r}"
+            )
+        self.names: tuple[str, ...] = tuple(spec.names)
+        n_rules = len(spec.rules)
+        n_conds = max(1, max(len(r.conditions) for r in spec.rules))
+        axis = torch.zeros(n_rules, n_conds, dtype=torch.long)
+        greater = torch.zeros(n_rules, n_conds, dtype=torch.bool)
+        threshold = torch.zeros(n_rules, n_conds, dtype=torch.float64)
+        used = torch.zeros(n_rules, n_conds, dtype=torch.bool)
+        rule_region = torch.empty(n_rules, dtype=torch.long)
+        for i, rule in enumerate(spec.rules):
+            rule_region[i] = self.names.index(rule.region)
+            for j, cond in enumerate(rule.conditions):
+                axis[i, j] = cond.axis
+                greater[i, j] = cond.greater
+                threshold[i, j] = cond.threshold
+                used[i, j] = True
+        self.register_buffer("axis", axis)
+        self.register_buffer("greater", greater)
+        self.register_buffer("threshold", threshold)
+        self.register_buffer("used", used)
+        self.register_buffer("rule_region", rule_region)
+
+    @classmethod
+    def from_map(cls, world: WorldMap | str | dict[str, Any] = "hailu2001") -> RegionMapper:
+        """Build from a loaded ``WorldMap`` (or anything ``load_map`` accepts)."""
+        if not isinstance(world, WorldMap):
+            world = load_map(world)
+        return cls(world.regions)
+
+    def forward(self, poses: torch.Tensor) -> torch.Tensor:
+        """Region id of every pose; only x and y are read (a heading column is ignored)."""
+        if not isinstance(poses, torch.Tensor) or not poses.is_floating_point():
+            raise ValueError(
+                f"RegionMapper: poses must be a floating-point tensor, got "
+                f"{getattr(poses, 'dtype', type(poses).__name__)}"
+            )
+        if poses.dim() < 1 or poses.shape[-1] not in (2, 3):
+            raise ValueError(
+                "RegionMapper: poses must have shape (..., 2) or (..., 3), "
+                f"got {tuple(poses.shape)}"
+            )
+        xy = poses[..., :2].to(torch.float64)
+        if not bool(torch.isfinite(xy).all()):
+            raise ValueError("RegionMapper: poses contain a non-finite x or y")
+        # (..., R, C): the coordinate each condition looks at.
+        values = xy[..., self.axis]
+        thr = self.threshold.to(torch.float64)
+        holds = torch.where(self.greater, values > thr, values < thr) | ~self.used
+        matches = holds.all(dim=-1)  # (..., R)
+        # First matching rule: argmax over a 0/1 integer tensor returns the first maximum.
+        first = matches.to(torch.uint8).argmax(dim=-1)
+        return self.rule_region[first]
+
+    def extra_repr(self) -> str:
+        return f"names={self.names}, rules={self.rule_region.numel()}"
