@@ -1,0 +1,194 @@
+"""Matplotlib drawing of the world: walls, region lines, goal, robot, sonar rays and paths.
+
+The ``draw_*`` helpers take a matplotlib ``Axes`` so figures (studies, notebooks) reuse them;
+:class:`EnvRenderer` uses them for ``Hailu2001Env.render``. matplotlib is imported lazily by the
+renderer so the env itself never needs it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from symrl.world.robot import RobotConfig
+from symrl.world.worldmap import WorldMap
+
+__all__ = [
+    "draw_world",
+    "draw_regions",
+    "draw_goal",
+    "draw_path",
+    "draw_robot",
+    "draw_sonar",
+    "EnvRenderer",
+]
+
+WALL_COLOR = "0.15"
+SOLID_COLOR = "0.80"
+
+
+def draw_world(ax: Any, world: WorldMap, regions: bool = True, goal: bool = True) -> None:
+    """Draw the map: the solid area outside the free boundary, walls, region lines and goal."""
+    from matplotlib.patches import PathPatch, Polygon
+    from matplotlib.path import Path as MplPath
+
+    xmin, xmax, ymin, ymax = world.bounds
+    pad = 0.3
+    frame = np.array(
+        [[xmin - pad, ymin - pad], [xmax + pad, ymin - pad], [xmax + pad, ymax + pad],
+         [xmin - pad, ymax + pad]]
+    )
+    # solid = frame minus the free polygon (even-odd fill of both rings)
+    verts = np.concatenate([frame, frame[:1], world.boundary, world.boundary[:1]])
+    codes = (
+        [MplPath.MOVETO] + [MplPath.LINETO] * 3 + [MplPath.CLOSEPOLY]
+        + [MplPath.MOVETO] + [MplPath.LINETO] * (len(world.boundary) - 1) + [MplPath.CLOSEPOLY]
+    )
+    ax.add_patch(PathPatch(MplPath(verts, codes), facecolor=SOLID_COLOR, edgecolor="none",
+                           zorder=0))
+    for poly in world.obstacles:
+        ax.add_patch(Polygon(poly, closed=True, facecolor=SOLID_COLOR, edgecolor="none", zorder=0))
+    seg = world.segments
+    ax.plot(
+        np.stack([seg[:, 0], seg[:, 2]]), np.stack([seg[:, 1], seg[:, 3]]),
+        color=WALL_COLOR, lw=1.5, solid_capstyle="round", zorder=1,
+    )
+    if regions:
+        draw_regions(ax, world)
+    if goal:
+        draw_goal(ax, world)
+    ax.set_xlim(xmin - pad, xmax + pad)
+    ax.set_ylim(ymin - pad, ymax + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+
+
+def draw_regions(ax: Any, world: WorldMap, color: str = "tab:blue") -> None:
+    """Draw the named region lines (paper section 6.1) as dashed lines across the map."""
+    xmin, xmax, ymin, ymax = world.bounds
+    for name, (axis, value) in world.regions.lines.items():
+        if axis == "x":
+            ax.plot([value, value], [ymin, ymax], ls="--", lw=0.8, color=color, zorder=1)
+            ax.text(value, ymax, f" {name}", color=color, fontsize=8, va="bottom", ha="center")
+        else:
+            ax.plot([xmin, xmax], [value, value], ls="--", lw=0.8, color=color, zorder=1)
+            ax.text(xmin, value, f"{name} ", color=color, fontsize=8, va="center", ha="right")
+
+
+def draw_goal(ax: Any, world: WorldMap, color: str = "tab:green") -> None:
+    """Draw the goal circle ("the big circle") and its centre."""
+    from matplotlib.patches import Circle
+
+    g = world.goal
+    ax.add_patch(Circle((g.x, g.y), g.radius, facecolor=color, alpha=0.25, edgecolor=color,
+                        zorder=2))
+    ax.plot([g.x], [g.y], marker="+", color=color, zorder=2)
+
+
+def draw_path(
+    ax: Any,
+    xy: Sequence[Sequence[float]] | np.ndarray,
+    color: str = "tab:red",
+    label: str | None = None,
+    markers: bool = True,
+    **kwargs: Any,
+) -> None:
+    """Draw a path of (x, y) points, with a dot at each step when ``markers``."""
+    pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(pts) == 0:
+        return
+    ax.plot(pts[:, 0], pts[:, 1], color=color, lw=1.2, label=label,
+            marker="." if markers else None, ms=3, zorder=3, **kwargs)
+
+
+def draw_robot(
+    ax: Any, pose: Sequence[float], radius: float = 0.26, color: str = "tab:orange"
+) -> None:
+    """Draw the robot disc at ``pose`` (x, y, heading) with a heading line."""
+    from matplotlib.patches import Circle
+
+    x, y, h = (float(v) for v in pose[:3])
+    ax.add_patch(Circle((x, y), radius, facecolor=color, alpha=0.5, edgecolor="k", lw=1,
+                        zorder=4))
+    ax.plot([x, x + radius * np.cos(h)], [y, y + radius * np.sin(h)], color="k", lw=1.5,
+            zorder=5)
+
+
+def draw_sonar(
+    ax: Any,
+    pose: Sequence[float],
+    readings: np.ndarray,
+    radius: float = 0.26,
+    color: str = "tab:purple",
+) -> None:
+    """Draw sonar rays from the rim: ray k at heading + 2*pi*k/n, length = rim reading (metres)."""
+    x, y, h = (float(v) for v in pose[:3])
+    r = np.asarray(readings, dtype=np.float64)
+    ang = h + 2.0 * np.pi * np.arange(len(r)) / len(r)
+    c, s = np.cos(ang), np.sin(ang)
+    x0, y0 = x + radius * c, y + radius * s
+    x1, y1 = x + (radius + r) * c, y + (radius + r) * s
+    ax.plot(np.stack([x0, x1]), np.stack([y0, y1]), color=color, lw=0.5, alpha=0.6, zorder=3)
+
+
+class EnvRenderer:
+    """One matplotlib figure for an env: Agg canvas for rgb_array, a pyplot window for human."""
+
+    def __init__(
+        self, world: WorldMap, robot: RobotConfig, human: bool = False, dpi: int = 80
+    ) -> None:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError as err:  # pragma: no cover - matplotlib is a dependency
+            raise ImportError("rendering needs matplotlib: pip install matplotlib") from err
+        self.world, self.robot, self.human = world, robot, human
+        xmin, xmax, ymin, ymax = world.bounds
+        width = 6.0
+        height = width * (ymax - ymin + 0.6) / (xmax - xmin + 0.6)
+        if human:
+            import matplotlib.pyplot as plt
+
+            plt.ion()
+            self.fig = plt.figure(figsize=(width, height), dpi=dpi)
+        else:
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+            from matplotlib.figure import Figure
+
+            self.fig = Figure(figsize=(width, height), dpi=dpi)
+            FigureCanvasAgg(self.fig)
+        self.ax = self.fig.add_subplot(1, 1, 1)
+
+    def draw(
+        self,
+        pose: np.ndarray,
+        sonar_rim: np.ndarray,
+        path: Sequence[Sequence[float]],
+        odometry_path: Sequence[Sequence[float]] | None = None,
+    ) -> np.ndarray:
+        """Redraw everything and return the frame as an HWC uint8 RGB array."""
+        ax = self.ax
+        ax.clear()
+        draw_world(ax, self.world)
+        if odometry_path is not None and len(odometry_path) > 1:
+            draw_path(ax, odometry_path, color="0.5", markers=False, ls=":")
+        draw_path(ax, path)
+        draw_sonar(ax, pose, sonar_rim, self.robot.radius)
+        draw_robot(ax, pose, self.robot.radius)
+        self.fig.tight_layout()
+        self.fig.canvas.draw()
+        frame = np.asarray(self.fig.canvas.buffer_rgba())[:, :, :3].copy()
+        if self.human:
+            import matplotlib.pyplot as plt
+
+            plt.pause(0.001)
+        return frame
+
+    def close(self) -> None:
+        if self.human:
+            import matplotlib.pyplot as plt
+
+            plt.close(self.fig)
+        self.fig = None
