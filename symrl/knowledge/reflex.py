@@ -206,7 +206,8 @@ def parse_rule(
 class FuzzyReflex(nn.Module):
     """``reflex(sonar (..., n_rays) in [0, 1], goal_angle (...)) -> crisp angle (...)``.
 
-    Config compiled to buffers (S sectors, K rules, N rays):
+    Config compiled to buffers (S sectors, K rules, N rays; numbers kept in float64 and cast
+    to the input's dtype, so float32 observations and float64 tests both compute exactly):
       ``sector_mask`` (S, N) bool, ``near_ab`` (S, 2), ``pos``/``neg`` (K, S) bool literals,
       ``rule_out`` (K, 3) rule weight on its output set, ``peaks`` (3,).
     """
@@ -233,18 +234,20 @@ class FuzzyReflex(nn.Module):
             mask[s, list(config.sectors[name])] = True
         pos = torch.zeros(n_k, n_s, dtype=torch.bool)
         neg = torch.zeros(n_k, n_s, dtype=torch.bool)
-        rule_out = torch.zeros(n_k, 3)
+        rule_out = torch.zeros(n_k, 3, dtype=torch.float64)
         for k, text in enumerate(config.rules):
             literals, out, weight = parse_rule(text, names, where=f"ReflexConfig.rules[{k}]")
             for name, negated in literals:
                 (neg if negated else pos)[k, names.index(name)] = True
             rule_out[k, out] = weight
         self.register_buffer("sector_mask", mask)
-        self.register_buffer("near_ab", torch.tensor([config.near[n] for n in names]))
+        self.register_buffer(
+            "near_ab", torch.tensor([config.near[n] for n in names], dtype=torch.float64)
+        )
         self.register_buffer("pos", pos)
         self.register_buffer("neg", neg)
         self.register_buffer("rule_out", rule_out)
-        self.register_buffer("peaks", torch.tensor(config.peaks))
+        self.register_buffer("peaks", torch.tensor(config.peaks, dtype=torch.float64))
 
     # --- the two behaviours -----------------------------------------------------------------
 

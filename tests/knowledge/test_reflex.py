@@ -1,0 +1,259 @@
+"""The fuzzy reflex on hand-made sonar patterns, with hand-computed outputs (ALGORITHM.md §4).
+
+Default config: NEAR_F(0.25, 0.70), NEAR_FL/FR(0.20, 0.50), NEAR_L/R(0.10, 0.35) metres,
+d_a = 0.7, d_g = 0.3, peaks (LEFT, FORWARD, RIGHT) = (pi/2, 0, -pi/2), sonar_range 5 m.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from symrl.knowledge import FuzzyReflex, ReflexConfig
+
+PI = math.pi
+F, FL, L, FR, R = [23, 0, 1], [2, 3, 4], [5, 6, 7], [22, 21, 20], [19, 18, 17]
+
+
+@pytest.fixture(scope="module")
+def reflex() -> FuzzyReflex:
+    return FuzzyReflex(ReflexConfig())
+
+
+def sonar(**metres: float) -> torch.Tensor:
+    """Free space (5 m everywhere) with whole sectors set to a rim distance in metres."""
+    s = torch.ones(24, dtype=torch.float64)
+    rays = {"F": F, "FL": FL, "L": L, "FR": FR, "R": R}
+    for name, d in metres.items():
+        s[rays[name]] = d / 5.0
+    return s
+
+
+def corner_sonar(x: float, y: float, heading: float, walls: list[tuple[str, float]]):
+    """Rim distances of thin rays from (x, y) to infinite walls ``x = c`` / ``y = c``."""
+    ang = heading + torch.arange(24, dtype=torch.float64) * math.radians(15)
+    dist = torch.full((24,), math.inf, dtype=torch.float64)
+    for axis, c in walls:
+        comp = torch.cos(ang) if axis == "x" else torch.sin(ang)
+        t = (c - (x if axis == "x" else y)) / comp
+        dist = torch.where(t > 0, torch.minimum(dist, t), dist)
+    return ((dist - 0.26) / 5.0).clamp(0.0, 1.0)
+
+
+def angle(reflex: FuzzyReflex, s: torch.Tensor, goal: float) -> float:
+    return float(reflex(s, torch.tensor(goal, dtype=s.dtype)))
+
+
+# --- free space: goal following alone ---------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("goal", "expected"),
+    [
+        (0.0, 0.0),
+        # goal sets (1/2, 1/2, 0) -> fused 0.3*(1/2, 1/2, 0) -> (0.15*pi/2)/0.3 = pi/4
+        (PI / 4, PI / 4),
+        # (2/3, 1/3, 0): (2/3 * pi/2) / 1 = pi/3; mirrored to the right
+        (-PI / 3, -PI / 3),
+        # beyond pi/2 only LEFT (or RIGHT) fires: the turn saturates at the peak
+        (3 * PI / 4, PI / 2),
+        (-3 * PI / 4, -PI / 2),
+    ],
+)
+def test_free_space_is_goal_following_only(reflex, goal, expected):
+    assert angle(reflex, sonar(), goal) == pytest.approx(expected, abs=1e-12)
+
+
+def test_avoidance_is_silent_in_free_space(reflex):
+    free = sonar()
+    assert reflex.avoid(free).tolist() == [0.0, 0.0, 0.0]
+    goal = torch.tensor(PI / 4, dtype=torch.float64)
+    assert reflex.fused(free, goal).tolist() == pytest.approx([0.15, 0.15, 0.0])
+
+
+def test_goal_angle_is_wrapped(reflex):
+    # 3*pi/2 is the same direction as -pi/2: a full right turn
+    assert angle(reflex, sonar(), 3 * PI / 2) == pytest.approx(-PI / 2)
+
+
+# --- walls --------------------------------------------------------------------------------
+
+
+def test_wall_ahead_turns_left(reflex):
+    # F at 0.25 m -> NEAR 1; FL/FR at 0.44 m -> NEAR (0.5-0.44)/0.3 = 0.2
+    # F&!FL = 0.8 -> LEFT, F&FL&!FR = 0.2 -> RIGHT, F&FL&FR = 0.2 -> LEFT: avoid (0.8, 0, 0.2)
+    # fused with goal 0: (0.56, 0.30, 0.14), sum 1 -> (0.56 - 0.14) * pi/2 = 0.21 pi
+    s = sonar(F=0.25, FL=0.44, FR=0.44)
+    assert reflex.avoid(s).tolist() == pytest.approx([0.8, 0.0, 0.2])
+    assert angle(reflex, s, 0.0) == pytest.approx(0.21 * PI)
+
+
+def test_wall_ahead_with_left_blocked_turns_right(reflex):
+    # F and FL near, FR free: F&FL&!FR -> RIGHT = 1; fused (0, 0.3, 0.7) -> -0.35 pi
+    s = sonar(F=0.2, FL=0.2)
+    assert angle(reflex, s, 0.0) == pytest.approx(-0.35 * PI)
+
+
+def test_wall_on_the_left_turns_right(reflex):
+    # L at 0.10 m -> NEAR 1 -> 0.5 RIGHT; fused (0, 0.3, 0.35) -> -0.35*(pi/2)/0.65 = -7 pi/26
+    assert angle(reflex, sonar(L=0.10), 0.0) == pytest.approx(-7 * PI / 26)
+    # FL near too (and F clear): FL&!F -> RIGHT = 1; fused (0, 0.3, 0.7) -> -0.35 pi
+    assert angle(reflex, sonar(L=0.10, FL=0.20), 0.0) == pytest.approx(-0.35 * PI)
+
+
+def test_wall_on_the_right_turns_left(reflex):
+    assert angle(reflex, sonar(R=0.10), 0.0) == pytest.approx(7 * PI / 26)
+    assert angle(reflex, sonar(R=0.10, FR=0.20), 0.0) == pytest.approx(0.35 * PI)
+
+
+def test_doorway_goes_roughly_forward(reflex):
+    # L and R near, F clear: 0.5 LEFT and 0.5 RIGHT cancel -> fused (0.35, 0.3, 0.35) -> 0
+    s = sonar(L=0.10, R=0.10)
+    assert angle(reflex, s, 0.0) == pytest.approx(0.0, abs=1e-12)
+    # goal at pi/4 adds 0.3 * (1/2, 1/2, 0): (0.50, 0.15, 0.35), sum 1 -> 0.15 * pi/2 (13.5 deg)
+    assert angle(reflex, s, PI / 4) == pytest.approx(0.15 * PI / 2)
+
+
+def test_concave_corner_turns_hard_not_forward(reflex):
+    # F, FL and FR all fully near (facing a corner), goal at -pi/4:
+    # only F&FL&FR -> LEFT fires; fused (0.7, 0.15, 0.15) -> (0.7 - 0.15) * pi/2 = 0.275 pi
+    s = sonar(F=0.25, FL=0.20, FR=0.20)
+    assert reflex.avoid(s).tolist() == [1.0, 0.0, 0.0]
+    assert angle(reflex, s, -PI / 4) == pytest.approx(0.275 * PI)
+
+
+UNGUARDED = (
+    "F and not FL -> LEFT",
+    "F and FL and not FR -> RIGHT",
+    "F and FL and FR -> LEFT",
+    "FR -> LEFT",
+    "FL -> RIGHT",
+    "R -> 0.5 * LEFT",
+    "L -> 0.5 * RIGHT",
+)
+
+
+def test_concave_corner_trap_without_the_not_f_guards():
+    # The trap of ALGORITHM.md §4: without "and not F", FR -> LEFT and FL -> RIGHT both fire,
+    # avoid (1, 0, 1), fused (0.7, 0.15, 0.85), sum 1.7 -> -0.15 * (pi/2) / 1.7 = -0.044 pi:
+    # almost straight into the corner (the guarded base turns 0.275 pi left, test above).
+    trap = FuzzyReflex(ReflexConfig(rules=UNGUARDED))
+    s = sonar(F=0.25, FL=0.20, FR=0.20)
+    assert trap.avoid(s).tolist() == [1.0, 0.0, 1.0]
+    assert angle(trap, s, -PI / 4) == pytest.approx(-0.15 * (PI / 2) / 1.7)
+
+
+def test_real_concave_corner_of_the_map(reflex):
+    # Robot at (3.0, -2.0) facing the room's lower-right corner (3.5, -2.5), heading -pi/4;
+    # the goal (4, -2) lies at +pi/4 relative to the heading. Thin rays to the two walls.
+    s = corner_sonar(3.0, -2.0, -PI / 4, [("x", 3.5), ("y", -2.5)])
+    assert float(s[0] * 5) == pytest.approx(math.sqrt(0.5) - 0.26)  # diagonal into the corner
+    guarded = angle(reflex, s, PI / 4)
+    unguarded = angle(FuzzyReflex(ReflexConfig(rules=UNGUARDED)), s, PI / 4)
+    assert guarded > PI / 4  # a clear left turn, away from the corner
+    assert abs(unguarded) < PI / 18  # the trap: votes cancel to within 10 deg of forward
+
+
+# --- batching and range --------------------------------------------------------------------
+
+
+def test_batched_equals_per_sample(reflex):
+    g = torch.Generator().manual_seed(0)
+    s = torch.rand(4, 5, 24, generator=g) * 0.2  # 0..1 m: every sector somewhere on its ramp
+    goals = (torch.rand(4, 5, generator=g) * 2 - 1) * PI
+    out = reflex(s, goals)
+    fused = reflex.fused(s, goals)
+    assert out.shape == (4, 5)
+    assert fused.shape == (4, 5, 3)
+    for i in range(4):
+        for j in range(5):
+            assert out[i, j] == pytest.approx(float(reflex(s[i, j], goals[i, j])), abs=1e-6)
+            assert torch.allclose(fused[i, j], reflex.fused(s[i, j], goals[i, j]))
+
+
+def test_goal_angle_broadcasts_and_keeps_dtype(reflex):
+    s = torch.ones(3, 24)
+    out = reflex(s, torch.tensor(0.0))
+    assert out.shape == (3,)
+    assert out.dtype == torch.float32
+    assert reflex(s.double(), 0.0).dtype == torch.float64
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    s=st.lists(st.floats(0.0, 1.0), min_size=24, max_size=24),
+    goal=st.floats(-PI, PI),
+)
+def test_output_is_a_finite_angle_in_range(reflex, s, goal):
+    out = angle(reflex, torch.tensor(s, dtype=torch.float64), goal)
+    assert math.isfinite(out)
+    assert -PI <= out <= PI
+
+
+def test_no_goal_following_and_free_space_goes_straight():
+    quiet = FuzzyReflex(ReflexConfig(d_g=0.0))
+    assert angle(quiet, sonar(), PI / 2) == 0.0
+
+
+# --- config validation ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"d_a": -0.1}, r"d_a must be a number >= 0, got -0.1"),
+        ({"d_a": 0.0, "d_g": 0.0}, "d_a \\+ d_g must be positive"),
+        ({"sonar_range": 0.0}, "sonar_range must be a positive number, got 0.0"),
+        ({"goal_span": float("nan")}, "goal_span"),
+        ({"peaks": (1.0, 0.0)}, "peaks must be 3 numbers"),
+        ({"sectors": {"F": (0, 24)}, "near": {"F": (0.1, 0.2)}}, r"sectors\['F'\]"),
+        ({"near": {"F": (0.7, 0.25)}}, r"near has no thresholds for sector 'FL'"),
+        ({"rules": ("F -> UP",)}, r"rules\[0\]: unknown output set 'UP'"),
+        ({"rules": ("F and X -> LEFT",)}, r"rules\[0\]: bad antecedent 'X'"),
+        ({"rules": ("F => LEFT",)}, r"rules\[0\]: cannot read rule"),
+        ({"rules": ("F -> 2 * LEFT",)}, r"weight must be in \(0, 1\], got 2.0"),
+        ({"rules": "F -> LEFT"}, "rules must be a list of strings"),
+    ],
+)
+def test_bad_config_names_the_field(changes, message):
+    with pytest.raises(ValueError, match=message):
+        ReflexConfig(**changes)
+
+
+def test_bad_near_thresholds_name_the_sector():
+    near = dict(ReflexConfig().near, F=(0.7, 0.25))
+    with pytest.raises(ValueError, match=r"near\['F'\] must be \(a, b\) with 0 <= a < b"):
+        ReflexConfig(near=near)
+
+
+def test_every_config_field_is_documented():
+    import inspect
+
+    source = inspect.getsource(ReflexConfig)
+    for f in dataclasses.fields(ReflexConfig):
+        after = source.split(f"    {f.name}:", 1)[1]
+        assert '"""' in after.split("\n")[1], f"field {f.name} has no docstring"
+
+
+@pytest.mark.parametrize(
+    ("sonar_shape", "goal_shape", "message"),
+    [
+        ((24,), (), None),
+        ((3, 23), (3,), r"shape \(\.\.\., 24\), got \(3, 23\)"),
+        ((3, 24), (4,), "does not match the sonar batch shape"),
+    ],
+)
+def test_bad_inputs_raise_clear_errors(reflex, sonar_shape, goal_shape, message):
+    s, g = torch.ones(sonar_shape), torch.zeros(goal_shape)
+    if message is None:
+        reflex(s, g)
+    else:
+        with pytest.raises(ValueError, match=message):
+            reflex(s, g)
+    with pytest.raises(ValueError, match="non-finite"):
+        reflex(torch.full((24,), float("nan")), torch.tensor(0.0))
