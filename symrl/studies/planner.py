@@ -1,0 +1,451 @@
+"""The optimum a learner is held against: the shortest collision-free path to the goal disc.
+
+Method: an exact **tangent visibility graph** for a disc robot among polygonal walls. Keeping a
+clearance ``R`` (body radius + IR collision distance = 0.26 + 0.056 m by default) from every wall
+is the same as moving a point among the walls grown by ``R``; every shortest path of that point is
+made of straight segments tangent to circles of radius ``R`` around wall vertices and arcs of those
+circles. The graph's nodes are the start, the tangent points (start-to-circle, circle-to-circle,
+goal-to-circle) and the target points; every edge is checked against the walls, and Dijkstra
+(networkx) picks the shortest.
+
+The target is the goal disc (the trial ends when the centre is within ``goal.radius``). A shortest
+path first touches that disc either on an open arc of its rim, where its last leg points at the
+goal centre (a tangent from the goal centre, cut at the rim), or at a rim point where the rim meets
+the grown walls (found by bisection on the rim angle to ~1e-12 rad). Both are in the graph, so the
+length is exact up to the arc sampling used only to *check* arcs against other walls (5 mm; an
+arc that grazes another wall between samples by less than a few micrometres would be missed).
+
+Actions: each action turns in place (free) then moves ``step`` = 0.20 m, so any path needs at
+least ``ceil(L / step)`` actions. ``chord_walk`` builds a walk of that many 0.20 m moves whose
+end points lie on the path (so their clearance is ``R``) and checks every move with the env's own
+swept-disc test; the lower bound repeated with the body radius alone (0.26 m, a sweep may pass
+closer than an end pose) says whether the count is also the optimum under the env's rules.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+
+from symrl.world import WorldMap, load_map
+from symrl.world.geometry import Walls
+
+__all__ = ["Plan", "shortest_path", "chord_walk", "robot_clearances", "plan_command"]
+
+_EPS = 1e-9
+_ARC_CHECK = 0.005  # metres between the points used to check an arc against the walls
+WALK_MARGIN = 0.002  # metres added to the clearance of the path the 0.20 m walk follows
+
+
+@dataclass
+class Plan:
+    """A shortest path: its length, the actions it needs, and its geometry for plots."""
+
+    length: float
+    """Length of the path in metres (start centre to the first point inside the goal disc)."""
+    actions: int
+    """``ceil(length / step)``: fewest actions of ``step`` metres that can cover the path."""
+    clearance: float
+    """Distance kept from every wall (robot centre to wall), metres."""
+    step: float
+    points: np.ndarray
+    """Dense polyline of the path (k, 2), points at most 5 mm apart along arcs."""
+    waypoints: list[tuple[float, float]] = field(default_factory=list)
+    """The graph nodes the path goes through (tangent points and the end point)."""
+    method: str = "tangent visibility graph (exact segments and arcs) + Dijkstra"
+    error_bound: float = 1e-6
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (no dense polyline)."""
+        return {
+            "length_m": self.length,
+            "actions": self.actions,
+            "clearance_m": self.clearance,
+            "step_m": self.step,
+            "waypoints": [list(map(float, w)) for w in self.waypoints],
+            "method": self.method,
+            "length_error_bound_m": self.error_bound,
+        }
+
+
+def robot_clearances() -> tuple[float, float, float]:
+    """(body radius, IR collision distance, step) of the default robot, read from RobotConfig."""
+    from symrl.world.robot import RobotConfig
+
+    cfg = RobotConfig()
+    return cfg.radius, cfg.ir_collision_distance, cfg.step
+
+
+# --- geometry helpers --------------------------------------------------------------------------
+
+
+def _point_tangents(p: np.ndarray, c: np.ndarray, r: float) -> list[float]:
+    """Angles (around c) of the tangent points from point p to the circle (c, r)."""
+    d = float(np.hypot(*(p - c)))
+    if d < r - 1e-12:
+        return []
+    base = math.atan2(p[1] - c[1], p[0] - c[0])
+    off = math.acos(min(1.0, r / d))
+    return [base + off, base - off] if off > 1e-12 else [base]
+
+
+def _bitangents(c1: np.ndarray, c2: np.ndarray, r: float) -> list[tuple[float, float]]:
+    """Pairs of angles (on circle 1, on circle 2) of the tangent segments of two equal circles."""
+    v = c2 - c1
+    d = float(np.hypot(*v))
+    if d < 1e-12:
+        return []
+    base = math.atan2(v[1], v[0])
+    pairs = [(base + math.pi / 2, base + math.pi / 2), (base - math.pi / 2, base - math.pi / 2)]
+    if d > 2 * r:  # inner (crossing) tangents through the midpoint
+        off = math.acos(2 * r / d)
+        pairs += [(base + off, base + off + math.pi), (base - off, base - off + math.pi)]
+    return pairs
+
+
+def _on_circle(c: np.ndarray, r: float, a: float) -> np.ndarray:
+    return c + r * np.array([math.cos(a), math.sin(a)])
+
+
+class _Checker:
+    """Is a point / segment / arc at least ``r`` from every wall and inside the free area?"""
+
+    def __init__(self, world: WorldMap, r: float) -> None:
+        self.world = world
+        self.walls = Walls(world.segments)
+        self.r = r
+
+    def point_ok(self, p: np.ndarray, tol: float = _EPS) -> bool:
+        if not bool(self.world.in_free_area(p[0], p[1])):
+            return False
+        return float(self.walls.clearance(p[None, :])[0]) >= self.r - tol
+
+    def segment_ok(self, a: np.ndarray, b: np.ndarray, tol: float = 1e-7) -> bool:
+        mid = 0.5 * (a + b)
+        if not bool(self.world.in_free_area(mid[0], mid[1])):
+            return False
+        return not self.walls.swept_disc_contact(a[0], a[1], b[0], b[1], self.r - tol)
+
+    def arc_ok(self, c: np.ndarray, a0: float, a1: float, tol: float = 1e-7) -> bool:
+        n = max(2, int(math.ceil(self.r * abs(a1 - a0) / _ARC_CHECK)) + 1)
+        ang = np.linspace(a0, a1, n)
+        pts = c + self.r * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        if not bool(np.all(self.world.in_free_area(pts[:, 0], pts[:, 1]))):
+            return False
+        return bool(np.all(self.walls.clearance(pts) >= self.r - tol))
+
+
+def _rim_targets(chk: _Checker, g: np.ndarray, rg: float, samples: int = 3600) -> list[np.ndarray]:
+    """Points of the goal rim where it enters or leaves the grown walls (bisection on the angle)."""
+    ang = np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
+    ok = [chk.point_ok(g + rg * np.array([math.cos(a), math.sin(a)])) for a in ang]
+    out = []
+    for i in range(samples):
+        j = (i + 1) % samples
+        if ok[i] == ok[j]:
+            continue
+        lo, hi = ang[i], ang[i] + 2 * math.pi / samples  # lo has ok[i], hi has ok[j]
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if chk.point_ok(g + rg * np.array([math.cos(mid), math.sin(mid)])) == ok[i]:
+                lo = mid
+            else:
+                hi = mid
+        good = lo if ok[i] else hi
+        out.append(g + rg * np.array([math.cos(good), math.sin(good)]))
+    return out
+
+
+# --- the planner -------------------------------------------------------------------------------
+
+
+def shortest_path(
+    world: WorldMap,
+    start: tuple[float, float] | tuple[float, float, float] | None = None,
+    clearance: float | None = None,
+    step: float | None = None,
+) -> Plan:
+    """Shortest path keeping ``clearance`` from every wall, from ``start`` to the goal disc.
+
+    ``clearance`` defaults to body radius + IR collision distance of :class:`RobotConfig`;
+    ``step`` to its translation per action. Raises ``ValueError`` if the start is too close to a
+    wall or no path exists.
+    """
+    radius, ir_dist, default_step = robot_clearances()
+    r = float(radius + ir_dist if clearance is None else clearance)
+    step = float(default_step if step is None else step)
+    if not (r > 0 and step > 0):
+        raise ValueError(f"clearance and step must be positive, got {r} and {step}")
+    s = np.array((world.start.x, world.start.y) if start is None else start[:2], dtype=float)
+    g = np.array((world.goal.x, world.goal.y), dtype=float)
+    rg = float(world.goal.radius)
+    chk = _Checker(world, r)
+    if not chk.point_ok(s):
+        raise ValueError(f"start {tuple(s)} is closer than {r:.3f} m to a wall or outside the map")
+    if np.hypot(*(s - g)) <= rg:
+        return Plan(0.0, 0, r, step, s[None, :], [tuple(s)])
+
+    centres = chk.walls.vertices
+    graph = nx.Graph()
+    pos: dict = {"S": s}
+    arcs_on: dict[int, list[tuple[float, object]]] = {i: [] for i in range(len(centres))}
+    edges_geom: dict = {}
+
+    def add_tangent_node(ci: int, a: float) -> object | None:
+        p = _on_circle(centres[ci], r, a)
+        if not chk.point_ok(p, tol=1e-7):
+            return None
+        key = ("C", ci, round(math.remainder(a, 2 * math.pi), 12))
+        if key not in pos:
+            pos[key] = p
+            arcs_on[ci].append((math.remainder(a, 2 * math.pi), key))
+        return key
+
+    def add_segment(u: object, v: object) -> None:
+        a, b = pos[u], pos[v]
+        if u != v and chk.segment_ok(a, b):
+            graph.add_edge(u, v, weight=float(np.hypot(*(b - a))))
+            edges_geom[frozenset((u, v))] = ("seg",)
+
+    # targets: rim points where the rim meets the grown walls, and the rim cut of every leg
+    # that points at the goal centre (from the start, and from tangents of the goal centre)
+    targets = []
+    for t in _rim_targets(chk, g, rg):
+        key = ("T", len(targets))
+        pos[key] = t
+        targets.append(key)
+
+    def add_leg_to_centre(u: object) -> None:
+        p = pos[u]
+        d = float(np.hypot(*(g - p)))
+        if d <= rg:
+            return
+        q = g + (p - g) * (rg / d)
+        if not chk.point_ok(q, tol=1e-7):
+            return
+        key = ("T", len(targets))
+        pos[key] = q
+        targets.append(key)
+        add_segment(u, key)
+
+    add_leg_to_centre("S")
+    for t in list(targets):
+        add_segment("S", t)
+    for ci, c in enumerate(centres):
+        for a in _point_tangents(s, c, r):
+            k = add_tangent_node(ci, a)
+            if k is not None:
+                add_segment("S", k)
+        for a in _point_tangents(g, c, r):
+            k = add_tangent_node(ci, a)
+            if k is not None:
+                add_leg_to_centre(k)
+        for t in targets:
+            tp = pos[t]
+            if abs(float(np.hypot(*(tp - c))) - r) < 1e-6:  # the target lies on this circle
+                a = math.atan2(tp[1] - c[1], tp[0] - c[0])
+                arcs_on[ci].append((a, t))
+                continue
+            for a in _point_tangents(tp, c, r):
+                k = add_tangent_node(ci, a)
+                if k is not None:
+                    add_segment(k, t)
+    for i in range(len(centres)):
+        for j in range(i + 1, len(centres)):
+            for a1, a2 in _bitangents(centres[i], centres[j], r):
+                k1, k2 = add_tangent_node(i, a1), add_tangent_node(j, a2)
+                if k1 is not None and k2 is not None:
+                    add_segment(k1, k2)
+    # arcs between neighbouring nodes on each circle
+    for ci, nodes in arcs_on.items():
+        nodes.sort(key=lambda t: t[0])
+        m = len(nodes)
+        for idx in range(m if m > 2 else m - 1):
+            (a0, u), (a1, v) = nodes[idx], nodes[(idx + 1) % m]
+            if idx == m - 1:
+                a1 += 2 * math.pi
+            if u == v or a1 - a0 < 1e-12:
+                continue
+            if chk.arc_ok(centres[ci], a0, a1):
+                w = r * (a1 - a0)
+                if not graph.has_edge(u, v) or graph[u][v]["weight"] > w:
+                    graph.add_edge(u, v, weight=w)
+                    edges_geom[frozenset((u, v))] = ("arc", ci, a0, a1)
+    for t in targets:
+        if t in graph:
+            graph.add_edge(t, "GOAL", weight=0.0)
+    if "S" not in graph or "GOAL" not in graph:
+        raise ValueError("no collision-free path from the start to the goal disc")
+    try:
+        length, route = nx.single_source_dijkstra(graph, "S", "GOAL")
+    except nx.NetworkXNoPath:
+        raise ValueError("no collision-free path from the start to the goal disc") from None
+    route = route[:-1]
+    points = _dense(route, pos, edges_geom, centres, r)
+    return Plan(
+        length=float(length),
+        actions=int(math.ceil(float(length) / step - 1e-9)),
+        clearance=r,
+        step=step,
+        points=points,
+        waypoints=[tuple(map(float, pos[k])) for k in route],
+    )
+
+
+def _dense(route: list, pos: dict, geom: dict, centres: np.ndarray, r: float) -> np.ndarray:
+    """The path as a polyline: segment end points and arcs sampled every ~5 mm."""
+    pts = [pos[route[0]]]
+    for u, v in zip(route[:-1], route[1:], strict=False):
+        g = geom[frozenset((u, v))]
+        if g[0] == "arc":
+            _, ci, a0, a1 = g
+            ang = np.linspace(a0, a1, max(2, int(math.ceil(r * (a1 - a0) / 0.005)) + 1))
+            if np.allclose(_on_circle(centres[ci], r, a0), pos[v], atol=1e-6):
+                ang = ang[::-1]
+            pts.extend(centres[ci] + r * np.stack([np.cos(ang), np.sin(ang)], axis=1)[1:])
+        else:
+            pts.append(pos[v])
+    return np.asarray(pts, dtype=float)
+
+
+def chord_walk(points: np.ndarray, step: float, goal: tuple[float, float], goal_radius: float):
+    """Poses of a walk of ``step``-long moves whose end points lie on the polyline ``points``.
+
+    Each next pose is the first point further along the polyline at straight distance ``step``
+    from the current one; the walk stops once within ``goal_radius`` of ``goal``. Returns (n+1, 2).
+    """
+    g = np.asarray(goal, dtype=float)
+    points = np.asarray(points, dtype=float)
+    if len(points) >= 2:  # the last move may overshoot the end: extend the last leg by one step
+        d = points[-1] - points[-2]
+        points = np.vstack([points, points[-1] + d * (step / max(float(np.hypot(*d)), 1e-12))])
+    cur = points[0].astype(float)
+    out = [cur]
+    i = 0
+    while np.hypot(*(cur - g)) > goal_radius + 1e-12:
+        while i + 1 < len(points) and np.hypot(*(points[i + 1] - cur)) < step:
+            i += 1
+        if i + 1 >= len(points):
+            raise ValueError("chord walk ran off the end of the path before reaching the goal")
+        a, b = points[i], points[i + 1]
+        # solve |a + t (b - a) - cur| = step for the largest t in [0, 1]
+        d = b - a
+        f = a - cur
+        qa, qb, qc = d @ d, 2 * f @ d, f @ f - step * step
+        t = (-qb + math.sqrt(max(qb * qb - 4 * qa * qc, 0.0))) / (2 * qa)
+        cur = a + min(max(t, 0.0), 1.0) * d
+        out.append(cur)
+        if len(out) > 10_000:
+            raise ValueError("chord walk did not reach the goal in 10,000 moves")
+    return np.asarray(out)
+
+
+def check_walk(world: WorldMap, poses: np.ndarray, body: float, clearance: float) -> dict:
+    """Every move of the walk against the env's geometry: sweep contact and end-pose clearance."""
+    walls = Walls(world.segments)
+    sweep_hits = sum(
+        walls.swept_disc_contact(a[0], a[1], b[0], b[1], body)
+        for a, b in zip(poses[:-1], poses[1:], strict=True)
+    )
+    end_clear = walls.clearance(poses[1:])
+    return {
+        "moves": len(poses) - 1,
+        "sweep_contacts": int(sweep_hits),
+        "min_end_clearance_m": float(end_clear.min()) if len(end_clear) else float("nan"),
+        "virtual_collisions": int(np.sum(end_clear < clearance - 1e-7)),
+    }
+
+
+def replay_in_env(world_name: str, poses: np.ndarray, heading: float) -> dict | None:
+    """Drive the noise-free env through the walk's poses; None if the env is not available."""
+    try:
+        import gymnasium
+
+        import symrl  # noqa: F401  (registers the env)
+
+        env = gymnasium.make(symrl.ENV_ID, noise=False, map=world_name)
+    except Exception:  # the env is being written by another engineer; the replay is optional
+        return None
+    env.reset(seed=0, options={"pose": (float(poses[0][0]), float(poses[0][1]), heading)})
+    h = heading
+    collisions, n, reached, total = 0, 0, False, 0.0
+    for a, b in zip(poses[:-1], poses[1:], strict=False):
+        want = math.atan2(b[1] - a[1], b[0] - a[0])
+        turn = math.remainder(want - h, 2 * math.pi)
+        _, reward, term, trunc, info = env.step(np.array([turn], dtype=np.float32))
+        total += float(reward)
+        h = float(env.unwrapped.true_pose[2])
+        n += 1
+        collisions += int(bool(info["collision"]))
+        if term or trunc:
+            reached = bool(info["reached_goal"])
+            break
+    env.close()
+    return {
+        "actions": n,
+        "collisions": collisions,
+        "reached_goal": reached,
+        "total_reinforcement": round(total, 4),
+    }
+
+
+def plan_command(args: argparse.Namespace) -> int:
+    """`symrl plan`: print the optimum, save ``plan.json`` and ``plan.png`` in ``--out``."""
+    from symrl.studies.figures import plot_plan
+
+    t0 = time.perf_counter()
+    world = load_map(args.map)
+    start = args.start or (world.start.x, world.start.y, world.start.heading)
+    body, ir_dist, step = robot_clearances()
+    plan = shortest_path(world, start)
+    bound = shortest_path(world, start, clearance=body)
+    # the walk follows a path 2 mm further out, so float error never reads as a virtual collision
+    margin = shortest_path(world, start, clearance=plan.clearance + WALK_MARGIN)
+    walk = chord_walk(margin.points, step, (world.goal.x, world.goal.y), world.goal.radius)
+    walk_check = check_walk(world, walk, body, plan.clearance)
+    replay = replay_in_env(args.map, walk, float(start[2]))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    result = {
+        "map": world.name,
+        "start": list(map(float, start)),
+        "goal": [world.goal.x, world.goal.y, world.goal.radius],
+        **plan.to_dict(),
+        "lower_bound": {
+            "clearance_m": bound.clearance,
+            "length_m": bound.length,
+            "actions": bound.actions,
+            "why": "a move's sweep needs only the body radius; its end pose needs the IR distance",
+        },
+        "chord_walk": {"path_clearance_m": margin.clearance, **walk_check},
+        "env_replay_noise_free": replay,
+        "optimum_actions_exact": bool(
+            bound.actions == plan.actions == walk_check["moves"]
+            and walk_check["sweep_contacts"] == 0
+            and walk_check["virtual_collisions"] == 0
+        ),
+        "optimum_rule": "fewest 0.20 m moves whose sweeps touch no wall and whose end poses keep "
+        "the IR distance; lower bound ceil(L_body / step), achieved by the chord walk",
+        "wall_time_s": round(time.perf_counter() - t0, 2),
+    }
+    (out / "plan.json").write_text(json.dumps(result, indent=2) + "\n")
+    plot_plan(world, plan, walk, out / "plan.png")
+    print(
+        f"shortest path: {plan.length:.3f} m = {plan.actions} actions of {step:.2f} m "
+        f"(clearance {plan.clearance:.3f} m); lower bound with the body radius only: "
+        f"{bound.length:.3f} m = {bound.actions} actions"
+    )
+    print(
+        f"chord walk: {walk_check['moves']} moves, sweep contacts {walk_check['sweep_contacts']}, "
+        f"min end clearance {walk_check['min_end_clearance_m']:.4f} m"
+        + (f"; env replay (no noise): {replay}" if replay else "; env not available for a replay")
+    )
+    print(f"wrote {out / 'plan.json'} and {out / 'plan.png'} in {result['wall_time_s']} s")
+    return 0

@@ -1,0 +1,83 @@
+"""The planner against lengths computed by hand on tiny maps, and on the paper's world."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from symrl.studies.planner import check_walk, chord_walk, shortest_path
+from symrl.world import load_map
+
+REGIONS = {"names": ["all"], "lines": {}, "rules": [{"region": "all"}]}
+
+
+def _map(boundary, start, goal, radius):
+    return load_map(
+        {
+            "name": "test",
+            "boundary": boundary,
+            "start": {"x": start[0], "y": start[1], "heading": 0.0},
+            "goal": {"x": goal[0], "y": goal[1], "radius": radius},
+            "regions": REGIONS,
+        }
+    )
+
+
+def test_empty_box_is_the_straight_line_minus_the_goal_radius():
+    world = _map([[0, 0], [10, 0], [10, 10], [0, 10]], (1, 1), (9, 1), 0.4)
+    plan = shortest_path(world, clearance=0.316, step=0.2)
+    assert plan.length == pytest.approx(8.0 - 0.4, abs=1e-9)
+    assert plan.actions == 38  # 7.6 / 0.2
+
+
+def test_l_corridor_wraps_the_inner_corner_on_a_circle():
+    # arms x in [0, 4] x y in [0, 1] and x in [3, 4] x y in [0, 4]; inner corner (3, 1)
+    world = _map([[0, 0], [4, 0], [4, 4], [3, 4], [3, 1], [0, 1]], (0.5, 0.5), (3.5, 3.5), 0.1)
+    r = 0.3
+    d = math.sqrt(2.5**2 + 0.5**2)  # start and goal are both this far from the corner
+    tangent = math.sqrt(d * d - r * r)
+    off = math.acos(r / d)
+    # directions corner->start (191.31 deg) and corner->goal (78.69 deg) are 247.38 deg apart
+    # the free way round; each tangent point eats `off` of it
+    sweep = 2 * math.pi - math.acos((-2.5 * 0.5 - 0.5 * 2.5) / d**2) - 2 * off
+    expected = 2 * tangent + r * sweep - 0.1
+    plan = shortest_path(world, clearance=r, step=0.2)
+    assert plan.length == pytest.approx(expected, abs=1e-6)
+    assert plan.actions == math.ceil(expected / 0.2)
+    # every point of the path keeps the clearance (up to the 5 mm chords of the arc)
+    from symrl.world.geometry import Walls
+
+    assert Walls(world.segments).clearance(plan.points).min() >= r - 1e-4
+
+
+def test_goal_centre_too_close_to_a_wall_ends_where_the_rim_meets_the_grown_wall():
+    # goal centre 0.2 m from the bottom wall, clearance 0.3: the first reachable rim point of the
+    # goal (radius 0.4) straight ahead lies on y = 0.3, at x = 5 - sqrt(0.4^2 - 0.1^2)
+    world = _map([[0, 0], [10, 0], [10, 10], [0, 10]], (1, 0.3), (5, 0.2), 0.4)
+    plan = shortest_path(world, clearance=0.3, step=0.2)
+    assert plan.length == pytest.approx(4.0 - math.sqrt(0.16 - 0.01), abs=1e-6)
+
+
+def test_bad_start_raises_a_clear_error():
+    world = _map([[0, 0], [10, 0], [10, 10], [0, 10]], (1, 1), (9, 1), 0.4)
+    with pytest.raises(ValueError, match="closer than"):
+        shortest_path(world, start=(0.1, 5.0), clearance=0.3)
+
+
+def test_chord_walk_counts_the_moves_of_a_straight_line():
+    poses = chord_walk(np.array([[0.0, 0.0], [1.0, 0.0]]), 0.2, (1.0, 0.0), 0.1)
+    assert len(poses) - 1 == 5  # 0.9 m to the rim in 0.2 m moves
+    np.testing.assert_allclose(np.diff(poses[:, 0]), 0.2, atol=1e-12)
+
+
+def test_paper_world_optimum_is_25_actions_and_the_walk_is_legal():
+    world = load_map("hailu2001")
+    plan = shortest_path(world)
+    assert plan.length == pytest.approx(4.913, abs=2e-3)
+    assert plan.actions == 25
+    outer = shortest_path(world, clearance=plan.clearance + 0.002)
+    walk = chord_walk(outer.points, 0.2, (world.goal.x, world.goal.y), world.goal.radius)
+    check = check_walk(world, walk, 0.26, plan.clearance)
+    assert check == {**check, "moves": 25, "sweep_contacts": 0, "virtual_collisions": 0}
