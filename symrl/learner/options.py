@@ -1,0 +1,185 @@
+"""Sub-goal options per region: a critic that averages trials and an epsilon-greedy actor.
+
+Why this exists (``research/ALGORITHM.md`` sections 3 and 5): the literal learner keeps the best
+single trial, so it locks onto lucky reflex trials (trial sd about 3.3), and its new neurons
+start from the reflex, which folds into the concave corner. Here the learner *chooses*, once per
+region and trial, where the reflex's goal-following input points: at the goal or at one of the
+sub-goals that ``symrl.knowledge.subgoals`` derives from the map's region lines (the door).
+Obstacle avoidance is untouched. The critic of an option is the mean, over the trials that chose
+it, of the return-to-go from the region's first entry (Monte Carlo, so the concave penalty that
+lands ~10 actions after the wrong turn is credited to the turn). Averaging, not comparing single
+trials, is what makes the choice robust to noise. The module is plain torch (no TorchRL), so the
+TorchRL policy and the fast study loop share it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+
+from symrl.knowledge.subgoals import SubgoalTable
+
+__all__ = ["OptionConfig", "OptionLearner"]
+
+
+@dataclass
+class OptionConfig:
+    """Actor and critic of the option learner; every default is the tuned value."""
+
+    epsilon: float = 0.3
+    """Probability of a uniformly random option at a region's first entry (trial 1)."""
+
+    epsilon_decay: float = 0.8
+    """epsilon is multiplied by this after every trial."""
+
+    greedy_after: int = 12
+    """From this trial on (1-based count of finished trials) the actor is greedy: the last
+    trials show what was learned, not exploration. 0 disables the cut-off."""
+
+    try_untried: bool = True
+    """An option never tried yet is chosen before any greedy choice (its critic is unknown)."""
+
+    reach: float = 0.25
+    """A sub-goal closer than this (odometry, metres) is reached: the reflex aims at the goal for
+    the rest of that region visit (otherwise it would circle the point)."""
+
+    gamma: float = 1.0
+    """Discount of the return-to-go (1: the trial's total reinforcement from the entry on)."""
+
+    prior: str = "order"
+    """Tie-break among untried/equal options: "order" (table order, goal first) or "random"."""
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.epsilon <= 1.0:
+            raise ValueError(f"OptionConfig.epsilon must be in [0, 1], got {self.epsilon!r}")
+        if not 0.0 <= self.epsilon_decay <= 1.0:
+            raise ValueError(
+                f"OptionConfig.epsilon_decay must be in [0, 1], got {self.epsilon_decay!r}"
+            )
+        if not isinstance(self.greedy_after, int) or self.greedy_after < 0:
+            raise ValueError(
+                f"OptionConfig.greedy_after must be an int >= 0, got {self.greedy_after!r}"
+            )
+        if not (self.reach >= 0.0 and math.isfinite(self.reach)):
+            raise ValueError(f"OptionConfig.reach must be a number >= 0, got {self.reach!r}")
+        if not 0.0 < self.gamma <= 1.0:
+            raise ValueError(f"OptionConfig.gamma must be in (0, 1], got {self.gamma!r}")
+        if self.prior not in ("order", "random"):
+            raise ValueError(f"OptionConfig.prior must be 'order' or 'random', got {self.prior!r}")
+
+
+class OptionLearner:
+    """Per-trial option choice per region and the averaged return-to-go critic.
+
+    Use: ``begin_trial()``; every step ``target(region, x, y)`` -> the point the reflex aims at,
+    then ``record(reward)``; at the trial's end ``end_trial()``. State (``q``, ``n``) are tensors
+    ``(R, K)`` so they can be saved as buffers.
+    """
+
+    def __init__(
+        self,
+        table: SubgoalTable,
+        goal: tuple[float, float],
+        config: OptionConfig | None = None,
+        generator: torch.Generator | None = None,
+    ) -> None:
+        self.table = table
+        self.goal = (float(goal[0]), float(goal[1]))
+        self.config = config or OptionConfig()
+        self.generator = generator or torch.Generator().manual_seed(0)
+        shape = table.valid.shape
+        self.q = torch.zeros(shape, dtype=torch.float64)
+        self.n = torch.zeros(shape, dtype=torch.long)
+        self.epsilon = self.config.epsilon
+        self.trials = 0
+        self.begin_trial()
+
+    # --- per trial -------------------------------------------------------------------------
+
+    def begin_trial(self) -> None:
+        """Forget this trial's choices; the critic and epsilon carry over."""
+        self.choice: dict[int, int] = {}
+        self.entry: dict[int, int] = {}
+        self.reached: set[int] = set()
+        self.rewards: list[float] = []
+        self._region: int | None = None
+
+    def choose(self, region: int) -> int:
+        """The option of ``region`` for this trial (chosen at its first entry, then kept)."""
+        if region in self.choice:
+            return self.choice[region]
+        valid = self.table.valid[region]
+        options = torch.nonzero(valid).flatten()
+        greedy_only = self.config.greedy_after and self.trials >= self.config.greedy_after
+        untried = options[self.n[region, options] == 0]
+        if self.config.try_untried and not greedy_only and untried.numel() > 0:
+            option = self._pick(untried)
+        elif not greedy_only and self._uniform() < self.epsilon:
+            option = int(options[self._randint(options.numel())])
+        else:
+            q = torch.where(self.n[region] > 0, self.q[region], -math.inf)
+            q = torch.where(valid, q, -math.inf)
+            if bool(torch.isinf(q).all()):
+                option = self._pick(options)
+            else:
+                option = self._pick(torch.nonzero(q == q.max()).flatten())
+        self.choice[region] = option
+        self.entry[region] = len(self.rewards)
+        return option
+
+    def target(self, region: int, x: float, y: float) -> tuple[float, float]:
+        """The point the reflex should aim at from odometry ``(x, y)`` in ``region``."""
+        if region != self._region:
+            self.reached.discard(region)  # a new visit aims at the sub-goal again
+            self._region = region
+        option = self.choose(region)
+        goal = self.goal
+        if region in self.reached:
+            return goal
+        px, py = self.table.point(region, option)
+        if math.hypot(px - x, py - y) < self.config.reach:
+            self.reached.add(region)
+            return goal
+        return px, py
+
+    def record(self, reward: float) -> None:
+        """The reinforcement of the step just taken."""
+        self.rewards.append(float(reward))
+
+    def end_trial(self) -> dict[str, float]:
+        """Update each chosen option's critic with the return-to-go from its region's first
+        entry, decay epsilon, and start a new trial. Returns diagnostics."""
+        g = self.config.gamma
+        for region, option in self.choice.items():
+            tail = self.rewards[self.entry[region] :]
+            ret = sum(r * g**t for t, r in enumerate(tail))
+            self.n[region, option] += 1
+            count = int(self.n[region, option])
+            self.q[region, option] += (ret - float(self.q[region, option])) / count
+        self.trials += 1
+        self.epsilon *= self.config.epsilon_decay
+        out = {"epsilon": self.epsilon}
+        out.update({f"option_{self.table.region_names[r]}": float(o) for r, o in self.choice.items()})
+        self.begin_trial()
+        return out
+
+    # --- helpers -----------------------------------------------------------------------------
+
+    def greedy(self) -> list[int]:
+        """The option each region would choose greedily now (-1 if none tried)."""
+        q = torch.where((self.n > 0) & self.table.valid, self.q, -math.inf)
+        best = q.argmax(dim=1)
+        return [int(b) if bool(torch.isfinite(q[r, b])) else -1 for r, b in enumerate(best)]
+
+    def _uniform(self) -> float:
+        return float(torch.rand((), generator=self.generator, dtype=torch.float64))
+
+    def _randint(self, n: int) -> int:
+        return int(torch.randint(n, (), generator=self.generator))
+
+    def _pick(self, candidates: torch.Tensor) -> int:
+        if self.config.prior == "random":
+            return int(candidates[self._randint(candidates.numel())])
+        return int(candidates[0])
