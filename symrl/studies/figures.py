@@ -31,9 +31,10 @@ def draw_map(ax: plt.Axes, world: WorldMap) -> None:
     draw_world(ax, world)
 
 
-def _draw_xy(ax: plt.Axes, xy: np.ndarray, **kw) -> None:
-    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-    ax.plot(xy[:, 0], xy[:, 1], **kw)
+def _draw_xy(ax: plt.Axes, xy: np.ndarray, color: str, label: str | None = None) -> None:
+    from symrl.world.render import draw_path
+
+    draw_path(ax, xy, color=color, label=label)
 
 
 def plot_plan(world: WorldMap, plan: Plan, walk: np.ndarray, path: Path | str) -> None:
@@ -56,14 +57,19 @@ def plot_paths(
     world: WorldMap,
     panels: Sequence[tuple[str, Iterable[np.ndarray], Iterable[np.ndarray]]],
     path: Path | str,
+    columns: int = 3,
 ) -> None:
     """One map per panel: (title, paths, ghost point sets); paths as lines, ghosts as crosses."""
     n = len(panels)
-    fig, axes = plt.subplots(1, n, figsize=(4.5 * n, 4.8), squeeze=False)
-    for ax, (title, paths, ghosts) in zip(axes[0], panels, strict=False):
+    cols = min(columns, n)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.5 * cols, 4.6 * rows), squeeze=False)
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    for ax, (title, paths, ghosts) in zip(axes.flat, panels, strict=False):
         draw_map(ax, world)
         for i, xy in enumerate(paths):
-            _draw_xy(ax, xy, lw=1.5, color=f"C{i % 10}")
+            _draw_xy(ax, xy, color=f"C{(i + 3) % 10}")
         for g in ghosts:
             g = np.asarray(g, dtype=float).reshape(-1, 2)
             if len(g):

@@ -1,0 +1,193 @@
+"""`symrl ablate`: the repeatability study for every recipe, with the same seeds, side by side.
+
+Which part of the prior knowledge matters? Every recipe (SPEC §7) runs the same sets (seed + k)
+and trials; all (recipe, set) runs share one worker pool. The folder gets one sub-folder per
+recipe (as `symrl study` writes it), ``summary.md`` / ``summary.json`` and ``comparison.png``.
+
+Summary columns (mean ± std over sets unless said):
+- first success: the first trial that reached the goal (sets that never did are counted apart)
+- success last 5: fraction of the last 5 trials (all sets pooled) that reached the goal
+- steps / total reinforcement last 5: per set the mean over its last 5 trials (a failed trial
+  counts with its 200 actions), then mean ± std over sets
+- neurons / collisions last trial, and collisions summed over all trials of a set
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from symrl.studies.repeatability import (
+    OTHER_STARTS,
+    PAPER_TABLE1,
+    SetResult,
+    StudyResult,
+    curves,
+    optimum,
+    run_sets,
+    table1,
+    write_study,
+)
+
+__all__ = ["RECIPES", "summarise", "summary_markdown", "run_ablation", "ablate_command"]
+
+RECIPES = ("paper", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only")
+LAST = 5
+
+
+def _mean_std(values: Sequence[float]) -> dict[str, float]:
+    v = np.asarray(values, dtype=float)
+    if v.size == 0:
+        return {"mean": float("nan"), "std": float("nan")}
+    return {"mean": float(v.mean()), "std": float(v.std(ddof=1)) if v.size > 1 else 0.0}
+
+
+def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any]:
+    """The ablation summary of one recipe from its trial rows (see the module docstring)."""
+    if not rows:
+        raise ValueError("summarise: no trial rows")
+    by_set: dict[int, list[dict[str, Any]]] = {}
+    for r in rows:
+        by_set.setdefault(int(r["set"]), []).append(r)
+    never = 0
+    firsts, success, steps, reinf, neurons, coll_last, coll_all = ([] for _ in range(7))
+    for s in sorted(by_set):
+        trials = sorted(by_set[s], key=lambda r: int(r["trial"]))
+        first = next((int(r["trial"]) for r in trials if bool(r["reached_goal"])), None)
+        if first is None:
+            never += 1
+        else:
+            firsts.append(first)
+        tail = trials[-last:]
+        success += [float(bool(r["reached_goal"])) for r in tail]
+        steps.append(np.mean([float(r["steps"]) for r in tail]))
+        reinf.append(np.mean([float(r["total_reinforcement"]) for r in tail]))
+        neurons.append(float(trials[-1]["neurons"]))
+        coll_last.append(float(trials[-1]["collisions"]))
+        coll_all.append(sum(float(r["collisions"]) for r in trials))
+    return {
+        "sets": len(by_set),
+        "trials": max(int(r["trial"]) for r in rows),
+        "first_success": {**_mean_std(firsts), "never": never},
+        f"success_last{last}": float(np.mean(success)),
+        f"steps_last{last}": _mean_std(steps),
+        f"total_reinforcement_last{last}": _mean_std(reinf),
+        "neurons_last": _mean_std(neurons),
+        "collisions_last": _mean_std(coll_last),
+        "collisions_all_trials": _mean_std(coll_all),
+    }
+
+
+def _pm(d: dict[str, float], fmt: str = ".1f") -> str:
+    if not np.isfinite(d["mean"]):
+        return "-"
+    return f"{d['mean']:{fmt}} ± {d['std']:{fmt}}"
+
+
+def summary_markdown(summary: dict[str, dict[str, Any]], last: int = LAST) -> str:
+    """One row per recipe; the paper's last-trial numbers and the optimum as reference rows."""
+    lines = [
+        f"| recipe | sets × trials | first success (never) | success last {last} "
+        f"| steps last {last} | total reinf. last {last} | neurons last | collisions last "
+        "| collisions all trials |",
+        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for recipe, s in summary.items():
+        if recipe.startswith("_"):
+            continue
+        fs = s["first_success"]
+        first = f"{_pm(fs)} ({fs['never']})"
+        lines.append(
+            f"| {recipe} | {s['sets']} × {s['trials']} | {first} | {s[f'success_last{last}']:.0%} "
+            f"| {_pm(s[f'steps_last{last}'])} | {_pm(s[f'total_reinforcement_last{last}'], '.2f')} "
+            f"| {_pm(s['neurons_last'])} | {_pm(s['collisions_last'], '.2f')} "
+            f"| {_pm(s['collisions_all_trials'])} |"
+        )
+    p = PAPER_TABLE1
+    lines.append(
+        f"| *paper, Table 1 (last trial)* | 10 × 20 | - | - | {p['steps']['mean']} "
+        f"(var {p['steps']['variance']}) | {p['total_reinforcement']['mean']} "
+        f"(var {p['total_reinforcement']['variance']}) | {p['neurons']['mean']} "
+        f"(var {p['neurons']['variance']}) | - | - |"
+    )
+    opt = summary.get("_optimum")
+    if opt:
+        lines.append(f"| *optimum (`symrl plan`)* | - | - | - | {opt['steps']} | - | - | 0 | 0 |")
+    return "\n".join(lines) + "\n"
+
+
+def run_ablation(
+    recipes: Sequence[str] = RECIPES,
+    sets: int = 10,
+    trials: int = 20,
+    seed: int = 100,
+    workers: int | None = None,
+    out: Path | str | None = "results/ablate",
+    figures: bool = True,
+    starts: Sequence[tuple[float, float, float]] = OTHER_STARTS,
+) -> dict[str, Any]:
+    """Run every recipe's study on the same seeds; return (and write) the summary."""
+    if sets < 1 or trials < 1:
+        raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
+    if not recipes:
+        raise ValueError("run_ablation: no recipes given")
+    t0 = time.perf_counter()
+    jobs = [
+        {"recipe": r, "index": k, "seed": seed + k, "trials": trials, "overrides": [],
+         "starts": list(starts)}
+        for r in recipes
+        for k in range(sets)
+    ]
+    results: list[SetResult] = run_sets(jobs, workers, desc="ablate")
+    wall = time.perf_counter() - t0
+    opt = optimum()
+    summary: dict[str, Any] = {}
+    studies: dict[str, StudyResult] = {}
+    for i, recipe in enumerate(recipes):
+        sets_r = results[i * sets : (i + 1) * sets]
+        rows = [r for s in sets_r for r in s.rows]
+        table = table1(rows)
+        table.update(paper=PAPER_TABLE1, optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1])
+        study = StudyResult(
+            recipe, sets_r, table, Path(out) / recipe if out else None,
+            sum(s.wall_time for s in sets_r),
+        )
+        studies[recipe] = study
+        summary[recipe] = summarise(rows)
+        summary[recipe]["cpu_time_s"] = round(study.wall_time, 1)
+    summary["_optimum"] = opt
+    summary["_seeds"] = [seed, seed + sets - 1]
+    summary["_wall_time_s"] = round(wall, 1)
+    if out is not None:
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        for study in studies.values():
+            write_study(study, figures=figures)
+        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        (out / "summary.md").write_text(summary_markdown(summary))
+        if figures:
+            from symrl.studies.figures import plot_comparison
+
+            qs = ("steps", "total_reinforcement", "neurons", "collisions")
+            plot_comparison(
+                {r: {q: curves(s.rows, q) for q in qs} for r, s in studies.items()},
+                out / "comparison.png",
+                qs,
+            )
+    return summary
+
+
+def ablate_command(args: argparse.Namespace) -> int:
+    """`symrl ablate`: run, print the summary table and the wall time."""
+    recipes = tuple(r.strip() for r in args.recipes.split(",")) if args.recipes else RECIPES
+    summary = run_ablation(recipes, args.sets, args.trials, args.seed, args.workers, args.out)
+    print(summary_markdown(summary))
+    print(f"wrote {args.out}/ (summary.md, summary.json, comparison.png, one folder per recipe); "
+          f"wall time {summary['_wall_time_s']:.1f} s")
+    return 0
