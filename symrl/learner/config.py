@@ -1,0 +1,273 @@
+"""Typed run configuration: recipes are YAML files, every knob is a documented dataclass field.
+
+A recipe (``symrl/recipes/<name>.yaml``) sets a few fields of :class:`RunConfig`; the dataclass
+defaults are the literal rules of ``research/ALGORITHM.md`` section 1-2, so a recipe only lists
+what it changes. Command-line overrides (``learner.gamma=0.9``) are applied on top. Unknown keys
+and ill-typed values raise :class:`ConfigError` naming the key and the value, never a bare
+``TypeError``.
+
+To add an improvement for the ``paper`` recipe: add a field (with a docstring under it and a
+default that keeps the literal behaviour), read it where it matters, and set it in
+``recipes/paper.yaml``. ``Literal[...]`` fields are checked against their allowed values.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+
+__all__ = [
+    "ConfigError",
+    "LearnerConfig",
+    "EnvConfig",
+    "RunSection",
+    "RunConfig",
+    "load_config",
+    "builtin_recipes",
+    "config_to_dict",
+    "config_from_dict",
+]
+
+
+class ConfigError(ValueError):
+    """A recipe or override is malformed; the message names the key and the value."""
+
+
+@dataclass
+class LearnerConfig:
+    """The growing-RBF mixture of experts and its update (paper sections 7-8, ALGORITHM.md)."""
+
+    width: float = 0.1
+    """RBF receptive width (varsigma, paper 7.1); activations are exp(-d^2 / width^2)."""
+    novelty_radius: float = 0.1
+    """Distance-driven growth: a new neuron when the winner is farther (literal: = width)."""
+    gamma: float = 0.95
+    """Discount of the TD error delta = r + gamma * u_now - u_prev."""
+    eta: float = 0.3
+    """Utility learning rate: u_prev += eta * delta."""
+    beta: float = 0.2
+    """Exploration-mean rate (REINFORCE, sigma^2-scaled): mu += beta * delta * (xi - mu)."""
+    kappa: float = 0.1
+    """Centre shift toward the previous input when delta > 0: c += kappa * (x - c)."""
+    error_threshold: float = 2.0
+    """Error-driven growth: |delta| above this adds a neuron at the previous input instead."""
+    temperature0: float = 0.3
+    """Initial exploration temperature T(0), radians (Eq. 6)."""
+    cooling: float = 0.85
+    """Temperature factor applied after each trial: T <- max(T_min, cooling * T)."""
+    temperature_min: float = 0.05
+    """Temperature floor, radians."""
+    capacity: int = 1024
+    """Neurons preallocated per expert; storage doubles when full (up to max_neurons)."""
+    max_neurons: int = 200_000
+    """Hard limit of neurons per expert; growing past it raises a RuntimeError."""
+    partition: bool = True
+    """One expert per map region (the symbolic gate, paper 6.1); False: one expert for all."""
+    reflex: bool = True
+    """New neurons take the fuzzy reflex's action (paper 8.3); False: a uniform random action."""
+    learning: bool = True
+    """False: no neurons and no updates, the reflex drives the robot (reflex_only)."""
+    goal_codes: int = 8
+    """Goal-distance codes phi_m = exp(-((mu_m - rho) / goal_code_width)^2), mu_m = m/(n-1)."""
+    goal_code_width: float = 1.0
+    """Width of the goal-distance codes; 1.0 is the paper's printed (unit-width) form."""
+    utility_init: Literal["reward", "zero", "discounted"] = "reward"
+    """New neuron's utility: reward = r(state) (paper 8.3), zero, or discounted = r/(1-gamma)."""
+    replace_actions: bool = True
+    """After a goal-reaching trial with the best total so far, p <- action taken, mu <- 0 (8.3)."""
+
+
+@dataclass
+class EnvConfig:
+    """The simulated world (``symrl/Hailu2001-v0``)."""
+
+    map: str = "hailu2001"
+    """Built-in map name or path of a map YAML file."""
+    noise: bool = True
+    """Sensor and motion noise on (False turns every noise source off)."""
+    max_actions: int = 200
+    """A trial is truncated (failed) after this many actions (SPEC 4)."""
+
+
+@dataclass
+class RunSection:
+    """Budget, seed and logging of one training run."""
+
+    trials: int = 20
+    """Number of trials (the training budget; paper: 20 per set)."""
+    seed: int = 0
+    """Seed of torch, numpy and the env; the same seed gives the same trials table."""
+    image_every: int = 5
+    """Log the trajectory image to TensorBoard every this many trials (and the last one)."""
+
+
+@dataclass
+class RunConfig:
+    """Everything a run needs; ``recipe`` is the name it was loaded from."""
+
+    recipe: str = "paper_literal"
+    """Name of the recipe (used in the run folder's name)."""
+    learner: LearnerConfig = field(default_factory=LearnerConfig)
+    """The learner and its update."""
+    env: EnvConfig = field(default_factory=EnvConfig)
+    """The world."""
+    run: RunSection = field(default_factory=RunSection)
+    """Budget, seed, logging."""
+
+    def validate(self) -> RunConfig:
+        """Check value ranges; raise ConfigError naming the first bad key."""
+        lc = self.learner
+        checks: list[tuple[str, Any, bool, str]] = [
+            ("learner.width", lc.width, lc.width > 0, "> 0"),
+            ("learner.novelty_radius", lc.novelty_radius, lc.novelty_radius > 0, "> 0"),
+            ("learner.gamma", lc.gamma, 0 <= lc.gamma <= 1, "in [0, 1]"),
+            ("learner.eta", lc.eta, lc.eta >= 0, ">= 0"),
+            ("learner.beta", lc.beta, lc.beta >= 0, ">= 0"),
+            ("learner.kappa", lc.kappa, 0 <= lc.kappa <= 1, "in [0, 1]"),
+            ("learner.error_threshold", lc.error_threshold, lc.error_threshold > 0, "> 0"),
+            ("learner.temperature0", lc.temperature0, lc.temperature0 >= 0, ">= 0"),
+            ("learner.cooling", lc.cooling, 0 < lc.cooling <= 1, "in (0, 1]"),
+            ("learner.temperature_min", lc.temperature_min, lc.temperature_min >= 0, ">= 0"),
+            ("learner.capacity", lc.capacity, lc.capacity >= 1, ">= 1"),
+            ("learner.max_neurons", lc.max_neurons, lc.max_neurons >= lc.capacity, ">= capacity"),
+            ("learner.goal_codes", lc.goal_codes, lc.goal_codes >= 2, ">= 2"),
+            ("learner.goal_code_width", lc.goal_code_width, lc.goal_code_width > 0, "> 0"),
+            ("env.max_actions", self.env.max_actions, self.env.max_actions >= 1, ">= 1"),
+            ("run.trials", self.run.trials, self.run.trials >= 1, ">= 1"),
+            ("run.image_every", self.run.image_every, self.run.image_every >= 1, ">= 1"),
+        ]
+        for key, value, ok, rule in checks:
+            if not ok or (isinstance(value, float) and not math.isfinite(value)):
+                raise ConfigError(f"{key}={value!r}: must be {rule}")
+        return self
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading: recipe file -> dict -> typed dataclasses, then key=value overrides.
+
+
+def builtin_recipes() -> list[str]:
+    """Names of the recipes shipped in ``symrl/recipes``."""
+    folder = resources.files("symrl") / "recipes"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
+
+
+def _recipe_path(recipe: str | Path) -> tuple[str, Path]:
+    text = str(recipe)
+    if text.endswith((".yaml", ".yml")) or "/" in text or Path(text).is_file():
+        path = Path(text)
+        if not path.is_file():
+            raise ConfigError(f"recipe {text!r}: no such file")
+        return path.stem, path
+    path = Path(str(resources.files("symrl") / "recipes" / f"{text}.yaml"))
+    if not path.is_file():
+        raise ConfigError(
+            f"recipe {text!r}: unknown; built-in recipes are {', '.join(builtin_recipes())} "
+            "(or pass a YAML file path)"
+        )
+    return text, path
+
+
+def _coerce(key: str, value: Any, kind: Any) -> Any:
+    """Return ``value`` as type ``kind`` or raise ConfigError naming ``key``."""
+    origin = typing.get_origin(kind)
+    if origin is Literal:
+        allowed = typing.get_args(kind)
+        if value not in allowed:
+            raise ConfigError(f"{key}={value!r}: must be one of {', '.join(map(str, allowed))}")
+        return value
+    if kind is bool:
+        if isinstance(value, bool):
+            return value
+    elif kind is int:
+        if isinstance(value, int) and not isinstance(value, bool):
+            return value
+    elif kind is float:
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return float(value)
+        if isinstance(value, str):  # YAML 1.1 reads "1e-3" as a string
+            try:
+                return float(value)
+            except ValueError:
+                pass
+    elif kind is str:
+        if isinstance(value, str):
+            return value
+    else:  # pragma: no cover - only reached if someone adds a field of a new type
+        raise ConfigError(f"{key}: field type {kind!r} is not supported by the loader")
+    raise ConfigError(f"{key}={value!r}: expected {kind.__name__}, got {type(value).__name__}")
+
+
+def _apply(obj: Any, data: dict[str, Any], prefix: str) -> None:
+    """Set the fields of dataclass ``obj`` from ``data`` (recursively), checking names and types."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{prefix or 'recipe'}={data!r}: expected a mapping of keys")
+    hints = typing.get_type_hints(type(obj))
+    names = {f.name for f in dataclasses.fields(obj)}
+    for name, value in data.items():
+        key = f"{prefix}{name}"
+        if name not in names:
+            raise ConfigError(
+                f"{key}={value!r}: unknown key; known keys here: {', '.join(sorted(names))}"
+            )
+        current = getattr(obj, name)
+        if dataclasses.is_dataclass(current):
+            _apply(current, value, f"{key}.")
+        else:
+            setattr(obj, name, _coerce(key, value, hints[name]))
+
+
+def _parse_override(text: str) -> tuple[list[str], Any]:
+    if "=" not in text:
+        raise ConfigError(f"override {text!r}: expected key=value, e.g. learner.gamma=0.9")
+    key, raw = text.split("=", 1)
+    key = key.strip()
+    if not key:
+        raise ConfigError(f"override {text!r}: empty key")
+    try:
+        value = yaml.safe_load(raw) if raw.strip() else raw
+    except yaml.YAMLError:
+        value = raw
+    return key.split("."), value
+
+
+def config_from_dict(data: dict[str, Any], recipe: str = "custom") -> RunConfig:
+    """Build a validated RunConfig from a nested dict (e.g. a saved ``config.yaml``)."""
+    config = RunConfig(recipe=recipe)
+    _apply(config, dict(data), "")
+    return config.validate()
+
+
+def config_to_dict(config: RunConfig) -> dict[str, Any]:
+    """The config as a plain nested dict (for YAML, checkpoints and the TensorBoard table)."""
+    return dataclasses.asdict(config)
+
+
+def load_config(
+    recipe: str | Path = "paper_literal", overrides: list[str] | None = None
+) -> RunConfig:
+    """Load a recipe by name or path and apply ``key=value`` overrides (dotted keys)."""
+    name, path = _recipe_path(recipe)
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as err:
+        raise ConfigError(f"recipe {str(path)!r}: not valid YAML ({err})") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"recipe {str(path)!r}: expected a mapping at the top, got {data!r}")
+    data.setdefault("recipe", name)
+    config = RunConfig()
+    _apply(config, data, "")
+    for text in overrides or []:
+        parts, value = _parse_override(text)
+        nested: Any = value
+        for part in reversed(parts):
+            nested = {part: nested}
+        _apply(config, nested, "")
+    return config.validate()
