@@ -43,13 +43,13 @@ class Hailu2001Env(gymnasium.Env):
 
     A `Dict` of `float32` arrays (n = `robot.n_sensors`, 24 by default):
 
-    | key          | shape | range          | meaning                                                    |
-    |--------------|-------|----------------|------------------------------------------------------------|
-    | `"sonar"`    | (n,)  | [0, 1]         | rim distance of ray k (heading + k*15 deg, CCW) / 5.0 m     |
-    | `"ir"`       | (n,)  | [0, 100]       | reflectance 100*(1 - d/0.5)^3 of the nearest wall in sector k|
-    | `"bumper"`   | (1,)  | {0, 1}         | 1 if the body touched a wall during this step              |
-    | `"odometry"` | (3,)  | R x R x [-pi, pi] | x, y, heading the robot believes                        |
-    | `"goal"`     | (2,)  | [0, inf) x [-pi, pi] | distance and signed angle (left +) to the goal, from odometry |
+    | key          | shape | range            | meaning                                          |
+    |--------------|-------|------------------|--------------------------------------------------|
+    | `"sonar"`    | (n,)  | [0, 1]           | rim distance along ray k / 5.0 m (k=0 ahead, CCW) |
+    | `"ir"`       | (n,)  | [0, 100]         | reflectance of the nearest wall in sector k      |
+    | `"bumper"`   | (1,)  | {0, 1}           | 1 if the body touched a wall during this step    |
+    | `"odometry"` | (3,)  | map +- 40 m, [-pi, pi] | x, y, heading the robot believes           |
+    | `"goal"`     | (2,)  | [0, far], [-pi, pi] | distance, signed angle (left +) to the goal   |
 
     Sonar k reads the distance from the body's rim to the first wall along the ray from the centre,
     capped at 5.0 m, plus Gaussian noise (std 0.01 m), clipped to [0, 5]. IR sensor k reads the rim
@@ -58,8 +58,8 @@ class Hailu2001Env(gymnasium.Env):
 
     ## Action Space
 
-    `Box(-pi, pi, (1,), float32)`: the rotation alpha (radians, counter-clockwise) applied before the
-    0.20 m translation. Values outside are clipped; a non-finite action raises `ValueError`.
+    `Box(-pi, pi, (1,), float32)`: the rotation alpha (radians, counter-clockwise) applied before
+    the 0.20 m translation. Values outside are clipped; a non-finite action raises `ValueError`.
 
     ## Transition Dynamics
 
@@ -150,20 +150,24 @@ class Hailu2001Env(gymnasium.Env):
 
         n = robot.n_sensors
         self.action_space = spaces.Box(-np.pi, np.pi, (1,), np.float32)
-        inf = np.inf
+        # the odometry moves at most `step` per action, so within a trial it stays this close
+        # to the map (finite bounds, so spaces can be sampled and checked)
+        reach = max_actions * robot.step
+        xmin, xmax, ymin, ymax = self.world.bounds
+        far = math.hypot(xmax - xmin, ymax - ymin) + 2.0 * reach
         self.observation_space = spaces.Dict(
             {
                 "sonar": spaces.Box(0.0, 1.0, (n,), np.float32),
                 "ir": spaces.Box(0.0, 100.0, (n,), np.float32),
                 "bumper": spaces.Box(0.0, 1.0, (1,), np.float32),
                 "odometry": spaces.Box(
-                    np.array([-inf, -inf, -np.pi], np.float32),
-                    np.array([inf, inf, np.pi], np.float32),
+                    np.array([xmin - reach, ymin - reach, -np.pi], np.float32),
+                    np.array([xmax + reach, ymax + reach, np.pi], np.float32),
                     dtype=np.float32,
                 ),
                 "goal": spaces.Box(
                     np.array([0.0, -np.pi], np.float32),
-                    np.array([inf, np.pi], np.float32),
+                    np.array([far, np.pi], np.float32),
                     dtype=np.float32,
                 ),
             }
@@ -172,8 +176,7 @@ class Hailu2001Env(gymnasium.Env):
         # --- precomputed constants of the per-step model --------------------------------
         self._walls = Walls(self.world.segments)
         self._n = n
-        width = _TWO_PI / n
-        axes = width * np.arange(n)
+        axes = (_TWO_PI / n) * np.arange(n)
         if robot.sonar_cone_deg > 0.0:
             m = robot.sonar_cone_rays
             half = 0.5 * math.radians(robot.sonar_cone_deg)
@@ -184,9 +187,9 @@ class Hailu2001Env(gymnasium.Env):
             sonar_offsets = axes
         self._cone_rays = m
         self._n_sonar_rays = n * m
-        # one cast per pose: the sonar rays, then the n IR sector edges
-        self._ray_offsets = np.concatenate([sonar_offsets, axes - 0.5 * width])
-        self._cast_range = robot.radius + max(robot.sonar_range, robot.ir_range)
+        self._sonar_offsets = sonar_offsets
+        self._cast_range = robot.radius + robot.sonar_range
+        self._ir_zero = np.zeros(n)
         self._ir_reach = robot.radius + robot.ir_range
         self._sonar_std = robot.sonar_noise_std if self.noise else 0.0
         self._rot_std = math.radians(robot.rotation_noise_deg) if self.noise else 0.0
@@ -256,9 +259,7 @@ class Hailu2001Env(gymnasium.Env):
             self.render()
         return obs, info
 
-    def step(
-        self, action: Any
-    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         alpha = self._parse_action(action)
         robot = self.robot
         x0, y0, h0 = self._true
@@ -272,14 +273,13 @@ class Hailu2001Env(gymnasium.Env):
         x1 = x0 + length * math.cos(h1)
         y1 = y0 + length * math.sin(h1)
 
-        # real collision: the swept disc touches a wall (impossible if the clearance is large)
-        real = self._clear <= robot.radius + abs(length) + 1e-9 and self._walls.swept_disc_contact(
-            x0, y0, x1, y1, robot.radius
+        # sense at the end of the move; a real collision is swept-disc contact (impossible
+        # while the clearance exceeds radius + translation), a virtual one an IR reading > 70
+        rim, refl, clear = self._sense(x1, y1, h1)
+        real = self._clear <= robot.radius + abs(length) + 1e-9 and (
+            self._walls.swept_disc_contact(x0, y0, x1, y1, robot.radius, self._clear, clear)
         )
-        virtual = False
-        if not real:
-            rim, refl, clear = self._sense(x1, y1, h1)
-            virtual = bool(refl.max() > robot.ir_collision_threshold)
+        virtual = not real and bool(refl.max() > robot.ir_collision_threshold)
         collision = real or virtual
         if collision:  # emergency handler: back to the pose before the translation
             x1, y1 = x0, y0
@@ -354,7 +354,9 @@ class Hailu2001Env(gymnasium.Env):
             raise ValueError(f"reset: pose must be 3 finite numbers (x, y, heading), got {pose!r}")
         x, y, h = values
         if not bool(self.world.in_free_area(x, y)):
-            raise ValueError(f"reset: pose {pose!r} is not in the free area of map {self.world.name!r}")
+            raise ValueError(
+                f"reset: pose {pose!r} is not in the free area of map {self.world.name!r}"
+            )
         clear = self.clearance(x, y)
         if clear <= self.robot.radius:
             raise ValueError(
@@ -375,16 +377,17 @@ class Hailu2001Env(gymnasium.Env):
     def _sense(self, x: float, y: float, h: float) -> tuple[np.ndarray, np.ndarray, float]:
         """Noise-free sonar rim distances, IR reflectances and the true clearance at a pose."""
         robot = self.robot
-        n, ns = self._n, self._n_sonar_rays
-        t = self._walls.cast(x, y, h + self._ray_offsets, self._cast_range)
-        hits = t[:ns]
+        rays, sectors, clear = self._walls.scan(
+            x, y, h, self._sonar_offsets, self._n, self._cast_range, self._ir_reach
+        )
         if self._cone_rays > 1:
-            hits = hits.reshape(n, self._cone_rays).min(axis=1)
-        rim = np.minimum(hits - robot.radius, robot.sonar_range)
-        sector = self._walls.sector_distances(x, y, h, n, self._ir_reach, t[ns:])
-        d = np.clip((sector - robot.radius) * (1.0 / robot.ir_range), 0.0, 1.0)
-        refl = 100.0 * (1.0 - d) ** 3
-        return rim, refl, float(sector.min())
+            rays = np.minimum.reduce(rays.reshape(self._n, self._cone_rays), axis=1)
+        rim = np.minimum(rays - robot.radius, robot.sonar_range)
+        if sectors is None:  # nothing within IR range
+            return rim, self._ir_zero, clear
+        d = np.minimum(np.maximum(sectors - robot.radius, 0.0), robot.ir_range)
+        refl = 100.0 * (1.0 - d * (1.0 / robot.ir_range)) ** 3
+        return rim, refl, clear
 
     def _noisy_sonar(self, rim: np.ndarray) -> np.ndarray:
         if self._sonar_std > 0.0:

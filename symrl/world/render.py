@@ -37,23 +37,36 @@ def draw_world(ax: Any, world: WorldMap, regions: bool = True, goal: bool = True
     xmin, xmax, ymin, ymax = world.bounds
     pad = 0.3
     frame = np.array(
-        [[xmin - pad, ymin - pad], [xmax + pad, ymin - pad], [xmax + pad, ymax + pad],
-         [xmin - pad, ymax + pad]]
+        [
+            [xmin - pad, ymin - pad],
+            [xmax + pad, ymin - pad],
+            [xmax + pad, ymax + pad],
+            [xmin - pad, ymax + pad],
+        ]
     )
     # solid = frame minus the free polygon (even-odd fill of both rings)
     verts = np.concatenate([frame, frame[:1], world.boundary, world.boundary[:1]])
     codes = (
-        [MplPath.MOVETO] + [MplPath.LINETO] * 3 + [MplPath.CLOSEPOLY]
-        + [MplPath.MOVETO] + [MplPath.LINETO] * (len(world.boundary) - 1) + [MplPath.CLOSEPOLY]
+        [MplPath.MOVETO]
+        + [MplPath.LINETO] * 3
+        + [MplPath.CLOSEPOLY]
+        + [MplPath.MOVETO]
+        + [MplPath.LINETO] * (len(world.boundary) - 1)
+        + [MplPath.CLOSEPOLY]
     )
-    ax.add_patch(PathPatch(MplPath(verts, codes), facecolor=SOLID_COLOR, edgecolor="none",
-                           zorder=0))
+    ax.add_patch(
+        PathPatch(MplPath(verts, codes), facecolor=SOLID_COLOR, edgecolor="none", zorder=0)
+    )
     for poly in world.obstacles:
         ax.add_patch(Polygon(poly, closed=True, facecolor=SOLID_COLOR, edgecolor="none", zorder=0))
     seg = world.segments
     ax.plot(
-        np.stack([seg[:, 0], seg[:, 2]]), np.stack([seg[:, 1], seg[:, 3]]),
-        color=WALL_COLOR, lw=1.5, solid_capstyle="round", zorder=1,
+        np.stack([seg[:, 0], seg[:, 2]]),
+        np.stack([seg[:, 1], seg[:, 3]]),
+        color=WALL_COLOR,
+        lw=1.5,
+        solid_capstyle="round",
+        zorder=1,
     )
     if regions:
         draw_regions(ax, world)
@@ -83,8 +96,9 @@ def draw_goal(ax: Any, world: WorldMap, color: str = "tab:green") -> None:
     from matplotlib.patches import Circle
 
     g = world.goal
-    ax.add_patch(Circle((g.x, g.y), g.radius, facecolor=color, alpha=0.25, edgecolor=color,
-                        zorder=2))
+    ax.add_patch(
+        Circle((g.x, g.y), g.radius, facecolor=color, alpha=0.25, edgecolor=color, zorder=2)
+    )
     ax.plot([g.x], [g.y], marker="+", color=color, zorder=2)
 
 
@@ -100,8 +114,17 @@ def draw_path(
     pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(pts) == 0:
         return
-    ax.plot(pts[:, 0], pts[:, 1], color=color, lw=1.2, label=label,
-            marker="." if markers else None, ms=3, zorder=3, **kwargs)
+    ax.plot(
+        pts[:, 0],
+        pts[:, 1],
+        color=color,
+        lw=1.2,
+        label=label,
+        marker="." if markers else None,
+        ms=3,
+        zorder=3,
+        **kwargs,
+    )
 
 
 def draw_robot(
@@ -111,10 +134,8 @@ def draw_robot(
     from matplotlib.patches import Circle
 
     x, y, h = (float(v) for v in pose[:3])
-    ax.add_patch(Circle((x, y), radius, facecolor=color, alpha=0.5, edgecolor="k", lw=1,
-                        zorder=4))
-    ax.plot([x, x + radius * np.cos(h)], [y, y + radius * np.sin(h)], color="k", lw=1.5,
-            zorder=5)
+    ax.add_patch(Circle((x, y), radius, facecolor=color, alpha=0.5, edgecolor="k", lw=1, zorder=4))
+    ax.plot([x, x + radius * np.cos(h)], [y, y + radius * np.sin(h)], color="k", lw=1.5, zorder=5)
 
 
 def draw_sonar(

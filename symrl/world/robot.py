@@ -25,7 +25,7 @@ class RobotConfig:
     step: float = 0.20
     """Translation l after every rotation, metres."""
     n_sensors: int = 24
-    """Sonars and IR sensors each, evenly spaced; sensor k points at heading + k*360/n_sensors deg."""
+    """Sonars and IR sensors each, evenly spaced: sensor k at heading + k*360/n_sensors deg."""
     sonar_range: float = 5.0
     """Sonar readings (rim distance) are capped here; the observation divides by it."""
     sonar_noise_std: float = 0.01
@@ -50,7 +50,12 @@ class RobotConfig:
 
     def __post_init__(self) -> None:
         positive = ("radius", "step", "sonar_range", "ir_range", "close_distance")
-        non_negative = ("sonar_noise_std", "sonar_cone_deg", "translation_noise", "rotation_noise_deg")
+        non_negative = (
+            "sonar_noise_std",
+            "sonar_cone_deg",
+            "translation_noise",
+            "rotation_noise_deg",
+        )
         for name in positive + non_negative + ("ir_collision_threshold",):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -59,7 +64,9 @@ class RobotConfig:
                 raise ValueError(f"RobotConfig.{name} must be finite, got {value!r}")
         for name in positive:
             if getattr(self, name) <= 0:
-                raise ValueError(f"RobotConfig.{name} must be positive, got {getattr(self, name)!r}")
+                raise ValueError(
+                    f"RobotConfig.{name} must be positive, got {getattr(self, name)!r}"
+                )
         for name in non_negative:
             if getattr(self, name) < 0:
                 raise ValueError(

@@ -120,7 +120,12 @@ class WorldMap:
     def bounds(self) -> tuple[float, float, float, float]:
         """(xmin, xmax, ymin, ymax) of the boundary polygon."""
         b = self.boundary
-        return float(b[:, 0].min()), float(b[:, 0].max()), float(b[:, 1].min()), float(b[:, 1].max())
+        return (
+            float(b[:, 0].min()),
+            float(b[:, 0].max()),
+            float(b[:, 1].min()),
+            float(b[:, 1].max()),
+        )
 
     def with_obstacle(self, polygon: list[list[float]] | np.ndarray) -> WorldMap:
         """A copy of this map with one more solid polygon (for the new-obstacle study)."""
@@ -171,7 +176,9 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
         raise MapError(f"{source}: a map must be a mapping of fields, got {type(data).__name__}")
     unknown = set(data) - _TOP_KEYS
     if unknown:
-        raise MapError(f"{source}: unknown field(s) {sorted(unknown)}; allowed: {sorted(_TOP_KEYS)}")
+        raise MapError(
+            f"{source}: unknown field(s) {sorted(unknown)}; allowed: {sorted(_TOP_KEYS)}"
+        )
     for key in ("boundary", "start", "goal", "regions"):
         if key not in data:
             raise MapError(f"{source}: missing required field {key!r}")
@@ -200,7 +207,7 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
 
 
 def _number(value: Any, field_name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
         raise MapError(f"field {field_name!r} must be a number, got {value!r}")
     if not math.isfinite(value):
         raise MapError(f"field {field_name!r} must be finite, got {value!r}")
@@ -208,16 +215,27 @@ def _number(value: Any, field_name: str) -> float:
 
 
 def _point(value: Any, field_name: str) -> tuple[float, float]:
-    if not isinstance(value, (list, tuple)) or len(value) != 2:
+    if not isinstance(value, (list, tuple, np.ndarray)) or len(value) != 2:
         raise MapError(f"field {field_name!r} must be a point [x, y], got {value!r}")
     return _number(value[0], f"{field_name}[0]"), _number(value[1], f"{field_name}[1]")
 
 
 def _polygon(value: Any, field_name: str) -> np.ndarray:
     if not isinstance(value, (list, tuple, np.ndarray)) or len(value) < 3:
-        raise MapError(f"field {field_name!r} must be a polygon of at least 3 points, got {value!r}")
+        raise MapError(
+            f"field {field_name!r} must be a polygon of at least 3 points, got {value!r}"
+        )
     pts = np.array([_point(p, f"{field_name}[{i}]") for i, p in enumerate(value)])
-    area = 0.5 * float(np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1]))
+    repeated = np.all(pts == np.roll(pts, -1, axis=0), axis=1)
+    if repeated.any():
+        i = int(np.argmax(repeated))
+        raise MapError(
+            f"field {field_name!r}: points {i} and {(i + 1) % len(pts)} coincide "
+            f"({pts[i].tolist()}), which makes a zero-length wall"
+        )
+    area = 0.5 * float(
+        np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1])
+    )
     if abs(area) < 1e-12:
         raise MapError(f"field {field_name!r}: the polygon has zero area: {value!r}")
     edges = _edges(pts)
@@ -286,7 +304,7 @@ def _regions(value: Any) -> RegionSpec:
 
     lines_raw = value["lines"]
     if not isinstance(lines_raw, dict):
-        raise MapError(f"field 'regions.lines' must be a mapping name -> {{x: .}} or {{y: .}}")
+        raise MapError("field 'regions.lines' must be a mapping name -> {x: .} or {y: .}")
     lines: dict[str, tuple[str, float]] = {}
     for lname, spec in lines_raw.items():
         if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in ("x", "y"):
@@ -363,7 +381,7 @@ def _point_in_polygon(x: np.ndarray, y: np.ndarray, poly: np.ndarray) -> np.ndar
     inside = np.zeros(np.broadcast(x, y).shape, dtype=bool)
     x0, y0 = poly[:, 0], poly[:, 1]
     x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
-    for ax, ay, bx, by in zip(x0, y0, x1, y1):
+    for ax, ay, bx, by in zip(x0, y0, x1, y1, strict=True):
         crosses = (ay > y) != (by > y)
         with np.errstate(divide="ignore", invalid="ignore"):
             xint = ax + (y - ay) * (bx - ax) / (by - ay)
