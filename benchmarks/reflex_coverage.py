@@ -2,9 +2,10 @@
 
 From the map's start: 20 seeds with noise on, and once with noise off: success rate, mean
 actions, total reinforcement and collisions. Then the success rate from random free start
-poses (uniform position with at least 0.1 m of clearance beyond the body, uniform heading).
+poses (uniform position with at least 0.1 m of clearance beyond the body, uniform heading),
+once without noise and once with noise (seed = pose index).
 
-    python benchmarks/reflex_coverage.py [--seeds 20] [--poses 150] [--noise-poses] [--out FILE]
+    python benchmarks/reflex_coverage.py [--seeds 20] [--poses 150] [--pose-seed S] [--out FILE]
 
 Reference (ALGORITHM.md): 20/20 from the start in ~37 actions, total ~-16, ~0.7 collisions;
 32 actions without noise; 150/150 from random free poses.
@@ -67,9 +68,6 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=20, help="noisy trials from the start")
     parser.add_argument("--poses", type=int, default=150, help="random free start poses")
     parser.add_argument("--pose-seed", type=int, default=12345, help="seed of the pose sampler")
-    parser.add_argument(
-        "--noise-poses", action="store_true", help="noise on for the random-pose runs (default off)"
-    )
     parser.add_argument("--out", default=None, help="write all numbers as JSON here")
     args = parser.parse_args()
 
@@ -80,14 +78,18 @@ def main() -> None:
     print(f"from the start, noise off: {describe([clean])}")
 
     poses = random_free_poses(args.poses, args.pose_seed)
-    from_poses = [drive(start=p, seed=i, noise=args.noise_poses) for i, p in enumerate(poses)]
-    print(
-        f"from {len(poses)} random free poses (noise {'on' if args.noise_poses else 'off'}): "
-        f"{describe(from_poses)}"
-    )
-    failed = [p for p, t in zip(poses, from_poses, strict=True) if not t["reached_goal"]]
-    for x, y, h in failed:
-        print(f"  failed from ({x:.2f}, {y:.2f}, {h:.2f})")
+    from_poses: dict[str, list[dict]] = {}
+    for noise in (False, True):
+        trials = [drive(start=p, seed=i, noise=noise) for i, p in enumerate(poses)]
+        from_poses["noise_on" if noise else "noise_off"] = trials
+        slow = sum(t["steps"] > 100 for t in trials)
+        print(
+            f"from {len(poses)} random free poses, noise {'on' if noise else 'off'}: "
+            f"{describe(trials)} | over 100 actions: {slow}"
+        )
+        for (x, y, h), t in zip(poses, trials, strict=True):
+            if not t["reached_goal"]:
+                print(f"  failed from ({x:.2f}, {y:.2f}, {h:.2f}), {t['collisions']} collisions")
     print(f"wall time {time.perf_counter() - t0:.1f} s")
 
     if args.out:
@@ -95,7 +97,10 @@ def main() -> None:
         data = {
             "noise_on": [{k: t[k] for k in keep} for t in noisy],
             "noise_off": {k: clean[k] for k in keep},
-            "random_poses": [{k: t[k] for k in keep} for t in from_poses],
+            "random_poses": {
+                name: [{k: t[k] for k in keep} for t in trials]
+                for name, trials in from_poses.items()
+            },
         }
         Path(args.out).write_text(json.dumps(data, indent=1))
 
