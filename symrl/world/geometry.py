@@ -70,7 +70,7 @@ class Walls:
         denom = dy * ux - dx * uy  # (n, R): u x d
         tnum = wxc * dy - wyc * dx  # (n, 1): w x d
         snum = wxc * uy - wyc * ux  # (n, R): w x u
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             inv = 1.0 / denom
             t = tnum * inv
             s = snum * inv
