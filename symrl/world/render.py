@@ -45,7 +45,11 @@ def draw_world(ax: Any, world: WorldMap, regions: bool = True, goal: bool = True
         ]
     )
     # solid = frame minus the free polygon (even-odd fill of both rings)
-    verts = np.concatenate([frame, frame[:1], world.boundary, world.boundary[:1]])
+    # matplotlib fills by nonzero winding: the free ring must wind opposite to the CCW frame
+    b = world.boundary
+    area = np.sum(b[:, 0] * np.roll(b[:, 1], -1) - np.roll(b[:, 0], -1) * b[:, 1])
+    ring = b if area < 0 else b[::-1]
+    verts = np.concatenate([frame, frame[:1], ring, ring[:1]])
     codes = (
         [MplPath.MOVETO]
         + [MplPath.LINETO] * 3
