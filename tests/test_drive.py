@@ -6,9 +6,11 @@ import json
 import math
 
 import pytest
+import torch
 
 from symrl.cli import main
 from symrl.drive import drive
+from symrl.knowledge import RegionMapper
 
 
 @pytest.fixture(scope="module")
@@ -21,6 +23,15 @@ def test_reflex_reaches_the_goal_without_noise(clean_trial):
     assert clean_trial["steps"] < 60  # ALGORITHM.md measured 32; the budget is 200
     assert clean_trial["total_reinforcement"] < 0
     assert clean_trial["start"] == [0.0, 0.0, 0.0]
+
+
+def test_reflex_is_caught_by_the_concave_region_then_finds_the_door(clean_trial):
+    # the paper's story of the reflex alone: head for the goal, drop below l1 into the
+    # concave region, climb back and pass the door into the corridor
+    mapper = RegionMapper.from_map("hailu2001")
+    ids = mapper(torch.tensor(clean_trial["odometry_path"])).tolist()
+    visited = [ids[0]] + [b for a, b in zip(ids, ids[1:], strict=False) if a != b]
+    assert [mapper.names[i] for i in visited] == ["room", "concave", "room", "door", "corridor"]
 
 
 def test_reflex_trial_is_deterministic_without_noise(clean_trial):
