@@ -233,11 +233,6 @@ def _polygon(value: Any, field_name: str) -> np.ndarray:
             f"field {field_name!r}: points {i} and {(i + 1) % len(pts)} coincide "
             f"({pts[i].tolist()}), which makes a zero-length wall"
         )
-    area = 0.5 * float(
-        np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1])
-    )
-    if abs(area) < 1e-12:
-        raise MapError(f"field {field_name!r}: the polygon has zero area: {value!r}")
     edges = _edges(pts)
     for i in range(len(edges)):
         for j in range(i + 1, len(edges)):
@@ -247,6 +242,11 @@ def _polygon(value: Any, field_name: str) -> np.ndarray:
                 raise MapError(
                     f"field {field_name!r}: the polygon crosses itself (edges {i} and {j})"
                 )
+    area = 0.5 * float(
+        np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1])
+    )
+    if abs(area) < 1e-12:
+        raise MapError(f"field {field_name!r}: the polygon has zero area: {value!r}")
     return pts
 
 

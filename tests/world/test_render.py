@@ -1,0 +1,44 @@
+"""Rendering: rgb_array frames and the reusable drawing helpers."""
+
+import numpy as np
+import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from symrl.world import load_map
+from symrl.world.env import Hailu2001Env
+from symrl.world.render import draw_path, draw_robot, draw_world
+
+
+def test_rgb_array_is_hwc_uint8_of_the_figure_size():
+    env = Hailu2001Env(render_mode="rgb_array", noise=False)
+    env.reset(seed=0)
+    first = env.render()
+    width, height = env._renderer.fig.canvas.get_width_height()
+    assert first.shape == (height, width, 3) and first.dtype == np.uint8
+    assert len(np.unique(first.reshape(-1, 3), axis=0)) > 5  # walls, goal, robot drawn
+    for _ in range(3):
+        env.step(np.array([0.0], np.float32))
+    second = env.render()
+    assert second.shape == first.shape
+    assert np.any(second != first)  # the robot moved
+    env.close()
+
+
+def test_render_without_mode_returns_none():
+    env = Hailu2001Env()
+    env.reset(seed=0)
+    with pytest.warns(UserWarning, match="render_mode"):
+        assert env.render() is None
+
+
+def test_helpers_draw_on_any_axes():
+    fig = Figure()
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    world = load_map("hailu2001")
+    draw_world(ax, world)
+    draw_path(ax, [(0, 0), (1, 0), (2, -1)], label="path")
+    draw_robot(ax, (0.0, 0.0, 0.0))
+    assert len(ax.lines) >= 2 + len(world.regions.lines)
+    assert ax.get_xlim() == (-1.8, 5.85)
