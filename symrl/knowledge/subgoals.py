@@ -43,6 +43,10 @@ class SubgoalConfig:
     beyond: tuple[float, ...] = (0.0, 0.4)
     """Offsets across the line toward the goal's side: 0 is on the line, d is d metres past it."""
 
+    past: bool = True
+    """A region also gets the points past (``beyond`` > 0) the passage it is entered through:
+    steering there first keeps the robot off the passage's far post when it turns to the goal."""
+
     merge: float = 0.15
     """Candidates closer than this to an earlier one (of the same region) are dropped."""
 
@@ -102,7 +106,7 @@ def _free_runs(world: WorldMap, axis: int, c: float, eps: float, res: float) -> 
     for s in (-eps, eps):
         pts = (np.full_like(t, c + s), t) if axis == 0 else (t, np.full_like(t, c + s))
         free = world.in_free_area(*pts)
-        names = [world.regions.region_of(float(px), float(py)) for px, py in zip(*pts)]
+        names = [world.regions.region_of(float(px), float(py)) for px, py in zip(*pts, strict=True)]
         sides.append((free, names))
     runs: list[tuple] = []
     start = None
@@ -196,13 +200,17 @@ def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> Subg
             cands.append((goal, "goal"))
         for p in passages:
             half = p.width / 2 - config.clearance
-            if p.width > config.max_width or half < 0 or dist[p.before] > dist[region]:
+            ahead = dist[p.before] <= dist[region]
+            just_crossed = config.past and p.after == region
+            if p.width > config.max_width or half < 0 or not (ahead or just_crossed):
                 continue
             centre = (p.lo + p.hi) / 2
             goal_along = goal[1] if p.axis == 0 else goal[0]
             sign = 1.0 if goal_along >= centre else -1.0
             for f in config.along:
                 for d in config.beyond:
+                    if not ahead and d <= 0:
+                        continue  # behind the robot: only points past the line count
                     xy = p.point(centre + sign * f * half, d)
                     if not bool(world.in_free_area(*xy)):
                         continue
