@@ -139,14 +139,21 @@ def make_modules(env, hidden: int):
     return actor, critic
 
 
-def run_ppo(seed: int = 100, episodes: int = 20, **overrides: Any) -> dict[str, Any]:
-    """Train PPO for ``episodes`` episodes; per-episode rows and the reliability summary."""
+def run_ppo(
+    seed: int = 100, episodes: int = 20, log_path: str | None = None, **overrides: Any
+) -> dict[str, Any]:
+    """Train PPO for ``episodes`` episodes; per-episode rows and the reliability summary.
+
+    ``log_path``: a CSV that gets every episode as it ends (so a long run can be watched or
+    cut short without losing what it learned so far).
+    """
     import torch
     from torchrl.collectors import Collector
     from torchrl.data import LazyTensorStorage, ReplayBuffer
     from torchrl.data.replay_buffers.samplers import SamplerWithoutReplacement
     from torchrl.objectives import ClipPPOLoss
     from torchrl.objectives.value import GAE
+    from tqdm.auto import tqdm
 
     cfg = PPOConfig(episodes=episodes, seed=seed, **overrides)
     if cfg.episodes < 1:
@@ -176,8 +183,12 @@ def run_ppo(seed: int = 100, episodes: int = 20, **overrides: Any) -> dict[str, 
         trust_policy=True,
     )
     rows: list[dict[str, Any]] = []
+    logged = 0
     coll: dict[int, int] = {}
     frames = 0
+    bar = tqdm(total=cfg.episodes, desc=f"ppo seed {seed}", unit="episode", mininterval=10)
+    log = open(log_path, "w", newline="") if log_path else None  # noqa: SIM115 (closed below)
+    log_writer = None
     for batch in collector:
         frames += batch.numel()
         traj = batch["collector", "traj_ids"].reshape(-1).numpy()
@@ -197,6 +208,15 @@ def run_ppo(seed: int = 100, episodes: int = 20, **overrides: Any) -> dict[str, 
                     "frames": frames,
                 }
             )
+        if log is not None and rows:
+            if log_writer is None:
+                log_writer = csv.DictWriter(log, fieldnames=list(rows[0]))
+                log_writer.writeheader()
+            log_writer.writerows(rows[logged:])
+            log.flush()
+        logged = len(rows)
+        bar.n = min(len(rows), cfg.episodes)
+        bar.set_postfix(success20=f"{np.mean([r['reached_goal'] for r in rows[-20:]]):.2f}")
         if len(rows) >= cfg.episodes:
             break
         with torch.no_grad():
@@ -213,6 +233,9 @@ def run_ppo(seed: int = 100, episodes: int = 20, **overrides: Any) -> dict[str, 
                 optim.step()
         collector.update_policy_weights_()
     collector.shutdown()
+    bar.close()
+    if log is not None:
+        log.close()
     rows = rows[: cfg.episodes]
     reached = [r["reached_goal"] for r in rows]
     return {
@@ -287,10 +310,13 @@ def baseline_command(args: argparse.Namespace) -> int:
     if not seeds:
         raise ValueError("--seeds: give at least one seed")
     t0 = time.perf_counter()
-    jobs = [{"seed": s, "episodes": args.episodes} for s in seeds]
-    results = run_sets(jobs, workers=None, desc="ppo", fn=run_ppo)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    jobs = [
+        {"seed": s, "episodes": args.episodes, "log_path": str(out / f"episodes-seed{s}.csv")}
+        for s in seeds
+    ]
+    results = run_sets(jobs, workers=None, desc="ppo", fn=run_ppo)
     with open(out / "episodes.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(results[0]["rows"][0]))
         writer.writeheader()
