@@ -182,6 +182,7 @@ def train(
         total_frames=n_trials * config.env.max_actions,  # an upper bound: we stop at N trials
         reset_at_each_iter=False,
         track_traj_ids=False,  # ~30% cheaper per step; trials are delimited by "done"
+        return_same_td=True,  # no copy per step: each transition is consumed before the next
         auto_register_policy_transforms=False,
     )
     logger = _make_logger(config, logdir) if logdir is not None else None

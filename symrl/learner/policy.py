@@ -133,8 +133,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self.register_buffer(
             "code_centres", torch.linspace(0.0, 1.0, config.goal_codes), persistent=False
         )
-        self.register_buffer("temperature", torch.tensor(float(config.temperature0)))
-        self.register_buffer("best_total", torch.tensor(-math.inf))
+        self.register_buffer(
+            "temperature", torch.tensor(float(config.temperature0), dtype=torch.float64)
+        )
+        self.register_buffer("best_total", torch.tensor(-math.inf, dtype=torch.float64))
         self.register_buffer("trials_done", torch.zeros((), dtype=torch.long))
         self.generator = torch.Generator().manual_seed(int(seed))
         self._noise = np.empty(0, dtype=np.float32)
