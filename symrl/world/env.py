@@ -224,6 +224,12 @@ class Hailu2001Env(gymnasium.Env):
         """Actions taken since the last reset."""
         return self._actions
 
+    def sense(self, x: float, y: float, heading: float) -> tuple[np.ndarray, np.ndarray]:
+        """Noise-free sonar rim distances (metres) and IR reflectances at any pose (no state
+        change): for planners, figures and benchmarks."""
+        rim, refl, _ = self._sense(float(x), float(y), float(heading))
+        return rim.copy(), refl.copy()
+
     def clearance(self, x: float, y: float) -> float:
         """Distance from the point to the nearest wall (the robot's centre clearance there)."""
         return float(self._walls.clearance(np.array([x, y], dtype=np.float64)))
@@ -273,17 +279,23 @@ class Hailu2001Env(gymnasium.Env):
         x1 = x0 + length * math.cos(h1)
         y1 = y0 + length * math.sin(h1)
 
-        # sense at the end of the move; a real collision is swept-disc contact (impossible
-        # while the clearance exceeds radius + translation), a virtual one an IR reading > 70
-        rim, refl, clear = self._sense(x1, y1, h1)
+        # collision test from the clearance at the end of the move: real = the swept disc
+        # touches a wall (impossible while the clearance exceeds radius + translation),
+        # virtual = an IR reflectance > 70, i.e. a rim distance below 0.056 m (the IR sectors
+        # tile the ring, so the smallest IR distance is exactly the clearance)
+        near = self._walls.closest(x1, y1)
+        clear = near[2]
         real = self._clear <= robot.radius + abs(length) + 1e-9 and (
             self._walls.swept_disc_contact(x0, y0, x1, y1, robot.radius, self._clear, clear)
         )
-        virtual = not real and bool(refl.max() > robot.ir_collision_threshold)
+        d = min(max(clear - robot.radius, 0.0), robot.ir_range)
+        reflectance = 100.0 * (1.0 - d / robot.ir_range) ** 3
+        virtual = not real and reflectance > robot.ir_collision_threshold
         collision = real or virtual
         if collision:  # emergency handler: back to the pose before the translation
             x1, y1 = x0, y0
-            rim, refl, clear = self._sense(x1, y1, h1)
+            near = None
+        rim, refl, clear = self._sense(x1, y1, h1, near)
         self._true = (x1, y1, h1)
         self._clear = clear
 
@@ -374,20 +386,27 @@ class Hailu2001Env(gymnasium.Env):
             raise ValueError(f"action must be finite, got {action!r}")
         return -_PI if alpha < -_PI else (_PI if alpha > _PI else alpha)
 
-    def _sense(self, x: float, y: float, h: float) -> tuple[np.ndarray, np.ndarray, float]:
-        """Noise-free sonar rim distances, IR reflectances and the true clearance at a pose."""
+    def _sense(
+        self, x: float, y: float, h: float, near: Any = None
+    ) -> tuple[np.ndarray, np.ndarray, float]:
+        """Noise-free sonar rim distances, IR reflectances and the true clearance at a pose
+        (``near``: ``Walls.closest`` at this point, if already computed)."""
         robot = self.robot
         rays, sectors, clear = self._walls.scan(
-            x, y, h, self._sonar_offsets, self._n, self._cast_range, self._ir_reach
+            x, y, h, self._sonar_offsets, self._n, self._cast_range, self._ir_reach, near
         )
         if self._cone_rays > 1:
             rays = np.minimum.reduce(rays.reshape(self._n, self._cone_rays), axis=1)
         rim = np.minimum(rays - robot.radius, robot.sonar_range)
         if sectors is None:  # nothing within IR range
             return rim, self._ir_zero, clear
-        d = np.minimum(np.maximum(sectors - robot.radius, 0.0), robot.ir_range)
-        refl = 100.0 * (1.0 - d * (1.0 / robot.ir_range)) ** 3
-        return rim, refl, clear
+        return rim, self._reflectance(sectors - robot.radius), clear
+
+    def _reflectance(self, rim_distance: Any) -> Any:
+        """100 * (1 - d / ir_range)^3, d clipped to [0, ir_range] (scalar or array)."""
+        r = self.robot.ir_range
+        d = np.minimum(np.maximum(rim_distance, 0.0), r)
+        return 100.0 * (1.0 - d * (1.0 / r)) ** 3
 
     def _noisy_sonar(self, rim: np.ndarray) -> np.ndarray:
         if self._sonar_std > 0.0:

@@ -14,15 +14,16 @@ import numpy as np
 __all__ = ["Walls", "ray_cast", "clearance", "sector_distances", "swept_disc_contact"]
 
 _S_EPS = 1e-9  # tolerance on the segment parameter so rays never slip through a shared vertex
-_T_EPS = 1e-12  # a hit must lie strictly ahead of the ray origin
 _TWO_PI = 2.0 * math.pi
 
 
 class Walls:
     """A fixed set of wall segments with precomputed arrays for fast geometric queries.
 
-    Arrays are laid out ``(segments, rays)`` so reductions run over the leading axis, and the
-    per-step entry point :meth:`scan` shares the per-segment work between sonar, IR and clearance.
+    The per-step queries are written to keep the number of numpy calls small (at this size the
+    call overhead, not the arithmetic, is the cost): rays are cast with one ``(3n, 2) @ (2, R)``
+    matrix product, and :meth:`scan` shares the per-segment work between sonar, IR and clearance.
+    Not thread-safe (one scratch buffer per instance); use one ``Walls`` per env.
     """
 
     def __init__(self, segments: np.ndarray) -> None:
@@ -41,41 +42,50 @@ class Walls:
             raise ValueError(f"Walls: segment {bad} {seg[bad].tolist()} has zero length")
         self.inv_len2 = 1.0 / len2
         self._neg_inv_len2 = -self.inv_len2
-        # column views for the (segments, rays) layout
-        self._ax_c, self._ay_c = self.ax[:, None], self.ay[:, None]
-        self._dx_c, self._dy_c = self.dx[:, None], self.dy[:, None]
+        n = seg.shape[0]
+        self._n = n
+        # ray casting: for a ray p + t*u and a wall a + s*d, with w = a - p and x the 2-D cross
+        # product, t = (w x d) / (u x d) and s = (w x u) / (u x d). Every term is a dot product
+        # with u, so one matrix product gives them all: rows (dy, -dx) -> u x d,
+        # rows (-wy, wx) -> w x u, rows (dy, -dx) / (w x d) -> (u x d) / (w x d) = 1 / t.
+        self._nd = np.stack([self.dy, -self.dx], axis=1)  # (n, 2)
+        self._aj = np.stack([-self.ay, self.ax], axis=1)  # (-wy, wx) = this + (y, -x)
+        self._axd = self.ax * self.dy - self.ay * self.dx  # a x d; w x d = a x d - p x d
+        self._k = np.empty((3 * n, 2))
+        self._k[:n] = self._nd
         ends = np.concatenate([seg[:, :2], seg[:, 2:]], axis=0)
         self.vertices = np.unique(ends, axis=0)  # (m, 2) distinct segment end points
         self.vx, self.vy = self.vertices[:, 0].copy(), self.vertices[:, 1].copy()
 
     def __len__(self) -> int:
-        return self.segments.shape[0]
+        return self._n
 
     # --- rays ------------------------------------------------------------------------------
 
     def cast(self, x: float, y: float, angles: np.ndarray, max_range: float) -> np.ndarray:
         """Distance from ``(x, y)`` along each angle ``(R,)`` to the first wall (<= max_range).
 
-        Solves ``p + t*u = a + s*d`` for every (segment, ray) pair at once; a hit needs
-        ``t > 0`` and ``0 <= s <= 1`` (with a 1e-9 tolerance so no ray slips through a vertex
-        shared by two walls). Parallel pairs give inf/nan and fail the test.
+        A hit needs ``t > 0`` and ``0 <= s <= 1`` (a 1e-9 tolerance on s, so no ray slips
+        through a vertex shared by two walls); parallel pairs give inf/nan and fail the test.
+        The nearest hit is the largest ``1/t``, so the ``t > 0`` test is free: a reduction that
+        starts at ``1/max_range`` never picks a hit behind the origin.
         """
-        return self._cast(self.ax - x, self.ay - y, np.cos(angles), np.sin(angles), max_range)
-
-    def _cast(
-        self, wx: np.ndarray, wy: np.ndarray, ux: np.ndarray, uy: np.ndarray, max_range: float
-    ) -> np.ndarray:
-        dx, dy = self._dx_c, self._dy_c
-        wxc, wyc = wx[:, None], wy[:, None]
-        denom = dy * ux - dx * uy  # (n, R): u x d
-        tnum = wxc * dy - wyc * dx  # (n, 1): w x d
-        snum = wxc * uy - wyc * ux  # (n, R): w x u
+        n = self._n
+        k = self._k
+        u = np.empty((2, len(angles)))
+        np.cos(angles, out=u[0])
+        np.sin(angles, out=u[1])
+        np.add(self._aj, (y, -x), out=k[n : 2 * n])
+        tnum = self._axd - self._nd @ (x, y)  # w x d; 0 when p is on the wall's line: no hit
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            inv = 1.0 / denom
-            t = tnum * inv
-            s = snum * inv
-        hit = (t > _T_EPS) & (s >= -_S_EPS) & (s <= 1.0 + _S_EPS)
-        return np.minimum.reduce(t, axis=0, where=hit, initial=max_range)
+            inv_tnum = 1.0 / tnum
+            inv_tnum[tnum == 0.0] = 0.0
+            np.multiply(self._nd, inv_tnum[:, None], out=k[2 * n :])
+            prod = k @ u  # (3n, R)
+            s = prod[n : 2 * n] / prod[:n]
+        ok = (s >= -_S_EPS) & (s <= 1.0 + _S_EPS)
+        inv_t = np.maximum.reduce(prod[2 * n :], axis=0, where=ok, initial=1.0 / max_range)
+        return 1.0 / inv_t
 
     # --- distances -------------------------------------------------------------------------
 
@@ -91,18 +101,23 @@ class Walls:
         ey = wy - s * self.dy
         return np.sqrt((ex * ex + ey * ey).min(axis=1)).reshape(shape)
 
+    def closest(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """Each segment's closest point relative to ``(x, y)`` (ex, ey, shape ``(n,)``) and the
+        point's clearance; pass the result to :meth:`scan` to reuse it."""
+        wx = self.ax - x
+        wy = self.ay - y
+        s = (wx * self.dx + wy * self.dy) * self._neg_inv_len2
+        s = np.minimum(np.maximum(s, 0.0), 1.0)
+        ex = wx + s * self.dx
+        ey = wy + s * self.dy
+        return ex, ey, math.sqrt(np.minimum.reduce(ex * ex + ey * ey))
+
     def point_clearance(self, x: float, y: float) -> float:
         """Distance from one point to the nearest wall (fast scalar path)."""
-        _, _, ex, ey = self._closest(x, y)
-        return math.sqrt(np.minimum.reduce(ex * ex + ey * ey))
+        return self.closest(x, y)[2]
 
     def sector_distances(
-        self,
-        x: float,
-        y: float,
-        heading: float,
-        n: int,
-        max_range: float,
+        self, x: float, y: float, heading: float, n: int, max_range: float
     ) -> np.ndarray:
         """Per sector k (axis ``heading + 2*pi*k/n``, half-width ``pi/n``): distance from the
         centre to the nearest wall point whose bearing lies in the sector, capped at max_range.
@@ -111,22 +126,13 @@ class Walls:
         inside a sector is at one of: the segment's closest point (the perpendicular foot), a
         segment end point, or a crossing with one of the sector's two boundary rays. Only the
         first crossing along a boundary ray can be the minimum, so the crossings reduce to a ray
-        cast along the n sector edges. The 24 sectors tile the ring, so the minimum over sectors
+        cast along the n sector edges. The sectors tile the ring, so the minimum over sectors
         is the exact clearance.
         """
         width = _TWO_PI / n
-        edges = heading + width * (np.arange(n + 1) - 0.5)
-        wx, wy, ex, ey = self._closest(x, y)
-        edge_d = self._cast(wx, wy, np.cos(edges), np.sin(edges), max_range)
+        edge_d = self.cast(x, y, heading + width * (np.arange(n + 1) - 0.5), max_range)
+        ex, ey, _ = self.closest(x, y)
         return self._sectors(x, y, ex, ey, heading, n, edge_d, max_range)
-
-    def _closest(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``w = a - p`` and ``e = closest point of each segment - p``, all ``(n,)``."""
-        wx = self.ax - x
-        wy = self.ay - y
-        s = (wx * self.dx + wy * self.dy) * self._neg_inv_len2
-        s = np.minimum(np.maximum(s, 0.0), 1.0)
-        return wx, wy, wx + s * self.dx, wy + s * self.dy
 
     def _sectors(
         self,
@@ -146,8 +152,9 @@ class Walls:
         cy = np.concatenate((ey, self.vy - y))
         rel = np.arctan2(cy, cx) - (heading - 0.5 * width)
         idx = (np.mod(rel, _TWO_PI) * (1.0 / width)).astype(np.intp)
-        best = np.minimum(edge_d[:-1], edge_d[1:])
-        best = np.append(best, max_range)
+        best = np.empty(n + 1)
+        np.minimum(edge_d[:-1], edge_d[1:], out=best[:n])
+        best[n] = max_range
         np.minimum.at(best, idx, np.hypot(cx, cy))  # idx == n only on the edge of sector 0
         if best[n] < best[0]:
             best[0] = best[n]
@@ -162,24 +169,23 @@ class Walls:
         n_sectors: int,
         ray_range: float,
         sector_range: float,
+        closest: tuple[np.ndarray, np.ndarray, float] | None = None,
     ) -> tuple[np.ndarray, np.ndarray | None, float]:
         """Everything a robot senses at one pose, sharing the per-segment work.
 
         Returns ``(rays, sectors, clearance)``: ray distances along ``heading + ray_offsets``
         (capped at ray_range), sector distances as :meth:`sector_distances` (capped at
         sector_range; ``None`` when the clearance is at least sector_range, i.e. every sector
-        reads the cap), and the exact clearance of the point.
+        reads the cap), and the exact clearance of the point. ``closest`` is
+        :meth:`closest` at the same point, if already computed.
         """
-        wx, wy, ex, ey = self._closest(x, y)
-        clear = math.sqrt(np.minimum.reduce(ex * ex + ey * ey))
+        ex, ey, clear = self.closest(x, y) if closest is None else closest
         if clear >= sector_range:
-            ang = heading + ray_offsets
-            return self._cast(wx, wy, np.cos(ang), np.sin(ang), ray_range), None, clear
+            return self.cast(x, y, heading + ray_offsets, ray_range), None, clear
         width = _TWO_PI / n_sectors
-        edges = (heading - 0.5 * width) + width * np.arange(n_sectors + 1)
-        ang = np.concatenate((heading + ray_offsets, edges))
-        t = self._cast(wx, wy, np.cos(ang), np.sin(ang), ray_range)
         nr = len(ray_offsets)
+        edges = (heading - 0.5 * width) + width * np.arange(n_sectors + 1)
+        t = self.cast(x, y, np.concatenate((heading + ray_offsets, edges)), ray_range)
         edge_d = np.minimum(t[nr:], sector_range)
         sectors = self._sectors(x, y, ex, ey, heading, n_sectors, edge_d, sector_range)
         return t[:nr], sectors, clear
@@ -203,10 +209,10 @@ class Walls:
         an end of the motion near a wall, a wall vertex near the motion, or a proper crossing.
         ``clear0``/``clear1`` are the end points' clearances if already known.
         """
-        c0 = self.point_clearance(x0, y0) if clear0 is None else clear0
+        c0 = self.closest(x0, y0)[2] if clear0 is None else clear0
         if c0 < radius:
             return True
-        c1 = self.point_clearance(x1, y1) if clear1 is None else clear1
+        c1 = self.closest(x1, y1)[2] if clear1 is None else clear1
         if c1 < radius:
             return True
         mx, my = x1 - x0, y1 - y0

@@ -39,6 +39,32 @@ def brute_sectors(segments: np.ndarray, x: float, y: float, h: float, n: int, ca
     return out
 
 
+def reference_cast(segments: np.ndarray, x: float, y: float, angle: float, cap: float) -> float:
+    """One ray, one wall at a time, in plain Python (slow and obvious)."""
+    ux, uy = math.cos(angle), math.sin(angle)
+    best = cap
+    for ax, ay, bx, by in segments:
+        dx, dy = bx - ax, by - ay
+        denom = ux * dy - uy * dx
+        if denom == 0.0:
+            continue
+        wx, wy = ax - x, ay - y
+        t = (wx * dy - wy * dx) / denom
+        s = (wx * uy - wy * ux) / denom
+        if t > 0 and -1e-9 <= s <= 1 + 1e-9:
+            best = min(best, t)
+    return best
+
+
+@settings(max_examples=40, deadline=None)
+@given(x=st.floats(-1.4, 5.5), y=st.floats(-3.9, 2.4), h=st.floats(-math.pi, math.pi))
+def test_ray_cast_matches_a_plain_python_reference(walls, x, y, h):
+    angles = h + np.radians(7.5 * np.arange(48))
+    fast = walls.cast(x, y, angles, 5.26)
+    slow = [reference_cast(walls.segments, x, y, a, 5.26) for a in angles]
+    np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-12)
+
+
 def test_ray_cast_unit_square_by_hand():
     d = ray_cast(SQUARE, (0.25, 0.5), np.array([0.0, math.pi / 2, math.pi, -math.pi / 2]), 9.0)
     np.testing.assert_allclose(d, [0.75, 0.5, 0.25, 0.5])
