@@ -43,10 +43,10 @@ def reference_cast(segments: np.ndarray, x: float, y: float, angle: float, cap: 
     """One ray, one wall at a time, in plain Python (slow and obvious)."""
     ux, uy = math.cos(angle), math.sin(angle)
     best = cap
-    for ax, ay, bx, by in segments:
+    for ax, ay, bx, by in segments.tolist():
         dx, dy = bx - ax, by - ay
         denom = ux * dy - uy * dx
-        if denom == 0.0:
+        if abs(denom) < 1e-300:  # parallel
             continue
         wx, wy = ax - x, ay - y
         t = (wx * dy - wy * dx) / denom
