@@ -76,9 +76,13 @@ def make_env(config: RunConfig):
     from torchrl.envs import GymEnv
     from torchrl.envs.gym_like import default_info_dict_reader
 
-    env = GymEnv(
-        ENV_ID, map=config.env.map, noise=config.env.noise, max_actions=config.env.max_actions
-    )
+    ec = config.env
+    robot = {
+        "rotation_noise_deg": ec.rotation_noise_deg,
+        "translation_noise": ec.translation_noise,
+        "sonar_noise_std": ec.sonar_noise_std,
+    }
+    env = GymEnv(ENV_ID, map=ec.map, noise=ec.noise, max_actions=ec.max_actions, robot=robot)
     info_spec = {
         "collision": Unbounded(shape=(), dtype=torch.bool),
         "reached_goal": Unbounded(shape=(), dtype=torch.bool),
@@ -231,8 +235,12 @@ def evaluate(
     seed: int = 0,
     noise: bool = True,
     config: RunConfig | None = None,
+    world: Any = None,
 ) -> dict[str, Any]:
-    """Drive one greedy trial (exploration type DETERMINISTIC) and return its record."""
+    """Drive one greedy trial (exploration type DETERMINISTIC) and return its record.
+
+    ``world``: drive in another map (e.g. ``WorldMap.with_obstacle``) than the one it learned in.
+    """
     import gymnasium
     from tensordict import TensorDict
     from torchrl.envs.utils import ExplorationType, set_exploration_type
@@ -242,7 +250,12 @@ def evaluate(
     else:
         policy = checkpoint_or_policy
         config = config or RunConfig(learner=policy.config)
-    env = gymnasium.make(ENV_ID, map=policy.world, noise=noise, max_actions=config.env.max_actions)
+    env = gymnasium.make(
+        ENV_ID,
+        map=policy.world if world is None else world,
+        noise=noise,
+        max_actions=config.env.max_actions,
+    )
     options = None if start is None else {"pose": tuple(float(v) for v in start)}
     obs, info = env.reset(seed=seed, options=options)
     recorder = TrialRecorder(policy.expert_names)

@@ -94,6 +94,12 @@ class EnvConfig:
     """Sensor and motion noise on (False turns every noise source off)."""
     max_actions: int = 200
     """A trial is truncated (failed) after this many actions (SPEC 4)."""
+    rotation_noise_deg: float = 0.5
+    """Robot: std of the true rotation per action, degrees (odometry drift; RobotConfig)."""
+    translation_noise: float = 0.01
+    """Robot: std of the true translation as a fraction of the 0.20 m step (RobotConfig)."""
+    sonar_noise_std: float = 0.01
+    """Robot: std of the Gaussian sonar noise, metres (RobotConfig)."""
 
 
 @dataclass
