@@ -201,6 +201,7 @@ class Hailu2001Env(gymnasium.Env):
         self._true = (self.world.start.x, self.world.start.y, _wrap(self.world.start.heading))
         self._odom = self._true
         self._clear = math.inf  # true clearance of the current pose (for the swept-test skip)
+        self._near: Any = None  # Walls.closest at the current true pose
         self._actions = 0
         self.path: list[tuple[float, float]] = []
         self.odometry_path: list[tuple[float, float]] = []
@@ -256,9 +257,11 @@ class Hailu2001Env(gymnasium.Env):
         self._actions = 0
         self.path = [(x, y)]
         self.odometry_path = [(x, y)]
-        rim, refl, clear = self._sense(x, y, h)
+        self._near = self._walls.closest(x, y)
+        rim, refl, clear = self._sense(x, y, h, self._near)
         self._clear = clear
-        sonar = self._noisy_sonar(rim)
+        noise = self.np_random.standard_normal(self._n) if self._sonar_std > 0.0 else None
+        sonar = self._noisy_sonar(rim, noise)
         info = self._info(False, False, 0.0, 0.0, False)
         obs = self._observation(sonar, refl, False)
         if self.render_mode == "human":
@@ -269,10 +272,11 @@ class Hailu2001Env(gymnasium.Env):
         alpha = self._parse_action(action)
         robot = self.robot
         x0, y0, h0 = self._true
-        if self._noisy:
-            z = self.np_random.standard_normal(2)
-            rot_err, trans_err = self._rot_std * z[0], self._trans_std * z[1]
+        if self._noisy:  # one draw per step: rotation, translation, then the n sonars
+            z = self.np_random.standard_normal(self._n + 2)
+            rot_err, trans_err = self._rot_std * float(z[0]), self._trans_std * float(z[1])
         else:
+            z = None
             rot_err = trans_err = 0.0
         h1 = _wrap(h0 + alpha + rot_err)
         length = robot.step + trans_err
@@ -294,10 +298,11 @@ class Hailu2001Env(gymnasium.Env):
         collision = real or virtual
         if collision:  # emergency handler: back to the pose before the translation
             x1, y1 = x0, y0
-            near = None
+            near = self._near
         rim, refl, clear = self._sense(x1, y1, h1, near)
         self._true = (x1, y1, h1)
         self._clear = clear
+        self._near = near
 
         if robot.perfect_odometry:
             self._odom = self._true
@@ -312,7 +317,7 @@ class Hailu2001Env(gymnasium.Env):
         self.path.append((x1, y1))
         self.odometry_path.append(self._odom[:2])
 
-        sonar = self._noisy_sonar(rim)
+        sonar = self._noisy_sonar(rim, None if z is None else z[2:])
         if collision:
             f1 = -3.0
         else:
@@ -408,10 +413,11 @@ class Hailu2001Env(gymnasium.Env):
         d = np.minimum(np.maximum(rim_distance, 0.0), r)
         return 100.0 * (1.0 - d * (1.0 / r)) ** 3
 
-    def _noisy_sonar(self, rim: np.ndarray) -> np.ndarray:
-        if self._sonar_std > 0.0:
-            rim = rim + self._sonar_std * self.np_random.standard_normal(self._n)
-        sonar = np.clip(rim, 0.0, self.robot.sonar_range)
+    def _noisy_sonar(self, rim: np.ndarray, noise: np.ndarray | None) -> np.ndarray:
+        """Add ``sonar_noise_std`` times the standard normal ``noise`` and clip to the range."""
+        if noise is not None and self._sonar_std > 0.0:
+            rim = rim + self._sonar_std * noise
+        sonar = np.minimum(np.maximum(rim, 0.0), self.robot.sonar_range)
         self._last_sonar = sonar
         return sonar
 

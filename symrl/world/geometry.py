@@ -84,7 +84,8 @@ class Walls:
             prod = k @ u  # (3n, R)
             s = prod[n : 2 * n] / prod[:n]
         ok = (s >= -_S_EPS) & (s <= 1.0 + _S_EPS)
-        inv_t = np.maximum.reduce(prod[2 * n :], axis=0, where=ok, initial=1.0 / max_range)
+        # fmax skips the nan of a wall whose line passes (within 1e-308) through the origin
+        inv_t = np.fmax.reduce(prod[2 * n :], axis=0, where=ok, initial=1.0 / max_range)
         return 1.0 / inv_t
 
     # --- distances -------------------------------------------------------------------------
