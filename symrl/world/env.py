@@ -48,13 +48,16 @@ class Hailu2001Env(gymnasium.Env):
     | `"sonar"`    | (n,)  | [0, 1]           | rim distance along ray k / 5.0 m (k=0 ahead, CCW) |
     | `"ir"`       | (n,)  | [0, 100]         | reflectance of the nearest wall in sector k      |
     | `"bumper"`   | (1,)  | {0, 1}           | 1 if the body touched a wall during this step    |
-    | `"odometry"` | (3,)  | map +- 40 m, [-pi, pi] | x, y, heading the robot believes           |
-    | `"goal"`     | (2,)  | [0, far], [-pi, pi] | distance, signed angle (left +) to the goal   |
+    | `"odometry"` | (3,)  | see below        | x, y, heading in [-pi, pi] the robot believes    |
+    | `"goal"`     | (2,)  | see below        | distance, signed angle (left +) to the goal      |
 
     Sonar k reads the distance from the body's rim to the first wall along the ray from the centre,
     capped at 5.0 m, plus Gaussian noise (std 0.01 m), clipped to [0, 5]. IR sensor k reads the rim
     distance d of the nearest wall point whose bearing from the centre is within +-7.5 deg of its
-    axis, so the 24 sectors tile the ring and min_k d is the exact clearance.
+    axis, so the 24 sectors tile the ring and min_k d is the exact clearance; the reflectance is
+    100*(1 - d/0.5)^3 for d < 0.5 m, else 0. The odometry x, y lie in the map's bounding box
+    widened by `max_actions * step` (40 m: the furthest the odometry can travel in a trial), the
+    goal distance in [0, diagonal of that box], angles in [-pi, pi].
 
     ## Action Space
 
@@ -105,11 +108,18 @@ class Hailu2001Env(gymnasium.Env):
 
     `info` holds `true_pose` (3,) float64, `collision`, `real_collision`, `virtual_collision`,
     `reached_goal` (np.bool_), `f1`, `f2` (np.float64). `real_collision` is swept-disc contact;
-    `virtual_collision` is an IR reflectance above 70 after a move that made no contact.
+    `virtual_collision` is an IR reflectance above 70 after a move that made no contact. After
+    `reset` the flags are False and `f1 = f2 = 0`.
+
+    Attributes: `world` (`WorldMap`), `robot` (`RobotConfig`), `true_pose` and `odometry_pose`
+    ((3,) float64), `path` and `odometry_path` (lists of (x, y) since the reset, start included),
+    `actions_taken`; `sense(x, y, heading)` gives the noise-free sonar rim distances and IR
+    reflectances at any pose and `clearance(x, y)` the distance to the nearest wall.
 
     ## Version History
 
-    - v0: initial version (symrl 0.1.0).
+    - v0: initial version (symrl 0.1.0). Randomness: per step one standard-normal draw of
+      n + 2 values from `self.np_random` (rotation, translation, the n sonars).
 
     ## References
 

@@ -42,3 +42,14 @@ def test_helpers_draw_on_any_axes():
     draw_robot(ax, (0.0, 0.0, 0.0))
     assert len(ax.lines) >= 2 + len(world.regions.lines)
     assert ax.get_xlim() == (-1.8, 5.85)
+
+
+def test_human_mode_draws_on_a_non_interactive_backend():
+    import matplotlib
+
+    matplotlib.use("Agg")  # no window in CI; the same code opens one on a desktop backend
+    env = Hailu2001Env(render_mode="human", noise=False)
+    env.reset(seed=0)
+    assert env.step(np.array([0.0], np.float32))[0]["sonar"].shape == (24,)
+    assert env.render() is None
+    env.close()
