@@ -1,0 +1,248 @@
+"""`symrl generalise`: what the learned controller does outside the situation it learned in.
+
+The paper (§9.1.2, §11) reports that its final controller works from start poses inside the
+explored region only, fails with a new obstacle, and that odometry error corrupts learning. Three
+measurements, each beside the reflex alone (``reflex_only``) on the same seeds:
+
+1. **Other start poses**: train the recipe (``sets`` sets x ``trials`` trials, seed + k), then drive
+   the final controller greedily from ``STARTS`` (four near the learned route, four far from it).
+2. **New obstacle**: the same controllers, from the usual start, in the map plus ``OBSTACLE``
+   (a 0.5 m box on the learned route) via ``WorldMap.with_obstacle``.
+3. **Noise**: learning itself under more odometry drift (``env.rotation_noise_deg``) and more
+   sonar noise (``env.sonar_noise_std``): the ablation summary per level.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from symrl.studies.ablation import summarise
+from symrl.studies.repeatability import OTHER_STARTS, run_sets
+
+__all__ = ["STARTS", "OBSTACLE", "NOISE_LEVELS", "transfer_set", "run_generalisation",
+           "generalise_command"]
+
+STARTS: tuple[tuple[float, float, float], ...] = OTHER_STARTS + (
+    (-1.1, -2.1, 0.0),  # the concave corner's far end
+    (3.1, 2.1, -math.pi / 2),  # behind the upper door post
+    (4.6, 2.0, -math.pi / 2),  # in the corridor, above the door
+    (5.1, -3.6, math.pi / 2),  # in the corridor, past the goal
+)
+"""Four start poses near the learned route (``OTHER_STARTS``) and four far from it."""
+NEAR = len(OTHER_STARTS)
+
+OBSTACLE = [[1.75, -0.6], [2.25, -0.6], [2.25, -0.1], [1.75, -0.1]]
+"""A 0.5 m box centred on the straight route from the start to the door."""
+
+NOISE_LEVELS: tuple[tuple[str, list[str]], ...] = (
+    ("default (rot 0.5 deg, sonar 0.01 m)", []),
+    ("odometry rot 2 deg", ["env.rotation_noise_deg=2.0"]),
+    ("odometry rot 5 deg", ["env.rotation_noise_deg=5.0"]),
+    ("odometry rot 5 deg + transl 5%",
+     ["env.rotation_noise_deg=5.0", "env.translation_noise=0.05"]),
+    ("sonar 0.05 m", ["env.sonar_noise_std=0.05"]),
+    ("sonar 0.15 m", ["env.sonar_noise_std=0.15"]),
+)
+"""(label, config overrides) of the noise sweep."""
+
+
+def _drive(evaluate, policy, start, seed, world=None) -> dict[str, Any]:
+    ev = evaluate(policy, start=tuple(start), seed=seed, noise=True, world=world)
+    return {
+        "start": list(start),
+        "reached_goal": bool(ev["reached_goal"]),
+        "steps": int(ev["steps"]),
+        "collisions": int(ev["collisions"]),
+        "total_reinforcement": float(ev["total_reinforcement"]),
+        "path": np.asarray(ev["path"], dtype=float).round(3).tolist(),
+    }
+
+
+def transfer_set(recipe: str, index: int, seed: int, trials: int) -> dict[str, Any]:
+    """Train ``recipe`` and the reflex alone; drive both from STARTS and past the new obstacle."""
+    import torch
+
+    from symrl.learner.config import load_config
+    from symrl.train import evaluate, train
+    from symrl.world import load_map
+
+    torch.set_num_threads(1)
+    world = load_map("hailu2001")
+    blocked = world.with_obstacle(OBSTACLE)
+    out: dict[str, Any] = {"set": index, "seed": seed}
+    for name, n in ((recipe, trials), ("reflex_only", 1)):
+        cfg = load_config(name, [f"run.trials={n}", f"run.seed={seed}"])
+        policy = train(cfg, logdir=None, progress=False).policy
+        out[name if name == "reflex_only" else "learned"] = {
+            "starts": [_drive(evaluate, policy, s, seed + 1000 * (k + 1))
+                       for k, s in enumerate(STARTS)],
+            "home": _drive(evaluate, policy, world_start(world), seed + 999),
+            "obstacle": _drive(evaluate, policy, world_start(world), seed + 999, world=blocked),
+        }
+    return out
+
+
+def world_start(world) -> tuple[float, float, float]:
+    """The map's start pose as a tuple."""
+    return (world.start.x, world.start.y, world.start.heading)
+
+
+def _rate(evs: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    reached = [e for e in evs if e["reached_goal"]]
+    return {
+        "reached": len(reached),
+        "runs": len(evs),
+        "mean_steps_when_reached": (
+            float(np.mean([e["steps"] for e in reached])) if reached else None
+        ),
+        "mean_collisions": float(np.mean([e["collisions"] for e in evs])),
+    }
+
+
+def run_generalisation(
+    recipe: str = "paper",
+    sets: int = 5,
+    trials: int = 20,
+    seed: int = 100,
+    workers: int | None = None,
+    out: Path | str | None = "results/generalise",
+    noise_levels: Sequence[tuple[str, list[str]]] = NOISE_LEVELS,
+) -> dict[str, Any]:
+    """All three measurements; writes ``generalise.json``/``.md`` and figures into ``out``."""
+    if sets < 1 or trials < 1:
+        raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
+    t0 = time.perf_counter()
+    transfer = run_sets(
+        [{"recipe": recipe, "index": k, "seed": seed + k, "trials": trials} for k in range(sets)],
+        workers, desc="generalise: transfer", fn=transfer_set,
+    )
+    jobs = [
+        {"recipe": recipe, "index": k, "seed": seed + k, "trials": trials,
+         "overrides": overrides, "starts": []}
+        for _, overrides in noise_levels
+        for k in range(sets)
+    ]
+    noisy = run_sets(jobs, workers, desc="generalise: noise")
+    report: dict[str, Any] = {
+        "recipe": recipe, "sets": sets, "trials": trials, "seeds": [seed, seed + sets - 1],
+        "obstacle": OBSTACLE, "starts": [], "noise": [],
+    }
+    for who in ("learned", "reflex_only"):
+        report[f"home_{who}"] = _rate([t[who]["home"] for t in transfer])
+        report[f"obstacle_{who}"] = _rate([t[who]["obstacle"] for t in transfer])
+    for k, start in enumerate(STARTS):
+        report["starts"].append(
+            {
+                "start": list(start),
+                "near_learned_route": k < NEAR,
+                "learned": _rate([t["learned"]["starts"][k] for t in transfer]),
+                "reflex_only": _rate([t["reflex_only"]["starts"][k] for t in transfer]),
+            }
+        )
+    for i, (label, overrides) in enumerate(noise_levels):
+        rows = [r for s in noisy[i * sets : (i + 1) * sets] for r in s.rows]
+        report["noise"].append({"level": label, "overrides": overrides, **summarise(rows)})
+    report["wall_time_s"] = round(time.perf_counter() - t0, 1)
+    if out is not None:
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "generalise.json").write_text(json.dumps(report, indent=2) + "\n")
+        (out / "generalise.md").write_text(markdown(report))
+        _figures(transfer, out)
+    return report
+
+
+def _frac(r: dict[str, Any]) -> str:
+    steps = r["mean_steps_when_reached"]
+    return f"{r['reached']}/{r['runs']}" + (f" ({steps:.1f})" if steps is not None else "")
+
+
+def markdown(report: dict[str, Any]) -> str:
+    """The three tables of the generalisation study."""
+    lines = [
+        f"Recipe `{report['recipe']}`, {report['sets']} sets x {report['trials']} trials, seeds "
+        f"{report['seeds'][0]}-{report['seeds'][1]}; greedy runs with noise on. Cells: reached the "
+        "goal / runs (mean actions when reached).",
+        "",
+        "| start pose | near the learned route | learned controller | reflex alone |",
+        "| --- | --- | ---: | ---: |",
+        f"| usual start (0, 0, 0) | yes | {_frac(report['home_learned'])} "
+        f"| {_frac(report['home_reflex_only'])} |",
+    ]
+    for s in report["starts"]:
+        x, y, h = s["start"]
+        lines.append(
+            f"| ({x:g}, {y:g}, {math.degrees(h):.0f} deg) "
+            f"| {'yes' if s['near_learned_route'] else 'no'} "
+            f"| {_frac(s['learned'])} | {_frac(s['reflex_only'])} |"
+        )
+    lo, ro = report["obstacle_learned"], report["obstacle_reflex_only"]
+    lines += [
+        "",
+        "| new obstacle (0.5 m box at (2.0, -0.35)) | reached | mean collisions |",
+        "| --- | ---: | ---: |",
+        f"| learned controller | {_frac(lo)} | {lo['mean_collisions']:.1f} |",
+        f"| reflex alone | {_frac(ro)} | {ro['mean_collisions']:.1f} |",
+        "",
+        "| learning under noise | first success (never) | success last 5 | steps last 5 "
+        "| total reinf. last 5 | collisions all trials |",
+        "| --- | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for n in report["noise"]:
+        fs = n["first_success"]
+        mean = f"{fs['mean']:.1f}" if np.isfinite(fs["mean"]) else "-"
+        first = f"{mean} ({fs['never']})"
+        st, tr, co = n["steps_last5"], n["total_reinforcement_last5"], n["collisions_all_trials"]
+        lines.append(
+            f"| {n['level']} | {first} | {n['success_last5']:.0%} "
+            f"| {st['mean']:.1f} ± {st['std']:.1f} | {tr['mean']:.2f} ± {tr['std']:.2f} "
+            f"| {co['mean']:.1f} ± {co['std']:.1f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _figures(transfer: list[dict[str, Any]], out: Path) -> None:
+    from symrl.studies.figures import plot_paths
+    from symrl.world import load_map
+
+    world = load_map("hailu2001")
+    t0 = transfer[0]
+    plot_paths(
+        world,
+        [
+            ("learned (set 0), other starts", [e["path"] for e in t0["learned"]["starts"]], []),
+            ("reflex alone, other starts", [e["path"] for e in t0["reflex_only"]["starts"]], []),
+        ],
+        out / "starts.png",
+        columns=2,
+    )
+    blocked = world.with_obstacle(OBSTACLE)
+    plot_paths(
+        blocked,
+        [
+            (f"learned (set {t['set']}) + new obstacle", [t["learned"]["obstacle"]["path"]], [])
+            for t in transfer[:2]
+        ]
+        + [("reflex alone + new obstacle", [t0["reflex_only"]["obstacle"]["path"]], [])],
+        out / "obstacle.png",
+        columns=3,
+    )
+
+
+def generalise_command(args: argparse.Namespace) -> int:
+    """`symrl generalise`: run, print the tables and the wall time."""
+    report = run_generalisation(
+        args.recipe, args.sets, args.trials, args.seed, args.workers, args.out
+    )
+    print(markdown(report))
+    print(f"wrote {args.out}/ (generalise.md, generalise.json, starts.png, obstacle.png); "
+          f"wall time {report['wall_time_s']:.1f} s")
+    return 0
