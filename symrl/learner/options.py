@@ -48,6 +48,11 @@ class OptionConfig:
     gamma: float = 1.0
     """Discount of the return-to-go (1: the trial's total reinforcement from the entry on)."""
 
+    critic: str = "mean"
+    """How an option's trials are summarised: "mean" (the average return-to-go, robust to
+    noise) or "best" (the best single return, the literal "keep the best trial" reading, which
+    locks onto lucky trials; kept for the ablation)."""
+
     prior: str = "order"
     """Tie-break among untried/equal options: "order" (table order, goal first) or "random"."""
 
@@ -66,6 +71,8 @@ class OptionConfig:
             raise ValueError(f"OptionConfig.reach must be a number >= 0, got {self.reach!r}")
         if not 0.0 < self.gamma <= 1.0:
             raise ValueError(f"OptionConfig.gamma must be in (0, 1], got {self.gamma!r}")
+        if self.critic not in ("mean", "best"):
+            raise ValueError(f"OptionConfig.critic must be 'mean' or 'best', got {self.critic!r}")
         if self.prior not in ("order", "random"):
             raise ValueError(f"OptionConfig.prior must be 'order' or 'random', got {self.prior!r}")
 
@@ -84,14 +91,19 @@ class OptionLearner:
         goal: tuple[float, float],
         config: OptionConfig | None = None,
         generator: torch.Generator | None = None,
+        q: torch.Tensor | None = None,
+        n: torch.Tensor | None = None,
     ) -> None:
         self.table = table
         self.goal = (float(goal[0]), float(goal[1]))
         self.config = config or OptionConfig()
         self.generator = generator or torch.Generator().manual_seed(0)
         shape = table.valid.shape
-        self.q = torch.zeros(shape, dtype=torch.float64)
-        self.n = torch.zeros(shape, dtype=torch.long)
+        # q, n may be a module's buffers (saved with a checkpoint); they are updated in place.
+        self.q = q if q is not None else torch.zeros(shape, dtype=torch.float64)
+        self.n = n if n is not None else torch.zeros(shape, dtype=torch.long)
+        if self.q.shape != shape or self.n.shape != shape:
+            raise ValueError(f"OptionLearner: q and n must have shape {tuple(shape)}")
         self.epsilon = self.config.epsilon
         self.trials = 0
         self.begin_trial()
@@ -106,13 +118,15 @@ class OptionLearner:
         self.rewards: list[float] = []
         self._region: int | None = None
 
-    def choose(self, region: int) -> int:
-        """The option of ``region`` for this trial (chosen at its first entry, then kept)."""
+    def choose(self, region: int, greedy: bool = False) -> int:
+        """The option of ``region`` for this trial (chosen at its first entry, then kept);
+        ``greedy`` forces the best-critic choice (evaluation)."""
         if region in self.choice:
             return self.choice[region]
         valid = self.table.valid[region]
         options = torch.nonzero(valid).flatten()
-        greedy_only = self.config.greedy_after and self.trials >= self.config.greedy_after
+        after = self.config.greedy_after
+        greedy_only = greedy or bool(after and self.trials >= after)
         untried = options[self.n[region, options] == 0]
         if self.config.try_untried and not greedy_only and untried.numel() > 0:
             option = self._pick(untried)
@@ -129,12 +143,12 @@ class OptionLearner:
         self.entry[region] = len(self.rewards)
         return option
 
-    def target(self, region: int, x: float, y: float) -> tuple[float, float]:
+    def target(self, region: int, x: float, y: float, greedy: bool = False) -> tuple[float, float]:
         """The point the reflex should aim at from odometry ``(x, y)`` in ``region``."""
         if region != self._region:
             self.reached.discard(region)  # a new visit aims at the sub-goal again
             self._region = region
-        option = self.choose(region)
+        option = self.choose(region, greedy)
         goal = self.goal
         if region in self.reached:
             return goal
@@ -157,11 +171,16 @@ class OptionLearner:
             ret = sum(r * g**t for t, r in enumerate(tail))
             self.n[region, option] += 1
             count = int(self.n[region, option])
-            self.q[region, option] += (ret - float(self.q[region, option])) / count
+            if self.config.critic == "best":
+                if count == 1 or ret > float(self.q[region, option]):
+                    self.q[region, option] = ret
+            else:
+                self.q[region, option] += (ret - float(self.q[region, option])) / count
         self.trials += 1
         self.epsilon *= self.config.epsilon_decay
         out = {"epsilon": self.epsilon}
-        out.update({f"option_{self.table.region_names[r]}": float(o) for r, o in self.choice.items()})
+        names = self.table.region_names
+        out.update({f"option_{names[r]}": float(o) for r, o in self.choice.items()})
         self.begin_trial()
         return out
 

@@ -117,3 +117,29 @@ def test_gamma_discounts_the_return_to_go():
 def test_config_rejects_bad_values(kwargs):
     with pytest.raises(ValueError, match=next(iter(kwargs))):
         OptionConfig(**kwargs)
+
+
+def test_best_critic_keeps_the_lucky_trial():
+    """The literal reading (compare single trials) keeps a lucky -2 over a steady -5."""
+    learner = OptionLearner(_table(), GOAL, OptionConfig(epsilon=0.0, critic="best"))
+    outcomes = iter([-9.0, -2.0, -5.0, -12.0, -12.0, -12.0])
+    for _ in range(6):
+        learner.target(0, 0.0, 0.0)
+        learner.record(next(outcomes) if learner.choice[0] != 2 else -5.0)
+        learner.end_trial()
+    assert learner.greedy()[0] == 1
+    assert float(learner.q[0, 1]) == pytest.approx(-2.0)
+
+
+def test_greedy_flag_and_shared_buffers():
+    q = torch.zeros(2, 3, dtype=torch.float64)
+    n = torch.zeros(2, 3, dtype=torch.long)
+    learner = OptionLearner(_table(), GOAL, OptionConfig(epsilon=1.0), q=q, n=n)
+    n[0] = 1
+    q[0] = torch.tensor([-9.0, -3.0, -1.0], dtype=torch.float64)
+    assert learner.target(0, 0.0, 0.0, greedy=True) == pytest.approx((3.9, -0.5))
+    learner.record(-4.0)
+    learner.end_trial()
+    assert int(n[0, 2]) == 2 and float(q[0, 2]) == pytest.approx(-2.5)  # updated in place
+    with pytest.raises(ValueError, match="shape"):
+        OptionLearner(_table(), GOAL, q=torch.zeros(3, 3, dtype=torch.float64))
