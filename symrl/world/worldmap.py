@@ -296,6 +296,9 @@ def _regions(value: Any) -> RegionSpec:
     for key in ("names", "lines", "rules"):
         if key not in value:
             raise MapError(f"field 'regions' is missing {key!r}")
+    extra = set(value) - {"names", "lines", "rules"}
+    if extra:
+        raise MapError(f"field 'regions' has unknown key(s) {sorted(extra)}")
     names = value["names"]
     if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
         raise MapError(f"field 'regions.names' must be a non-empty list of strings, got {names!r}")
@@ -322,6 +325,9 @@ def _regions(value: Any) -> RegionSpec:
         where = f"regions.rules[{i}]"
         if not isinstance(rule, dict) or "region" not in rule:
             raise MapError(f"field {where!r} must be a mapping with 'region', got {rule!r}")
+        extra = set(rule) - {"region", "when"}
+        if extra:
+            raise MapError(f"field {where!r} has unknown key(s) {sorted(extra)}")
         if rule["region"] not in names:
             raise MapError(
                 f"field '{where}.region': unknown region {rule['region']!r} (names: {names})"

@@ -124,6 +124,13 @@ BAD_MAPS = [
     ("duplicate region names", "regions.names", ["room", "room"], "duplicates"),
     ("zero-length segment", "segments", [[[0, 0], [0, 0]]], r"segments\[0\].*zero length"),
     ("bad name", "name", "", "'name'"),
+    (
+        "typo in a rule key",
+        "regions.rules.0",
+        {"region": "corridor", "whne": ["x > l3"]},
+        r"rules\[0\].*unknown key.*whne",
+    ),
+    ("unknown regions key", "regions.colours", {}, r"'regions'.*unknown key.*colours"),
 ]
 
 
