@@ -82,6 +82,30 @@ class LearnerConfig:
     """New neuron's utility: reward = r(state) (paper 8.3), zero, or discounted = r/(1-gamma)."""
     replace_actions: bool = True
     """After a goal-reaching trial with the best total so far, p <- action taken, mu <- 0 (8.3)."""
+    # --- issue #4: sub-goal options and residual corrections (docs/LEARNING.md) -------------
+    options: bool = False
+    """Steer the reflex's goal following at a per-region sub-goal derived from the map's region
+    lines (the door), chosen once per region and trial by an averaging critic and an
+    epsilon-greedy actor (``symrl/learner/options.py``); False: always at the goal (literal)."""
+    option_epsilon: float = 0.3
+    """Probability of a random option at a region's first entry, first trial."""
+    option_epsilon_decay: float = 0.8
+    """option_epsilon is multiplied by this after every trial."""
+    option_greedy_after: int = 12
+    """From this many finished trials on, options are chosen greedily (0: never forced)."""
+    option_try_untried: bool = True
+    """Every option is tried once before any greedy choice (its critic is unknown until then)."""
+    option_reach: float = 0.25
+    """A sub-goal nearer than this (m, odometry) is reached: aim at the goal for the visit."""
+    option_critic: Literal["mean", "best"] = "mean"
+    """Option critic: mean return-to-go over its trials, or the best single one (literal-style)."""
+    subgoal_past: bool = True
+    """A region also gets the points just past the passage it is entered through (keeps the
+    robot off the far door post when it turns to the goal)."""
+    residual: bool = False
+    """Neurons learn a correction added to the reflex's current action (a new neuron's p = 0)
+    instead of an absolute action copied from the reflex at its birth; with options on, this
+    keeps every neuron valid whichever sub-goal the reflex steers at. Needs ``reflex``."""
 
 
 @dataclass
@@ -147,6 +171,20 @@ class RunConfig:
             ("learner.goal_code_width", lc.goal_code_width, lc.goal_code_width > 0, "> 0"),
             ("env.max_actions", self.env.max_actions, self.env.max_actions >= 1, ">= 1"),
             ("run.trials", self.run.trials, self.run.trials >= 1, ">= 1"),
+            ("learner.option_epsilon", lc.option_epsilon, 0 <= lc.option_epsilon <= 1, "in [0, 1]"),
+            (
+                "learner.option_epsilon_decay",
+                lc.option_epsilon_decay,
+                0 <= lc.option_epsilon_decay <= 1,
+                "in [0, 1]",
+            ),
+            (
+                "learner.option_greedy_after",
+                lc.option_greedy_after,
+                lc.option_greedy_after >= 0,
+                ">= 0",
+            ),
+            ("learner.option_reach", lc.option_reach, lc.option_reach >= 0, ">= 0"),
             ("run.image_every", self.run.image_every, self.run.image_every >= 1, ">= 1"),
         ]
         for key, value, ok, rule in checks:
