@@ -103,9 +103,7 @@ def main() -> None:
         "Hailu2001Env.step, noise off, random actions": best_rate(
             env_loop(Hailu2001Env(noise=False), "random"), n, rep
         ),
-        "sense only (sonar + IR, random free poses)": best_rate(
-            sense_loop(Hailu2001Env()), n, rep
-        ),
+        "sense only (sonar + IR, random free poses)": best_rate(sense_loop(Hailu2001Env()), n, rep),
         "sense only, 25 deg sonar cone (5 sub-rays)": best_rate(
             sense_loop(Hailu2001Env(robot={"sonar_cone_deg": 25.0})), n, rep
         ),

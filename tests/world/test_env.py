@@ -367,3 +367,19 @@ def test_constructor_errors_name_the_argument():
         make(robot={"radiu": 0.3})
     with pytest.raises(ValueError, match="radius"):
         make(robot={"radius": -0.3})
+
+
+def test_a_long_random_drive_collides_both_ways_and_keeps_its_distance():
+    env = make(max_actions=10_000)
+    env.reset(seed=5)
+    rng = np.random.default_rng(5)
+    safe = R + env.robot.ir_collision_distance
+    real = virtual = 0
+    for a in rng.uniform(-1.2, 1.2, 1500):
+        _, reward, _, _, info = env.step(np.array([a], np.float32))
+        real += int(info["real_collision"])
+        virtual += int(info["virtual_collision"])
+        assert (reward <= -3.0) == bool(info["collision"])
+        # every accepted pose keeps the IR safety distance (the start is far from walls)
+        assert env.clearance(*info["true_pose"][:2]) >= safe - 1e-9
+    assert real > 0 and virtual > 0
