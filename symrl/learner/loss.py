@@ -63,6 +63,8 @@ class TeseoLoss(LossModule):
     def update(self, td: TensorDictBase) -> tuple[float, int]:
         """The per-step rules; returns (TD error, neurons grown for this transition)."""
         cfg, policy = self.config, self.policy
+        if policy.options is not None:  # the option critics need every reinforcement
+            policy.options.record(float(td.get(("next", "reward")).reshape(-1)[0]))
         if not cfg.learning:
             return 0.0, 0
         row = 0 if td.batch_dims else None

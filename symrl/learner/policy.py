@@ -40,6 +40,7 @@ from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
 from symrl.knowledge.regions import RegionMapper
 from symrl.learner.config import LearnerConfig
 from symrl.learner.experts import GrowingRBFExpert
+from symrl.learner.options import OptionSteering
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap, load_map
 
@@ -137,6 +138,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self.register_buffer("best_total", torch.tensor(-math.inf, dtype=torch.float64))
         self.register_buffer("trials_done", torch.zeros((), dtype=torch.long))
         self.generator = torch.Generator().manual_seed(int(seed))
+        # Sub-goal options (issue #4): where the reflex steers, chosen per region and trial.
+        self.options = (
+            OptionSteering.from_learner_config(config, self.world, seed) if config.options else None
+        )
         self._noise = np.empty(0, dtype=np.float32)
         self._noise_at = 0
         self._held: Perception | None = None
@@ -212,7 +217,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def reflex_target(self, obs: Observation, expert: int) -> float:
         """The signed angle the reflex's goal following steers toward (default: the goal).
 
-        Override (or replace) to steer toward sub-goals, e.g. one per region."""
+        Override (or replace) to steer toward sub-goals, e.g. one per region. With
+        ``learner.options`` it is the angle to the sub-goal the option learner chose."""
+        if self.options is not None:
+            odo = tuple(obs.odometry.tolist())
+            return self.options.angle(self.region_of(odo), odo, exploration_type() in _GREEDY)
         return float(obs.goal[1])
 
     def reflex_action(self, obs: Observation, expert: int) -> float:
@@ -222,7 +231,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             return float(self.reflex(obs.sonar, target))
 
     def new_neuron_action(self, obs: Observation, expert: int) -> float:
-        """Prototypical action of a new neuron: the reflex's (paper 8.3) or uniform random."""
+        """Prototypical action of a new neuron: the reflex's (paper 8.3) or uniform random;
+        0 with ``learner.residual`` (its action is a correction added to the reflex's)."""
+        if self.config.residual and self.config.reflex:
+            return 0.0
         if self.config.reflex:
             return self.reflex_action(obs, expert)
         return float(torch.rand((), generator=self.generator)) * 2 * _PI - _PI
@@ -273,6 +285,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             alpha = self.reflex_action(obs, per.expert)
         elif per.winner < 0 or (greedy and per.novel):
             alpha = self.new_neuron_action(obs, per.expert)
+            if self.config.residual and self.config.reflex:
+                alpha = self.reflex_action(obs, per.expert)
         else:
             rows = self.experts[per.expert].rows
             i = per.winner
@@ -281,9 +295,12 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             else:
                 sigma = self.sigma(float(rows.utilities[i]))
                 xi = float(rows.means[i]) + sigma * self._normal()
-            alpha = min(max(float(rows.actions[i]) + xi, -_PI), _PI)
+            base = 0.0  # residual: the neuron's action corrects the reflex's current one
+            if self.config.residual and self.config.reflex:
+                base = self.reflex_action(obs, per.expert)
+            alpha = min(max(base + float(rows.actions[i]) + xi, -_PI), _PI)
             if not greedy:
-                rows.taken[i] = alpha  # remembered for action replacement (step 8)
+                rows.taken[i] = alpha - base  # remembered for action replacement (step 8)
                 rows.used[i] = True
         td.set("action", torch.tensor([alpha], dtype=torch.float32))
         td.set("region", torch.tensor(per.region))
@@ -301,4 +318,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self._held = None
         for expert in self.experts:
             expert.clear_trial()
+        if self.options is not None:  # update the option critics, decay epsilon
+            record.update(self.options.end_trial())
         self.trials_done += 1
