@@ -18,10 +18,12 @@ import math
 from dataclasses import dataclass
 
 import torch
+from torch import nn
 
-from symrl.knowledge.subgoals import SubgoalTable
+from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
+from symrl.world.worldmap import WorldMap
 
-__all__ = ["OptionConfig", "OptionLearner"]
+__all__ = ["OptionConfig", "OptionLearner", "OptionSteering"]
 
 
 @dataclass
@@ -202,3 +204,58 @@ class OptionLearner:
         if self.config.prior == "random":
             return int(candidates[self._randint(candidates.numel())])
         return int(candidates[0])
+
+
+class OptionSteering(nn.Module):
+    """What the policy holds when ``learner.options`` is on: the map's sub-goal table, the option
+    learner, and the angle the reflex's goal following should steer toward.
+
+    The critic (``q``, ``n``) are buffers, so they are saved and loaded with the policy."""
+
+    q: torch.Tensor
+    n: torch.Tensor
+
+    def __init__(
+        self,
+        world: WorldMap,
+        config: OptionConfig | None = None,
+        subgoals: SubgoalConfig | None = None,
+        seed: int = 0,
+    ) -> None:
+        super().__init__()
+        self.table = build_subgoals(world, subgoals)
+        shape = self.table.valid.shape
+        self.register_buffer("q", torch.zeros(shape, dtype=torch.float64))
+        self.register_buffer("n", torch.zeros(shape, dtype=torch.long))
+        generator = torch.Generator().manual_seed(int(seed) + 7919)  # own stream, not the neurons'
+        goal = (world.goal.x, world.goal.y)
+        self.learner = OptionLearner(self.table, goal, config, generator, q=self.q, n=self.n)
+
+    @classmethod
+    def from_learner_config(cls, lc: object, world: WorldMap, seed: int = 0) -> OptionSteering:
+        """Build from a ``LearnerConfig`` (its ``option_*`` and ``subgoal_*`` fields)."""
+        config = OptionConfig(
+            epsilon=lc.option_epsilon,
+            epsilon_decay=lc.option_epsilon_decay,
+            greedy_after=lc.option_greedy_after,
+            try_untried=lc.option_try_untried,
+            reach=lc.option_reach,
+            critic=lc.option_critic,
+        )
+        return cls(world, config, SubgoalConfig(past=lc.subgoal_past), seed)
+
+    def angle(self, region: int, odometry: tuple[float, float, float], greedy: bool) -> float:
+        """Signed angle (left positive) from the odometry heading to this region's target."""
+        x, y, heading = odometry
+        tx, ty = self.learner.target(region, x, y, greedy)
+        return math.remainder(math.atan2(ty - y, tx - x) - heading, 2.0 * math.pi)
+
+    def record(self, reward: float) -> None:
+        self.learner.record(reward)
+
+    def end_trial(self) -> dict[str, float]:
+        return self.learner.end_trial()
+
+    def _load_from_state_dict(self, *args, **kwargs) -> None:  # type: ignore[override]
+        super()._load_from_state_dict(*args, **kwargs)
+        self.learner.q, self.learner.n = self.q, self.n  # copy_ keeps them shared; be explicit

@@ -112,6 +112,7 @@ def test_gamma_discounts_the_return_to_go():
         {"gamma": 0.0},
         {"prior": "best"},
         {"reach": -1.0},
+        {"critic": "max"},
     ],  # fmt: skip
 )
 def test_config_rejects_bad_values(kwargs):
