@@ -383,3 +383,19 @@ def test_a_long_random_drive_collides_both_ways_and_keeps_its_distance():
         # every accepted pose keeps the IR safety distance (the start is far from walls)
         assert env.clearance(*info["true_pose"][:2]) >= safe - 1e-9
     assert real > 0 and virtual > 0
+
+
+def test_no_tunnelling_through_a_thin_wall_with_long_steps():
+    world = {
+        "boundary": [[0, 0], [4, 0], [4, 2], [0, 2]],
+        "segments": [[[2.0, 0.0], [2.0, 1.5]]],
+        "start": {"x": 1.7, "y": 1.0},
+        "goal": {"x": 3.5, "y": 1.0, "radius": 0.2},
+        "regions": {"names": ["all"], "lines": {}, "rules": [{"region": "all"}]},
+    }
+    env = make(map=world, noise=False, robot={"radius": 0.1, "step": 0.6})
+    env.reset(seed=0)
+    # 0.3 m before the wall, a 0.6 m step would jump the disc clean over it
+    _, _, _, _, info = env.step(np.array([0.0], np.float32))
+    assert info["real_collision"]
+    np.testing.assert_allclose(info["true_pose"], [1.7, 1.0, 0.0])
