@@ -161,3 +161,23 @@ def test_walls_reject_degenerate_input():
         Walls(np.array([[0.0, 0.0, np.nan, 1.0]]))
     with pytest.raises(ValueError, match="at least one"):
         Walls(np.zeros((0, 4)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    coords=st.lists(st.floats(-1.0, 1.0), min_size=12, max_size=12),
+    h=st.floats(-math.pi, math.pi),
+)
+def test_sectors_and_rays_on_random_oblique_walls(coords, h):
+    segs = np.array(coords).reshape(3, 4)
+    assume(np.all(np.hypot(segs[:, 2] - segs[:, 0], segs[:, 3] - segs[:, 1]) > 1e-3))
+    walls = Walls(segs)
+    assume(walls.point_clearance(0.0, 0.0) > 1e-3)
+    fast = walls.sector_distances(0.0, 0.0, h, 24, 5.0)
+    slow = brute_sectors(segs, 0.0, 0.0, h, 24, 5.0)
+    assert np.all(fast <= slow + 1e-9)
+    assert np.all(slow - fast < 2e-3)
+    assert fast.min() == pytest.approx(min(walls.point_clearance(0.0, 0.0), 5.0))
+    angles = h + np.radians(15.0 * np.arange(24))
+    expected = [reference_cast(segs, 0.0, 0.0, a, 5.0) for a in angles]
+    np.testing.assert_allclose(walls.cast(0.0, 0.0, angles, 5.0), expected, rtol=1e-9)
