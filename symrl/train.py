@@ -77,12 +77,7 @@ def make_env(config: RunConfig):
     from torchrl.envs.gym_like import default_info_dict_reader
 
     ec = config.env
-    robot = {
-        "rotation_noise_deg": ec.rotation_noise_deg,
-        "translation_noise": ec.translation_noise,
-        "sonar_noise_std": ec.sonar_noise_std,
-    }
-    env = GymEnv(ENV_ID, map=ec.map, noise=ec.noise, max_actions=ec.max_actions, robot=robot)
+    env = GymEnv(ENV_ID, map=ec.map, noise=ec.noise, max_actions=ec.max_actions, robot=ec.robot())
     info_spec = {
         "collision": Unbounded(shape=(), dtype=torch.bool),
         "reached_goal": Unbounded(shape=(), dtype=torch.bool),
@@ -95,7 +90,10 @@ def make_env(config: RunConfig):
 def make_policy(config: RunConfig, world=None, robot=None):
     """The controller for ``config`` (fresh: no neurons, temperature T0)."""
     from symrl.learner.policy import MixtureOfExpertsPolicy
+    from symrl.world.robot import RobotConfig
 
+    if robot is None:  # the robot the config describes (sensor range, thresholds of r(state))
+        robot = RobotConfig.from_dict(config.env.robot())
     return MixtureOfExpertsPolicy(
         config.learner, world=world or config.env.map, robot=robot, seed=config.run.seed
     )
@@ -260,6 +258,7 @@ def evaluate(
         map=policy.world if world is None else world,
         noise=noise,
         max_actions=config.env.max_actions,
+        robot=config.env.robot(),
     )
     options = None if start is None else {"pose": tuple(float(v) for v in start)}
     obs, info = env.reset(seed=seed, options=options)
@@ -437,10 +436,10 @@ def train_command(args: argparse.Namespace) -> int:
 def evaluate_command(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
 
-    record = evaluate(args.checkpoint, start=args.start, seed=args.seed)
+    policy, config = load_checkpoint(args.checkpoint)
+    record = evaluate(policy, start=args.start, seed=args.seed, config=config)
     out = Path(args.out) if args.out else Path(args.checkpoint).parent
     out.mkdir(parents=True, exist_ok=True)
-    policy, _ = load_checkpoint(args.checkpoint)
     fig = trajectory_figure(
         policy.world, record,
         title=f"greedy: {record['steps']} actions, total {record['total_reinforcement']:.2f}",

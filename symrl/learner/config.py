@@ -124,6 +124,18 @@ class EnvConfig:
     """Robot: std of the true translation as a fraction of the 0.20 m step (RobotConfig)."""
     sonar_noise_std: float = 0.01
     """Robot: std of the Gaussian sonar noise, metres (RobotConfig)."""
+    sonar_cone_deg: float = 0.0
+    """Robot: sonar beam aperture in degrees; 0 is a thin ray (SPEC 2 default)."""
+    sonar_cone_rays: int = 5
+    """Robot: sub-rays per sonar when ``sonar_cone_deg > 0`` (a reading is their minimum)."""
+    perfect_odometry: bool = False
+    """Robot: the odometry pose is the true pose (motion noise still moves the robot)."""
+
+    def robot(self) -> dict[str, Any]:
+        """The ``RobotConfig`` fields this section sets (passed to the env as ``robot=``)."""
+        names = ("sonar_noise_std", "translation_noise", "rotation_noise_deg",
+                 "sonar_cone_deg", "sonar_cone_rays", "perfect_odometry")  # fmt: skip
+        return {name: getattr(self, name) for name in names}
 
 
 @dataclass
@@ -170,6 +182,36 @@ class RunConfig:
             ("learner.goal_codes", lc.goal_codes, lc.goal_codes >= 2, ">= 2"),
             ("learner.goal_code_width", lc.goal_code_width, lc.goal_code_width > 0, "> 0"),
             ("env.max_actions", self.env.max_actions, self.env.max_actions >= 1, ">= 1"),
+            (
+                "env.sonar_noise_std",
+                self.env.sonar_noise_std,
+                self.env.sonar_noise_std >= 0,
+                ">= 0",
+            ),
+            (
+                "env.translation_noise",
+                self.env.translation_noise,
+                self.env.translation_noise >= 0,
+                ">= 0",
+            ),
+            (
+                "env.rotation_noise_deg",
+                self.env.rotation_noise_deg,
+                self.env.rotation_noise_deg >= 0,
+                ">= 0",
+            ),
+            (
+                "env.sonar_cone_deg",
+                self.env.sonar_cone_deg,
+                0 <= self.env.sonar_cone_deg < 360,
+                "in [0, 360)",
+            ),
+            (
+                "env.sonar_cone_rays",
+                self.env.sonar_cone_rays,
+                self.env.sonar_cone_rays >= 1,
+                ">= 1",
+            ),
             ("run.trials", self.run.trials, self.run.trials >= 1, ">= 1"),
             ("learner.option_epsilon", lc.option_epsilon, 0 <= lc.option_epsilon <= 1, "in [0, 1]"),
             (
