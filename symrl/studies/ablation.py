@@ -30,6 +30,7 @@ from symrl.studies.repeatability import (
     StudyResult,
     curves,
     optimum,
+    read_trials_csv,
     run_sets,
     table1,
     write_study,
@@ -169,18 +170,45 @@ def run_ablation(
         out.mkdir(parents=True, exist_ok=True)
         for study in studies.values():
             write_study(study, figures=figures)
+        summary = _merge(out, summary, sets, trials, seed)
         (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         (out / "summary.md").write_text(summary_markdown(summary))
         if figures:
             from symrl.studies.figures import plot_comparison
 
             qs = ("steps", "total_reinforcement", "neurons", "collisions")
+            every = [r for r in summary if not r.startswith("_")]
             plot_comparison(
-                {r: {q: curves(s.rows, q) for q in qs} for r, s in studies.items()},
+                {r: {q: curves(read_trials_csv(out / r / "trials.csv"), q) for q in qs}
+                 for r in every},
                 out / "comparison.png",
                 qs,
             )
     return summary
+
+
+def _merge(
+    out: Path, summary: dict[str, Any], sets: int, trials: int, seed: int
+) -> dict[str, Any]:
+    """Keep the rows of recipes run earlier into the same folder with the same sets, trials and
+    seeds (so one recipe, e.g. ``paper``, can be re-run alone); recipes in RECIPES order."""
+    old_path = out / "summary.json"
+    merged: dict[str, Any] = {}
+    if old_path.is_file():
+        old = json.loads(old_path.read_text())
+        same = old.get("_seeds") == summary["_seeds"]
+        for recipe, s in old.items():
+            if (
+                not recipe.startswith("_") and recipe not in summary and same
+                and s.get("sets") == sets and s.get("trials") == trials
+                and (out / recipe / "trials.csv").is_file()
+            ):
+                merged[recipe] = s
+    merged.update({r: s for r, s in summary.items() if not r.startswith("_")})
+    order = {r: i for i, r in enumerate(RECIPES)}
+    result = dict(sorted(merged.items(), key=lambda kv: order.get(kv[0], len(order))))
+    result.update({k: v for k, v in summary.items() if k.startswith("_")})
+    return result
 
 
 def ablate_command(args: argparse.Namespace) -> int:

@@ -43,6 +43,12 @@ def test_ablate_writes_summary_and_comparison(tmp_path, capsys):
     assert (out / "comparison.png").is_file() and (out / "summary.md").is_file()
     assert (out / "paper_literal" / "table1.md").is_file()
     assert "| reflex_only | 1 × 2 |" in capsys.readouterr().out
+    # re-running one recipe into the same folder keeps the others' rows
+    assert main(["ablate", "--recipes", "reflex_only", "--sets", "1", "--trials", "2",
+                 "--workers", "1", "--out", str(out)]) == 0
+    again = json.loads((out / "summary.json").read_text())
+    assert again["paper_literal"] == summary["paper_literal"]
+    assert again["reflex_only"]["steps_last5"] == summary["reflex_only"]["steps_last5"]
 
 
 def test_plan_command_writes_json_and_png(tmp_path):
