@@ -18,6 +18,7 @@ from symrl.world.worldmap import WorldMap
 __all__ = [
     "draw_world",
     "draw_regions",
+    "region_label_points",
     "draw_goal",
     "draw_path",
     "draw_robot",
@@ -83,16 +84,38 @@ def draw_world(ax: Any, world: WorldMap, regions: bool = True, goal: bool = True
     ax.set_ylabel("y (m)")
 
 
-def draw_regions(ax: Any, world: WorldMap, color: str = "tab:blue") -> None:
-    """Draw the named region lines (paper section 6.1) as dashed lines across the map."""
+def draw_regions(ax: Any, world: WorldMap, color: str = "tab:blue", names: bool = True) -> None:
+    """Draw the named region lines (paper section 6.1) as dashed lines across the map and,
+    with ``names``, each region's name at a free point inside it."""
     xmin, xmax, ymin, ymax = world.bounds
     for name, (axis, value) in world.regions.lines.items():
         if axis == "x":
             ax.plot([value, value], [ymin, ymax], ls="--", lw=0.8, color=color, zorder=1)
-            ax.text(value, ymax, f" {name}", color=color, fontsize=8, va="bottom", ha="center")
+            ax.text(value, ymax, f" {name}", color=color, fontsize=8, va="bottom", ha="left")
         else:
             ax.plot([xmin, xmax], [value, value], ls="--", lw=0.8, color=color, zorder=1)
             ax.text(xmin, value, f"{name} ", color=color, fontsize=8, va="center", ha="right")
+    if names:
+        for region, (x, y) in region_label_points(world).items():
+            ax.text(x, y, region, color=color, fontsize=8, alpha=0.8, ha="center", va="center")
+
+
+def region_label_points(world: WorldMap, grid: int = 40) -> dict[str, tuple[float, float]]:
+    """A free point inside each region, near the middle of its free area (for labels)."""
+    xmin, xmax, ymin, ymax = world.bounds
+    xs, ys = np.meshgrid(np.linspace(xmin, xmax, grid), np.linspace(ymin, ymax, grid))
+    xs, ys = xs.ravel(), ys.ravel()
+    free = world.in_free_area(xs, ys)
+    points: dict[str, list[tuple[float, float]]] = {}
+    for x, y in zip(xs[free].tolist(), ys[free].tolist(), strict=True):
+        points.setdefault(world.regions.region_of(x, y), []).append((x, y))
+    out = {}
+    for region, pts in points.items():
+        arr = np.array(pts)
+        centre = np.median(arr, axis=0)
+        x, y = arr[np.argmin(np.hypot(*(arr - centre).T))]
+        out[region] = (float(x), float(y))
+    return out
 
 
 def draw_goal(ax: Any, world: WorldMap, color: str = "tab:green") -> None:
@@ -185,6 +208,9 @@ class EnvRenderer:
             self.fig = Figure(figsize=(width, height), dpi=dpi)
             FigureCanvasAgg(self.fig)
         self.ax = self.fig.add_subplot(1, 1, 1)
+        draw_world(self.ax, world)  # static: drawn once, the moving parts are redrawn per frame
+        self.fig.tight_layout()
+        self._static = set(self.ax.get_children())
 
     def draw(
         self,
@@ -193,16 +219,16 @@ class EnvRenderer:
         path: Sequence[Sequence[float]],
         odometry_path: Sequence[Sequence[float]] | None = None,
     ) -> np.ndarray:
-        """Redraw everything and return the frame as an HWC uint8 RGB array."""
+        """Draw the robot, its sonar rays and paths over the map; return the HWC uint8 frame."""
         ax = self.ax
-        ax.clear()
-        draw_world(ax, self.world)
+        for artist in ax.get_children():
+            if artist not in self._static:
+                artist.remove()
         if odometry_path is not None and len(odometry_path) > 1:
             draw_path(ax, odometry_path, color="0.5", markers=False, ls=":")
         draw_path(ax, path)
         draw_sonar(ax, pose, sonar_rim, self.robot.radius)
         draw_robot(ax, pose, self.robot.radius)
-        self.fig.tight_layout()
         self.fig.canvas.draw()
         frame = np.asarray(self.fig.canvas.buffer_rgba())[:, :, :3].copy()
         if self.human:
