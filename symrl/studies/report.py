@@ -144,8 +144,8 @@ def _section_ppo(results: Path, figures: Path) -> list[str]:
         f"Settings: {cfg['frames_per_batch']} frames per update, {cfg['epochs']} epochs, "
         f"minibatch {cfg['minibatch']}, Adam lr {cfg['lr']}, gamma {cfg['gamma']}, GAE lambda "
         f"{cfg['lmbda']}, clip {cfg['clip']}, entropy {cfg['entropy_coef']}, "
-        f"2x{cfg['hidden']} tanh MLPs, TanhNormal actor on [-pi, pi]; observation = 24 sonars + goal (distance/5, "
-        "angle/pi). Budget: "
+        f"2x{cfg['hidden']} tanh MLPs, TanhNormal actor on [-pi, pi]; observation = 24 sonars "
+        "+ goal (distance/5, angle/pi). Budget: "
         f"{cfg['episodes']} episodes (= trials). Wall time {data['wall_time_s']} s.",
         "",
         (folder / "summary.md").read_text(),
