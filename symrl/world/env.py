@@ -196,7 +196,6 @@ class Hailu2001Env(gymnasium.Env):
             m = 1
             sonar_offsets = axes
         self._cone_rays = m
-        self._n_sonar_rays = n * m
         self._sonar_offsets = sonar_offsets
         self._cast_range = robot.radius + robot.sonar_range
         self._ir_zero = np.zeros(n)
