@@ -139,7 +139,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="results/baseline-ppo")
     p.set_defaults(handler=_baseline)
 
-    p = sub.add_parser("generalise", help="learned controller from other starts, new obstacle, noise")
+    p = sub.add_parser(
+        "generalise", help="learned controller from other starts, new obstacle, noise"
+    )
     p.add_argument("--recipe", default="paper")
     p.add_argument("--sets", type=int, default=5)
     p.add_argument("--trials", type=int, default=20)
@@ -152,7 +154,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    # argparse cannot take positional key=value overrides after options (`study R --sets 2 k=v`)
+    if extra:
+        if hasattr(args, "overrides") and all("=" in e and not e.startswith("-") for e in extra):
+            args.overrides = [*args.overrides, *extra]
+        else:
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         return int(args.handler(args) or 0)
     except (ValueError, FileNotFoundError) as err:
