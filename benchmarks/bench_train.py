@@ -10,6 +10,9 @@ and for the full loop the time per step in: env physics, gate (region + input co
 search, growth (new neurons, incl. the reflex), the policy's forward, the update, trial
 bookkeeping, and what is left (Collector / TorchRL overhead). Timers are wrapped around class
 methods, so the breakdown run is a little slower than the untimed one printed above it.
+
+Rates are given in wall-clock and in this process's CPU time: on a shared machine (other jobs
+running) the CPU-time figures are the stable ones; the breakdown uses CPU time.
 """
 
 from __future__ import annotations
@@ -28,16 +31,16 @@ import symrl
 from symrl.learner.config import load_config
 
 
-def raw_env(steps: int) -> float:
+def raw_env(steps: int) -> tuple[float, float]:
     env = gymnasium.make(symrl.ENV_ID)
     env.reset(seed=0)
     rng = np.random.default_rng(0)
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     for _ in range(steps):
         _, _, terminated, truncated, _ = env.step(rng.uniform(-0.3, 0.3, 1).astype(np.float32))
         if terminated or truncated:
             env.reset()
-    return steps / (time.perf_counter() - t)
+    return steps / (time.perf_counter() - t), steps / (time.process_time() - c)
 
 
 def collector_floor(config, steps: int) -> float:
@@ -61,19 +64,20 @@ def collector_floor(config, steps: int) -> float:
         make_env(config), policy, frames_per_batch=1, total_frames=steps,
         track_traj_ids=False, return_same_td=True, auto_register_policy_transforms=False,
     )  # fmt: skip
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     n = sum(1 for _ in collector)
-    rate = n / (time.perf_counter() - t)
+    rates = n / (time.perf_counter() - t), n / (time.process_time() - c)
     collector.shutdown()
-    return rate
+    return rates
 
 
-def full_loop(config) -> tuple[float, int, list]:
+def full_loop(config) -> tuple[tuple[float, float], int, list]:
     from symrl.train import train
 
     result = train(config, progress=False)
-    LOOP_SECONDS.append(result.timings["seconds"])
-    return result.timings["steps_per_second"], result.timings["frames"], result.trials
+    t = result.timings
+    LOOP_SECONDS.append(t["cpu_seconds"])
+    return (t["frames"] / t["seconds"], t["frames"] / t["cpu_seconds"]), t["frames"], result.trials
 
 
 LOOP_SECONDS: list[float] = []
@@ -85,11 +89,11 @@ def _timed(cls, name: str, label: str):
     original = getattr(cls, name)
 
     def wrapper(*args, **kwargs):
-        t = time.perf_counter()
+        t = time.process_time()
         try:
             return original(*args, **kwargs)
         finally:
-            TIMES[label] += time.perf_counter() - t
+            TIMES[label] += time.process_time() - t
             CALLS[label] += 1
 
     setattr(cls, name, wrapper)
@@ -132,19 +136,23 @@ def main() -> None:
     config = load_config(args.recipe, [f"run.trials={args.trials}"])
 
     full_loop(load_config(args.recipe, ["run.trials=1"]))  # warm-up (imports, first calls)
-    raw = statistics.median(raw_env(2000) for _ in range(args.repeats))
-    floor = statistics.median(collector_floor(config, 1500) for _ in range(args.repeats))
+
+    def median(runs):
+        return tuple(statistics.median(r[k] for r in runs) for k in (0, 1))
+
+    raw = median([raw_env(2000) for _ in range(args.repeats)])
+    floor = median([collector_floor(config, 1500) for _ in range(args.repeats)])
     runs = [full_loop(config) for _ in range(args.repeats)]
-    full = statistics.median(r[0] for r in runs)
+    full = median([r[0] for r in runs])
     frames, trials = runs[0][1], runs[0][2]
     print(f"recipe {args.recipe}, {args.trials} trials ({frames} steps), median of {args.repeats}")
-    print(f"{'loop':<52}{'steps/s':>9}{'us/step':>9}")
-    for label, rate in [
+    print(f"{'loop':<46}{'steps/s':>9}{'us/step':>9}{'CPU steps/s':>13}{'CPU us/step':>13}")
+    for label, (wall, cpu) in [
         ("raw gymnasium env (random actions)", raw),
         ("Collector + trivial policy (TorchRL floor)", floor),
         ("full training loop (symrl.train.train)", full),
     ]:
-        print(f"{label:<52}{rate:>9.0f}{1e6 / rate:>9.0f}")
+        print(f"{label:<46}{wall:>9.0f}{1e6 / wall:>9.0f}{cpu:>13.0f}{1e6 / cpu:>13.0f}")
     print(
         f"last trial: {trials[-1]['steps']} actions, total "
         f"{trials[-1]['total_reinforcement']:.2f}, {trials[-1]['neurons']} neurons"
@@ -156,7 +164,7 @@ def main() -> None:
         _, frames, _ = full_loop(config)
     # the loop's own time (train() starts its clock after building env, policy and Collector)
     total = LOOP_SECONDS[-1]
-    print(f"\nwhere a step's time goes (instrumented run, {frames} steps, "
+    print(f"\nwhere a step's CPU time goes (instrumented run, {frames} steps, "
           f"{1e6 * total / frames:.0f} us/step):")  # fmt: skip
     top = ("env step", "policy forward", "update", "trial bookkeeping")
     accounted = sum(v for k, v in TIMES.items() if k.startswith(top))

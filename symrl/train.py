@@ -125,18 +125,18 @@ class TrialRecorder:
         if not self.path:
             x, y, _ = td.get("true_pose")[0].tolist()
             self.path.append((x, y))
-        winner = (int(td.get("expert")[0]), int(td.get("winner")[0]))
+        winner = (td.get("expert").item(), td.get("winner").item())
         if winner != self._last_winner:  # a "ghost" where the controller toggles neurons
             self.ghosts.append(self.path[-1])
             self._last_winner = winner
         nxt = td.get("next")
         self.steps += 1
-        self.total += float(nxt.get("reward")[0])
-        self.collisions += int(nxt.get("collision")[0])
+        self.total += nxt.get("reward").item()
+        self.collisions += int(nxt.get("collision").item())
         x, y, _ = nxt.get("true_pose")[0].tolist()
         self.path.append((x, y))
-        self.reached = bool(nxt.get("reached_goal")[0])
-        return bool(nxt.get("done")[0])
+        self.reached = nxt.get("reached_goal").item()
+        return nxt.get("done").item()
 
     def finish(self, trial: int, policy) -> dict[str, Any]:
         xy = np.asarray(self.path)
@@ -193,7 +193,7 @@ def train(
     recorder = TrialRecorder(policy.expert_names)
     trials: list[dict[str, Any]] = []
     bar = tqdm(total=n_trials, desc=config.recipe, unit="trial", disable=not progress)
-    started = time.perf_counter()
+    started, cpu_started = time.perf_counter(), time.process_time()
     frames = 0
     try:
         for td in collector:
@@ -218,10 +218,15 @@ def train(
         bar.close()
         collector.shutdown()
         env.close()
-    elapsed = time.perf_counter() - started
+    elapsed, cpu = time.perf_counter() - started, time.process_time() - cpu_started
     result = TrainResult(
         config, trials, policy, Path(logdir) if logdir is not None else None,
-        timings={"seconds": elapsed, "frames": frames, "steps_per_second": frames / elapsed},
+        timings={
+            "seconds": elapsed,
+            "cpu_seconds": cpu,  # this process only: robust to other jobs on the machine
+            "frames": frames,
+            "steps_per_second": frames / elapsed,
+        },
     )  # fmt: skip
     if logdir is not None:
         _write_outputs(result)

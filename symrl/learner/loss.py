@@ -73,12 +73,15 @@ class TeseoLoss(LossModule):
             value = td.get(key)
             return value[row] if row is not None else value
 
-        k, i = int(col("expert")), int(col("winner"))
+        def scalar(key):  # one element whatever the batch shape: .item() is a single call
+            return td.get(key).item()
+
+        k, i = scalar("expert"), scalar("winner")
         if i < 0:
             return 0.0, 0
-        r = float(col(("next", "reward")))
-        terminated = bool(col(("next", "terminated")))
-        truncated = bool(col(("next", "truncated")))
+        r = scalar(("next", "reward"))
+        terminated = scalar(("next", "terminated"))
+        truncated = scalar(("next", "truncated"))
         expert = policy.experts[k]
         grown = 0
 
@@ -109,7 +112,7 @@ class TeseoLoss(LossModule):
             expert.add(x, policy.new_neuron_action(obs_prev, k), u_prev + delta)
             grown += 1
         else:
-            xi = float(col("xi"))
+            xi = scalar("xi")
             mu = float(rows.means[i])
             rows.utilities[i] = u_prev + cfg.eta * delta
             rows.means[i] = mu + cfg.beta * delta * (xi - mu)
