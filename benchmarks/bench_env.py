@@ -1,9 +1,12 @@
 """How fast is the world? Raw `Hailu2001Env.step` (noise on), sensing alone, and baselines.
 
-The machine is shared, so absolute numbers drift; every figure is also printed as a ratio to
-baselines measured in the same run (gymnasium's CartPole-v1 step and a trivial numpy step).
+The machine is shared, so absolute numbers drift. To keep them comparable the measurements are
+interleaved (round robin over the cases, best of ``--repeats`` rounds), timed in CPU time of this
+process (``time.process_time``, which ignores the time other processes hold the cores), and also
+printed as ratios to baselines measured in the same run (gymnasium's CartPole-v1 step and a
+trivial numpy step).
 
-    python benchmarks/bench_env.py [--steps 20000] [--repeats 3]
+    python benchmarks/bench_env.py [--steps 5000] [--repeats 5]
 """
 
 from __future__ import annotations
@@ -19,14 +22,11 @@ import numpy as np
 from symrl.world.env import Hailu2001Env
 
 
-def best_rate(fn: Callable[[int], None], n: int, repeats: int) -> float:
-    """Calls per second of ``fn(n)`` (which makes n calls), best of ``repeats``."""
-    best = math.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn(n)
-        best = min(best, time.perf_counter() - t0)
-    return n / best
+def timed(fn: Callable[[int], None], n: int) -> float:
+    """Calls per CPU-second of ``fn(n)`` (which makes n calls)."""
+    t0 = time.process_time()
+    fn(n)
+    return n / max(time.process_time() - t0, 1e-9)
 
 
 def env_loop(env: Hailu2001Env, policy: str) -> Callable[[int], None]:
@@ -86,33 +86,33 @@ def numpy_loop() -> Callable[[int], None]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=20000, help="calls per measurement")
-    parser.add_argument("--repeats", type=int, default=3, help="best of this many")
+    parser.add_argument("--steps", type=int, default=5000, help="calls per measurement")
+    parser.add_argument("--repeats", type=int, default=5, help="rounds; the best is kept")
     args = parser.parse_args()
     n, rep = args.steps, args.repeats
 
-    rates = {
-        "CartPole-v1 step (baseline)": best_rate(cartpole_loop(), n, rep),
-        "numpy no-op step (baseline)": best_rate(numpy_loop(), n, rep),
-        "Hailu2001Env.step, noise on, random actions": best_rate(
-            env_loop(Hailu2001Env(), "random"), n, rep
+    cases: dict[str, Callable[[int], None]] = {
+        "CartPole-v1 step (baseline)": cartpole_loop(),
+        "numpy no-op step (baseline)": numpy_loop(),
+        "Hailu2001Env.step, noise on, random actions": env_loop(Hailu2001Env(), "random"),
+        "Hailu2001Env.step, noise on, goal-seeking actions": env_loop(Hailu2001Env(), "goal"),
+        "Hailu2001Env.step, noise off, random actions": env_loop(
+            Hailu2001Env(noise=False), "random"
         ),
-        "Hailu2001Env.step, noise on, goal-seeking actions": best_rate(
-            env_loop(Hailu2001Env(), "goal"), n, rep
-        ),
-        "Hailu2001Env.step, noise off, random actions": best_rate(
-            env_loop(Hailu2001Env(noise=False), "random"), n, rep
-        ),
-        "sense only (sonar + IR, random free poses)": best_rate(sense_loop(Hailu2001Env()), n, rep),
-        "sense only, 25 deg sonar cone (5 sub-rays)": best_rate(
-            sense_loop(Hailu2001Env(robot={"sonar_cone_deg": 25.0})), n, rep
+        "sense only (sonar + IR, random free poses)": sense_loop(Hailu2001Env()),
+        "sense only, 25 deg sonar cone (5 sub-rays)": sense_loop(
+            Hailu2001Env(robot={"sonar_cone_deg": 25.0})
         ),
     }
+    rates = dict.fromkeys(cases, 0.0)
+    for _ in range(rep):  # round robin, so every case sees the same mix of machine load
+        for name, fn in cases.items():
+            rates[name] = max(rates[name], timed(fn, n))
     cart = rates["CartPole-v1 step (baseline)"]
     noop = rates["numpy no-op step (baseline)"]
-    print(f"{'what':52s} {'calls/s':>10s} {'us/call':>8s} {'x CartPole':>10s} {'x no-op':>8s}")
+    print(f"{'what':52s} {'calls/cpu-s':>11s} {'us/call':>8s} {'x CartPole':>10s} {'x no-op':>8s}")
     for name, rate in rates.items():
-        print(f"{name:52s} {rate:10.0f} {1e6 / rate:8.1f} {cart / rate:10.1f} {noop / rate:8.1f}")
+        print(f"{name:52s} {rate:11.0f} {1e6 / rate:8.1f} {cart / rate:10.1f} {noop / rate:8.1f}")
     print("(x CartPole / x no-op: how many times slower than that baseline, same run)")
 
 
