@@ -1,8 +1,10 @@
 """Vectorised wall geometry: ray casting, clearance, IR sectors and the swept-disc contact test.
 
 Every wall is a segment ``(x0, y0, x1, y1)``. :class:`Walls` precomputes the per-segment arrays
-once, so the per-step queries are a handful of numpy operations over ``(rays, segments)`` with no
-Python loop over rays or segments (the env calls them hundreds of thousands of times).
+once, so the per-step queries are a handful of numpy operations over ``(segments, rays)`` with no
+Python loop over rays or segments (the env calls them hundreds of thousands of times). The
+module-level functions are convenience wrappers that build a ``Walls`` per call; hot loops should
+build one ``Walls`` and call its methods.
 """
 
 from __future__ import annotations
@@ -248,9 +250,8 @@ def ray_cast(
     walls: Walls | np.ndarray, origin: tuple[float, float], angles: np.ndarray, max_range: float
 ) -> np.ndarray:
     """Distance from ``origin`` along each angle to the first wall, capped at ``max_range``."""
-    return _walls(walls).cast(
-        float(origin[0]), float(origin[1]), np.asarray(angles, dtype=np.float64), max_range
-    )
+    angles = np.atleast_1d(np.asarray(angles, dtype=np.float64))
+    return _walls(walls).cast(float(origin[0]), float(origin[1]), angles.ravel(), max_range)
 
 
 def clearance(walls: Walls | np.ndarray, points: np.ndarray) -> np.ndarray:
