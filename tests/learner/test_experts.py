@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import pytest
 import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from symrl.learner.experts import GrowingRBFExpert
 
@@ -83,3 +85,23 @@ def test_replace_actions_only_touches_used_neurons():
     assert e.rows.means.tolist()[:3] == pytest.approx([0.5, 0.0, 0.5])
     e.clear_trial()
     assert not e.used.any()
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n=st.integers(1, 300),
+    seed=st.integers(0, 10_000),
+    scale=st.floats(0.01, 3.0),
+)
+def test_winner_search_matches_brute_force(n, seed, scale):
+    g = torch.Generator().manual_seed(seed)
+    centres = torch.rand(n, 32, generator=g) * scale
+    e = GrowingRBFExpert(capacity=4)
+    for c in centres:
+        e.add(c, 0.0, 0.0)
+    x = torch.rand(32, generator=g) * scale
+    d = (centres - x).norm(dim=1)
+    i, dist = e.nearest(x)
+    # the fused search may pick a different index only on a numerical tie
+    assert float(d[i]) == pytest.approx(float(d.min()), abs=1e-4 * (1 + scale))
+    assert dist == pytest.approx(float(d[i]), abs=1e-5)

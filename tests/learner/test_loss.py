@@ -6,6 +6,8 @@ import math
 
 import pytest
 import torch
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from learner_helpers import obs, obs_td, transition
 
 from symrl.learner.loss import TeseoLoss
@@ -141,3 +143,28 @@ def test_cooling_down_to_the_floor(make_policy):
     assert temps[:2] == pytest.approx([0.15, 0.075])
     assert temps[2:] == pytest.approx([0.05] * 4)
     assert math.isclose(min(temps), 0.05)
+
+
+# make_policy is a factory (each example builds its own policy), so sharing it is safe.
+@settings(
+    max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    u_prev=st.floats(-15.0, 0.0),
+    u_next=st.floats(-15.0, 0.0),
+    mu=st.floats(-0.5, 0.5),
+    r=st.floats(-4.0, 0.0),
+)
+def test_update_matches_autograd_oracle_everywhere(make_policy, u_prev, u_next, mu, r):
+    p, a, b = _two_neurons(make_policy, u_prev=u_prev, u_next=u_next, mu=mu)
+    td = transition(p, a, b, reward=r)
+    xi, sigma = float(td["xi"][0]), float(td["sigma"][0])
+    cfg = p.config
+    u_new, mu_new, delta = _oracle(u_prev, u_next, mu, sigma, xi, r, cfg.gamma, cfg.eta, cfg.beta)
+    TeseoLoss(p)(td)
+    rows = p.experts[0].rows
+    if abs(delta) > cfg.error_threshold:  # error-driven growth instead of adaptation
+        assert len(p.experts[0]) == 3 and rows.utilities[0] == pytest.approx(u_prev, abs=1e-5)
+    else:
+        assert rows.utilities[0] == pytest.approx(u_new, abs=1e-4)
+        assert rows.means[0] == pytest.approx(mu_new, abs=1e-4)
