@@ -99,6 +99,8 @@ class LearnerConfig:
     """A sub-goal nearer than this (m, odometry) is reached: aim at the goal for the visit."""
     option_critic: Literal["mean", "best"] = "mean"
     """Option critic: mean return-to-go over its trials, or the best single one (literal-style)."""
+    option_risk: float = 0.0
+    """Greedy option score = mean - option_risk * sd of its returns (prefers steady options)."""
     subgoal_past: bool = True
     """A region also gets the points just past the passage it is entered through (keeps the
     robot off the far door post when it turns to the goal)."""
@@ -227,6 +229,7 @@ class RunConfig:
                 ">= 0",
             ),
             ("learner.option_reach", lc.option_reach, lc.option_reach >= 0, ">= 0"),
+            ("learner.option_risk", lc.option_risk, lc.option_risk >= 0, ">= 0"),
             ("run.image_every", self.run.image_every, self.run.image_every >= 1, ">= 1"),
         ]
         for key, value, ok, rule in checks:

@@ -55,6 +55,11 @@ class OptionConfig:
     noise) or "best" (the best single return, the literal "keep the best trial" reading, which
     locks onto lucky trials; kept for the ablation)."""
 
+    risk: float = 0.0
+    """Greedy choice scores an option by its mean minus ``risk`` times the spread (sd) of its
+    returns: rare collisions make an option's returns spread, so risk > 0 prefers the steady
+    options. 0: the mean alone."""
+
     prior: str = "order"
     """Tie-break among untried/equal options: "order" (table order, goal first) or "random"."""
 
@@ -71,6 +76,8 @@ class OptionConfig:
             )
         if not (self.reach >= 0.0 and math.isfinite(self.reach)):
             raise ValueError(f"OptionConfig.reach must be a number >= 0, got {self.reach!r}")
+        if not (self.risk >= 0.0 and math.isfinite(self.risk)):
+            raise ValueError(f"OptionConfig.risk must be a number >= 0, got {self.risk!r}")
         if not 0.0 < self.gamma <= 1.0:
             raise ValueError(f"OptionConfig.gamma must be in (0, 1], got {self.gamma!r}")
         if self.critic not in ("mean", "best"):
@@ -95,6 +102,7 @@ class OptionLearner:
         generator: torch.Generator | None = None,
         q: torch.Tensor | None = None,
         n: torch.Tensor | None = None,
+        m2: torch.Tensor | None = None,
     ) -> None:
         self.table = table
         self.goal = (float(goal[0]), float(goal[1]))
@@ -104,6 +112,8 @@ class OptionLearner:
         # q, n may be a module's buffers (saved with a checkpoint); they are updated in place.
         self.q = q if q is not None else torch.zeros(shape, dtype=torch.float64)
         self.n = n if n is not None else torch.zeros(shape, dtype=torch.long)
+        # sum of squared deviations of the returns (Welford), for the risk-aware score
+        self.m2 = m2 if m2 is not None else torch.zeros(shape, dtype=torch.float64)
         if self.q.shape != shape or self.n.shape != shape:
             raise ValueError(f"OptionLearner: q and n must have shape {tuple(shape)}")
         self.epsilon = self.config.epsilon
@@ -135,7 +145,7 @@ class OptionLearner:
         elif not greedy_only and self._uniform() < self.epsilon:
             option = int(options[self._randint(options.numel())])
         else:
-            q = torch.where(self.n[region] > 0, self.q[region], -math.inf)
+            q = torch.where(self.n[region] > 0, self.score(region), -math.inf)
             q = torch.where(valid, q, -math.inf)
             if bool(torch.isinf(q).all()):
                 option = self._pick(options)
@@ -177,7 +187,9 @@ class OptionLearner:
                 if count == 1 or ret > float(self.q[region, option]):
                     self.q[region, option] = ret
             else:
-                self.q[region, option] += (ret - float(self.q[region, option])) / count
+                old = float(self.q[region, option])
+                self.q[region, option] += (ret - old) / count
+                self.m2[region, option] += (ret - old) * (ret - float(self.q[region, option]))
         self.trials += 1
         self.epsilon *= self.config.epsilon_decay
         out = {"epsilon": self.epsilon}
@@ -188,9 +200,18 @@ class OptionLearner:
 
     # --- helpers -----------------------------------------------------------------------------
 
+    def score(self, region: int) -> torch.Tensor:
+        """Greedy score of every option of ``region``: mean - risk * sd of its returns."""
+        if self.config.risk == 0.0:
+            return self.q[region]
+        n = self.n[region].clamp_min(1).to(torch.float64)
+        sd = (self.m2[region] / n).clamp_min(0.0).sqrt()
+        return self.q[region] - self.config.risk * sd
+
     def greedy(self) -> list[int]:
         """The option each region would choose greedily now (-1 if none tried)."""
-        q = torch.where((self.n > 0) & self.table.valid, self.q, -math.inf)
+        scores = torch.stack([self.score(r) for r in range(self.q.shape[0])])
+        q = torch.where((self.n > 0) & self.table.valid, scores, -math.inf)
         best = q.argmax(dim=1)
         return [int(b) if bool(torch.isfinite(q[r, b])) else -1 for r, b in enumerate(best)]
 
@@ -227,9 +248,12 @@ class OptionSteering(nn.Module):
         shape = self.table.valid.shape
         self.register_buffer("q", torch.zeros(shape, dtype=torch.float64))
         self.register_buffer("n", torch.zeros(shape, dtype=torch.long))
+        self.register_buffer("m2", torch.zeros(shape, dtype=torch.float64))
         generator = torch.Generator().manual_seed(int(seed) + 7919)  # own stream, not the neurons'
         goal = (world.goal.x, world.goal.y)
-        self.learner = OptionLearner(self.table, goal, config, generator, q=self.q, n=self.n)
+        self.learner = OptionLearner(
+            self.table, goal, config, generator, q=self.q, n=self.n, m2=self.m2
+        )
 
     @classmethod
     def from_learner_config(cls, lc: object, world: WorldMap, seed: int = 0) -> OptionSteering:
@@ -241,6 +265,7 @@ class OptionSteering(nn.Module):
             try_untried=lc.option_try_untried,
             reach=lc.option_reach,
             critic=lc.option_critic,
+            risk=lc.option_risk,
         )
         return cls(world, config, SubgoalConfig(past=lc.subgoal_past), seed)
 
@@ -258,4 +283,8 @@ class OptionSteering(nn.Module):
 
     def _load_from_state_dict(self, *args, **kwargs) -> None:  # type: ignore[override]
         super()._load_from_state_dict(*args, **kwargs)
-        self.learner.q, self.learner.n = self.q, self.n  # copy_ keeps them shared; be explicit
+        self.learner.q, self.learner.n, self.learner.m2 = (
+            self.q,
+            self.n,
+            self.m2,
+        )  # copy_ keeps them shared; be explicit
