@@ -89,7 +89,14 @@ class Perception(NamedTuple):
 
 
 class MixtureOfExpertsPolicy(TensorDictModuleBase):
-    """Region-gated growing RBF experts acting through Gullapalli's Gaussian unit (Eq. 6)."""
+    """Region-gated growing RBF experts acting through Gullapalli's Gaussian unit (Eq. 6).
+
+    Reads the observation keys (``sonar``, ``ir``, ``bumper``, ``odometry``, ``goal``) of an
+    unbatched tensordict and writes (``spec`` describes them): ``action`` (1,) float32 in
+    [-pi, pi]; ``region`` (map region id), ``expert`` (expert index), ``winner`` (neuron index,
+    -1 if none) as long scalars; ``x`` (32,) the input; ``xi`` and ``sigma`` the exploration
+    draw and its std (0 when greedy); ``grown`` whether a neuron was grown for this state.
+    """
 
     in_keys = list(OBS_KEYS)
     out_keys = ["action", "region", "expert", "winner", "x", "xi", "sigma", "grown"]
