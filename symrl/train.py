@@ -313,7 +313,7 @@ def load_checkpoint(path: str | Path):
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"checkpoint {str(path)!r}: no such file")
-    data = torch.load(path, map_location="cpu", weights_only=False)
+    data = torch.load(path, map_location="cpu", weights_only=True)  # tensors + plain config
     if not isinstance(data, dict) or "config" not in data or "state_dict" not in data:
         raise ValueError(f"checkpoint {str(path)!r}: not written by symrl train")
     cfg = dict(data["config"])

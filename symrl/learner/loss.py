@@ -52,7 +52,10 @@ class TeseoLoss(LossModule):
 
     @torch.no_grad()
     def forward(self, td: TensorDictBase) -> TensorDictBase:
-        """Update the previous winner from one transition (batch [1] from the collector, or [])."""
+        """Update the previous winner from one transition (batch [1] from the collector, or []).
+
+        Returns ``td_error`` (delta), ``new_neurons`` (grown while processing this transition:
+        at the next state if novel, or error-driven at the previous one) and ``neurons``."""
         policy = self.policy
         delta, grown = self.update(td)
         return TensorDict(
