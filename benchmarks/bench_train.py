@@ -6,6 +6,7 @@ Prints, in one run (so machine load affects every line alike):
   1. the raw gymnasium env loop (random small actions, no learner),
   2. a TorchRL Collector over the same env with a trivial policy (the Collector's floor),
   3. the full ``symrl.train.train`` loop (Collector + policy + TESEO update + trial records),
+  4. the same learner stepped by hand (``env.step_and_maybe_reset``, no Collector, no records),
 and for the full loop the time per step in: env physics, gate (region + input coding), winner
 search, growth (new neurons, incl. the reflex), the policy's forward, the update, trial
 bookkeeping, and what is left (Collector / TorchRL overhead). Timers are wrapped around class
@@ -69,6 +70,32 @@ def collector_floor(config, steps: int) -> float:
     rates = n / (time.perf_counter() - t), n / (time.process_time() - c)
     collector.shutdown()
     return rates
+
+
+def hand_loop(config) -> tuple[float, float]:
+    """The same learner without the Collector: ``env.step_and_maybe_reset`` by hand."""
+    from symrl.learner.loss import TeseoLoss
+    from symrl.train import make_env, make_policy, seed_everything
+
+    seed_everything(config.run.seed)
+    env = make_env(config)
+    env.set_seed(config.run.seed)
+    base = env._env.unwrapped
+    policy = make_policy(config, world=base.world, robot=base.robot)
+    loss = TeseoLoss(policy)
+    td = env.reset()
+    trials = frames = 0
+    t, c = time.perf_counter(), time.process_time()
+    while trials < config.run.trials:
+        policy(td)
+        transition, td = env.step_and_maybe_reset(td)
+        loss.update(transition)
+        frames += 1
+        if transition.get(("next", "done")).item():
+            loss.end_trial({"reached_goal": transition.get(("next", "reached_goal")).item(),
+                            "total_reinforcement": -1e9})  # fmt: skip
+            trials += 1
+    return frames / (time.perf_counter() - t), frames / (time.process_time() - c)
 
 
 def full_loop(config) -> tuple[tuple[float, float], int, list]:
@@ -142,6 +169,7 @@ def main() -> None:
 
     raw = median([raw_env(2000) for _ in range(args.repeats)])
     floor = median([collector_floor(config, 1500) for _ in range(args.repeats)])
+    hand = median([hand_loop(config) for _ in range(args.repeats)])
     runs = [full_loop(config) for _ in range(args.repeats)]
     full = median([r[0] for r in runs])
     frames, trials = runs[0][1], runs[0][2]
@@ -151,6 +179,7 @@ def main() -> None:
         ("raw gymnasium env (random actions)", raw),
         ("Collector + trivial policy (TorchRL floor)", floor),
         ("full training loop (symrl.train.train)", full),
+        ("same learner, hand loop without Collector", hand),
     ]:
         print(f"{label:<46}{wall:>9.0f}{1e6 / wall:>9.0f}{cpu:>13.0f}{1e6 / cpu:>13.0f}")
     print(
