@@ -32,7 +32,7 @@ def test_wrapped_env_specs():
 @pytest.mark.parametrize("recipe", RECIPES)
 def test_every_recipe_trains_from_the_command_line(recipe, tmp_path, capsys):
     out = tmp_path / recipe
-    assert main(["train", recipe, *SHORT, "--trials", "2", "--logdir", str(out)]) == 0
+    assert main(["train", recipe, "--trials", "2", "--logdir", str(out), *SHORT]) == 0
     for name in ("trials.csv", "config.yaml", "checkpoint.pt", "trajectory.png"):
         assert (out / name).is_file(), name
     assert list((out / "tb").glob("events.out.tfevents.*"))
