@@ -20,8 +20,8 @@ COMMANDS = {
     "study": "symrl study paper --sets 10 --trials 20 --seed 100 --out results/study-paper",
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ppo": "symrl baseline ppo --episodes {episodes} --seeds 100 --out results/baseline-ppo",
-    "generalise": "symrl generalise --recipe paper --sets 5 --trials 20 --seed 100 "
-    "--out results/generalise",
+    "generalise": "symrl generalise --recipe {recipe} --sets 5 --trials 20 --seed 100 "
+    "--workers 2 --out results/generalise-{recipe}",
 }
 """The commands whose folders this report reads (the PPO budget is read from its summary)."""
 
@@ -181,22 +181,41 @@ def _ppo_partial(folder: Path) -> str:
 
 
 def _section_generalise(results: Path, figures: Path) -> list[str]:
-    folder = results / "generalise"
-    out = ["## Generalisation (`symrl generalise`)", "",
-           f"Command: `{COMMANDS['generalise']}`", ""]
-    data = _load(folder / "generalise.json")
-    if data is None:
-        return out + ["*Not run yet.*", ""]
-    out += [
-        (folder / "generalise.md").read_text(),
-        f"Wall time {data['wall_time_s']} s.",
-        "",
-        _fig(folder / "starts.png", figures, "generalise-starts.png"),
-        "",
-        _fig(folder / "obstacle.png", figures, "generalise-obstacle.png"),
-        "",
-    ]
+    out = ["## Generalisation (`symrl generalise`)", ""]
+    for recipe in ("paper", "paper_literal"):
+        folder = results / f"generalise-{recipe}"
+        out += [f"### `{recipe}`", "", f"Command: `{COMMANDS['generalise'].format(recipe=recipe)}`",
+                ""]
+        data = _load(folder / "generalise.json")
+        if data is None:
+            out += ["*Not run yet.*", ""]
+            continue
+        out += [
+            (folder / "generalise.md").read_text(),
+            f"Wall time {data['wall_time_s']} s.",
+            "",
+            _fig(folder / "starts.png", figures, f"generalise-{recipe}-starts.png"),
+            "",
+            _fig(folder / "obstacle.png", figures, f"generalise-{recipe}-obstacle.png"),
+            "",
+        ]
     return out
+
+
+def _provenance() -> str:
+    """Which code made the numbers: the commit, and the last commit of the `paper` recipe."""
+    import subprocess
+
+    def git(*args: str) -> str:
+        try:
+            return subprocess.run(["git", *args], capture_output=True, text=True,
+                                  check=True).stdout.strip()
+        except (OSError, subprocess.CalledProcessError):
+            return "unknown"
+
+    recipe = git("log", "-1", "--format=%h %s", "--", "symrl/recipes/paper.yaml")
+    return (f"Code at commit `{git('rev-parse', '--short', 'HEAD')}`; "
+            f"`symrl/recipes/paper.yaml` last changed in `{recipe}`.")
 
 
 def build(results: Path = Path("results"), figures: Path = Path("docs/figures")) -> str:
@@ -212,6 +231,7 @@ def build(results: Path = Path("results"), figures: Path = Path("docs/figures"))
         "reinforcement -6.24 (var 0.875).",
         "",
     ]
+    lines += [_provenance(), ""]
     for section in (_section_plan, _section_study, _section_ablate, _section_ppo,
                     _section_generalise):
         lines += section(results, figures)
