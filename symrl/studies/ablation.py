@@ -28,6 +28,7 @@ from symrl.studies.repeatability import (
     PAPER_TABLE1,
     SetResult,
     StudyResult,
+    _start_summary,
     curves,
     optimum,
     read_trials_csv,
@@ -155,6 +156,8 @@ def run_ablation(
         rows = [r for s in sets_r for r in s.rows]
         table = table1(rows)
         table.update(paper=PAPER_TABLE1, optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1])
+        table["other_starts"] = _start_summary(sets_r)
+        table["cpu_time_s"] = round(sum(s.wall_time for s in sets_r), 1)
         study = StudyResult(
             recipe, sets_r, table, Path(out) / recipe if out else None,
             sum(s.wall_time for s in sets_r),

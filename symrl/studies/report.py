@@ -17,7 +17,9 @@ from typing import Any
 
 COMMANDS = {
     "plan": "symrl plan --out results/plan",
-    "study": "symrl study paper --sets 10 --trials 20 --seed 100 --out results/study-paper",
+    "study": "symrl ablate --recipes paper --sets 10 --trials 20 --seed 100 --out results/ablate "
+    "(the same runs as `symrl study paper --sets 10 --trials 20 --seed 100`, whose folder is "
+    "results/ablate/paper)",
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ppo": "symrl baseline ppo --episodes {episodes} --seeds 100 --out results/baseline-ppo",
     "generalise": "symrl generalise --recipe {recipe} --sets 5 --trials 20 --seed 100 "
@@ -71,7 +73,7 @@ def _section_plan(results: Path, figures: Path) -> list[str]:
 
 
 def _section_study(results: Path, figures: Path) -> list[str]:
-    folder = results / "study-paper"
+    folder = results / "ablate" / "paper"
     out = ["## Table 1 and Figs 5-9: the `paper` recipe (`symrl study paper`)", "",
            f"Command: `{COMMANDS['study']}`", ""]
     table = _load(folder / "table1.json")
@@ -79,8 +81,8 @@ def _section_study(results: Path, figures: Path) -> list[str]:
         return out + ["*Not run yet.*", ""]
     out += [
         (folder / "table1.md").read_text(),
-        f"Wall time {table['wall_time_s']} s on 2 shared cores; seeds {table['seeds'][0]}-"
-        f"{table['seeds'][1]}.",
+        f"CPU time {table.get('cpu_time_s', table.get('wall_time_s'))} s (sum over sets, 2 "
+        f"shared cores); seeds {table['seeds'][0]}-{table['seeds'][1]}.",
         "",
         "Learning curves (Figs 7-9; mean over sets, bars min-max):",
         "",
