@@ -398,15 +398,21 @@ def _write_outputs(result: TrainResult) -> None:
 
 
 def write_trials_csv(path: Path, trials: list[dict[str, Any]]) -> None:
-    """One row per trial, every scalar column (paths and ghosts left out)."""
+    """One row per trial, every scalar column (paths and ghosts left out). Columns are the union
+    over trials in first-seen order (a variant may add keys only in some trials); gaps stay empty.
+    """
     if not trials:
         return
-    columns = [k for k in trials[0] if not isinstance(trials[0][k], (list, tuple, dict))]
+    columns: dict[str, None] = {}
+    for row in trials:
+        for k, v in row.items():
+            if not isinstance(v, (list, tuple, dict)):
+                columns.setdefault(k)
     with open(path, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
+        writer = csv.DictWriter(fh, fieldnames=list(columns), extrasaction="ignore")
         writer.writeheader()
         for row in trials:
-            writer.writerow({k: _fmt(row[k]) for k in columns})
+            writer.writerow({k: _fmt(row[k]) for k in columns if k in row})
 
 
 def _fmt(value: Any) -> Any:

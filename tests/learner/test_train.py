@@ -89,3 +89,18 @@ def test_evaluate_command(tmp_path, capsys):
     code = main(["evaluate", str(out / "checkpoint.pt"), "--start", "0,0.5,0", "--out", str(out)])
     assert code == 0 and (out / "evaluate.png").is_file()
     assert "greedy trial" in capsys.readouterr().out
+
+
+def test_trials_csv_takes_the_union_of_columns(tmp_path):
+    from symrl.train import write_trials_csv
+
+    write_trials_csv(
+        tmp_path / "t.csv",
+        [{"trial": 1, "steps": 30, "path": [(0, 0)]}, {"trial": 2, "steps": 31, "extra": 0.5}],
+    )
+    with open(tmp_path / "t.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert rows == [
+        {"trial": "1", "steps": "30", "extra": ""},
+        {"trial": "2", "steps": "31", "extra": "0.5"},
+    ]
