@@ -47,6 +47,11 @@ class SubgoalConfig:
     """A region also gets the points past (``beyond`` > 0) the passage it is entered through:
     steering there first keeps the robot off the passage's far post when it turns to the goal."""
 
+    through: float = 0.0
+    """A point short of this distance past its line gets a follow-up point this far past the line
+    (same position along it): once the robot reaches the first, it steers through the passage
+    instead of turning at once to the goal and into the post. 0: the follow-up is the goal."""
+
     merge: float = 0.15
     """Candidates closer than this to an earlier one (of the same region) are dropped."""
 
@@ -172,6 +177,8 @@ class SubgoalTable:
     points: torch.Tensor
     valid: torch.Tensor
     labels: list[list[str]]
+    then: torch.Tensor | None = None
+    """(R, K, 2) where to steer once ``points`` is reached (the goal when None or equal)."""
 
     @property
     def counts(self) -> torch.Tensor:
@@ -184,6 +191,13 @@ class SubgoalTable:
         x, y = self.points[region, option].tolist()
         return float(x), float(y)
 
+    def then_point(self, region: int, option: int) -> tuple[float, float] | None:
+        """The follow-up point of an option, or None if it is the goal."""
+        if self.then is None or not bool(self.valid[region, option]):
+            return None
+        x, y = self.then[region, option].tolist()
+        return None if bool(torch.isnan(self.then[region, option]).any()) else (x, y)
+
 
 def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> SubgoalTable:
     """The sub-goal table of ``world``: per region, the goal plus points of the bottleneck
@@ -194,8 +208,10 @@ def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> Subg
     dist = _goal_distances(world, [(p.before, p.after) for p in passages])
     goal = (world.goal.x, world.goal.y)
     per_region: list[list[tuple[tuple[float, float], str]]] = []
+    follow: list[dict[int, tuple[float, float]]] = []
     for region in world.regions.names:
         cands: list[tuple[tuple[float, float], str]] = []
+        nexts: dict[int, tuple[float, float]] = {}
         if config.include_goal:
             cands.append((goal, "goal"))
         for p in passages:
@@ -216,16 +232,22 @@ def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> Subg
                         continue
                     if any(math.dist(xy, q) < config.merge for q, _ in cands):
                         continue
+                    if config.through > d:
+                        nexts[len(cands)] = p.point(centre + sign * f * half, config.through)
                     cands.append((xy, f"{p.line}@{f:+.1f}/{d:.1f}"))
         if not cands:
             raise ValueError(f"build_subgoals: region {region!r} has no candidate sub-goal")
         per_region.append(cands)
+        follow.append(nexts)
     k = max(len(c) for c in per_region)
     points = torch.zeros(len(per_region), k, 2)
     valid = torch.zeros(len(per_region), k, dtype=torch.bool)
+    then = torch.full((len(per_region), k, 2), float("nan"))
     for r, cands in enumerate(per_region):
         for j, (xy, _) in enumerate(cands):
             points[r, j] = torch.tensor(xy)
             valid[r, j] = True
+            if j in follow[r]:
+                then[r, j] = torch.tensor(follow[r][j])
     labels = [[name for _, name in cands] for cands in per_region]
-    return SubgoalTable(tuple(world.regions.names), points, valid, labels)
+    return SubgoalTable(tuple(world.regions.names), points, valid, labels, then)

@@ -126,7 +126,7 @@ class OptionLearner:
         """Forget this trial's choices; the critic and epsilon carry over."""
         self.choice: dict[int, int] = {}
         self.entry: dict[int, int] = {}
-        self.reached: set[int] = set()
+        self.stage = 0
         self.rewards: list[float] = []
         self._region: int | None = None
 
@@ -158,17 +158,22 @@ class OptionLearner:
     def target(self, region: int, x: float, y: float, greedy: bool = False) -> tuple[float, float]:
         """The point the reflex should aim at from odometry ``(x, y)`` in ``region``."""
         if region != self._region:
-            self.reached.discard(region)  # a new visit aims at the sub-goal again
+            self.stage = 0  # a new visit aims at the sub-goal again
             self._region = region
         option = self.choose(region, greedy)
-        goal = self.goal
-        if region in self.reached:
-            return goal
-        px, py = self.table.point(region, option)
-        if math.hypot(px - x, py - y) < self.config.reach:
-            self.reached.add(region)
-            return goal
-        return px, py
+        # stage 0: the option's point; 1: its follow-up through the passage; 2: the goal
+        while self.stage < 2:
+            if self.stage == 0:
+                point = self.table.point(region, option)
+            else:
+                point = self.table.then_point(region, option)
+                if point is None:
+                    break
+            if math.hypot(point[0] - x, point[1] - y) >= self.config.reach:
+                return point
+            self.stage += 1
+        self.stage = 2
+        return self.goal
 
     def record(self, reward: float) -> None:
         """The reinforcement of the step just taken."""

@@ -121,3 +121,17 @@ def test_config_rejects_bad_values():
         SubgoalConfig(resolution=0)
     with pytest.raises(ValueError, match="along"):
         SubgoalConfig(along=())
+
+
+def test_through_gives_follow_up_points_past_the_line(world):
+    plain = build_subgoals(world)
+    assert all(
+        plain.then_point(r, k) is None
+        for r in range(len(plain.region_names))
+        for k in range(int(plain.counts[r]))
+    )
+    table = build_subgoals(world, SubgoalConfig(through=0.4))
+    room = table.region_names.index("room")
+    k = table.labels[room].index("l2@+0.0/0.0")  # the door centre on l2
+    assert table.then_point(room, k) == pytest.approx((3.9, -0.5))
+    assert table.then_point(room, 0) is None  # the goal has no follow-up

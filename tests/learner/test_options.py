@@ -144,3 +144,16 @@ def test_greedy_flag_and_shared_buffers():
     assert int(n[0, 2]) == 2 and float(q[0, 2]) == pytest.approx(-2.5)  # updated in place
     with pytest.raises(ValueError, match="shape"):
         OptionLearner(_table(), GOAL, q=torch.zeros(3, 3, dtype=torch.float64))
+
+
+def test_follow_up_point_before_the_goal():
+    table = _table()
+    table.then = torch.full((2, 3, 2), float("nan"))
+    table.then[0, 1] = torch.tensor([3.9, -0.5])
+    learner = OptionLearner(table, GOAL, OptionConfig(epsilon=0.0, reach=0.25))
+    learner.n[0] = 1
+    learner.q[0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+    assert learner.target(0, 0.0, 0.0) == pytest.approx((3.5, -0.5))
+    assert learner.target(0, 3.4, -0.5) == pytest.approx((3.9, -0.5))  # reached: go through
+    assert learner.target(0, 3.5, -0.5) == pytest.approx((3.9, -0.5))
+    assert learner.target(0, 3.8, -0.5) == GOAL  # follow-up reached
