@@ -98,11 +98,11 @@ def plot_curves(
         mean = np.nanmean(v, axis=0)
         lo, hi = np.nanmin(v, axis=0), np.nanmax(v, axis=0)
         ax.errorbar(trials, mean, yerr=[mean - lo, hi - mean], fmt="o-", ms=3, capsize=2)
-        for label, value in (reference or {}).items():
-            if label.startswith(name + ":"):
-                ax.axhline(value, ls="--", lw=1, color="0.4")
-                ax.annotate(label.split(":", 1)[1], (trials[-1], value), fontsize=7,
-                            ha="right", va="bottom", color="0.3")
+        refs = [(k, v) for k, v in (reference or {}).items() if k.startswith(name + ":")]
+        for i, (label, value) in enumerate(refs):  # labels alternate ends so they never overlap
+            ax.axhline(value, ls="--", lw=1, color="0.4")
+            ax.annotate(label.split(":", 1)[1], (trials[-1] if i % 2 == 0 else trials[0], value),
+                        fontsize=7, ha="right" if i % 2 == 0 else "left", va="bottom", color="0.3")
         ax.set_xlabel("trial")
         ax.set_ylabel(name.replace("_", " "))
     if title:
