@@ -140,7 +140,7 @@ def _section_ppo(results: Path, figures: Path) -> list[str]:
     out = ["## Baseline: PPO from TorchRL (`symrl baseline ppo`)", "",
            f"Command: `{COMMANDS['ppo'].format(episodes=episodes)}`", ""]
     if data is None:
-        return out + [_ppo_partial(folder)]
+        return out + [_ppo_partial(folder, figures)]
     cfg = data["runs"][0]["config"]
     out += [
         f"Settings: {cfg['frames_per_batch']} frames per update, {cfg['epochs']} epochs, "
@@ -157,17 +157,19 @@ def _section_ppo(results: Path, figures: Path) -> list[str]:
     return out
 
 
-def _ppo_partial(folder: Path) -> str:
-    """Summary of an unfinished PPO run from its per-episode CSV logs."""
-    from symrl.studies.ppo import first_reliable
+def _ppo_partial(folder: Path, figures: Path) -> str:
+    """Summary (and learning-curve figure) of an unfinished PPO run from its per-episode logs."""
+    from symrl.studies.ppo import _plot, first_reliable
     from symrl.studies.repeatability import read_trials_csv
 
     logs = sorted(folder.glob("episodes-seed*.csv"))
     if not logs:
         return "*Not run yet.*\n"
     lines = ["*The run did not finish before the deadline; from its per-episode log:*", ""]
+    runs = []
     for log in logs:
         rows = read_trials_csv(log)
+        runs.append({"seed": int(rows[0]["seed"]) if rows else 0, "rows": rows})
         reached = [bool(r["reached_goal"]) for r in rows]
         last = rows[-20:]
         first = next((int(r["episode"]) for r in rows if r["reached_goal"]), None)
@@ -179,6 +181,10 @@ def _ppo_partial(folder: Path) -> str:
             f"{sum(r['steps'] for r in last) / max(len(last), 1):.1f}, mean total reinforcement "
             f"{sum(r['total_reinforcement'] for r in last) / max(len(last), 1):.2f}."
         )
+    if any(r["rows"] for r in runs):
+        figures.mkdir(parents=True, exist_ok=True)
+        _plot([r for r in runs if r["rows"]], figures / "ppo.png")
+        lines += ["", "![ppo.png](docs/figures/ppo.png)"]
     return "\n".join(lines) + "\n"
 
 
