@@ -27,6 +27,9 @@ COMMANDS = {
 }
 """The commands whose folders this report reads (the PPO budget is read from its summary)."""
 
+PPO_EPISODES = 800
+"""The PPO budget that was started (used when the run was cut short and wrote no summary)."""
+
 INTERPRETATION = Path(__file__).with_name("results_discussion.md")
 """Hand-written discussion appended to the generated report (what reproduces and what not)."""
 
@@ -136,7 +139,7 @@ def _section_ablate(results: Path, figures: Path) -> list[str]:
 def _section_ppo(results: Path, figures: Path) -> list[str]:
     folder = results / "baseline-ppo"
     data = _load(folder / "summary.json")
-    episodes = data["runs"][0]["config"]["episodes"] if data else "N"
+    episodes = data["runs"][0]["config"]["episodes"] if data else PPO_EPISODES
     out = ["## Baseline: PPO from TorchRL (`symrl baseline ppo`)", "",
            f"Command: `{COMMANDS['ppo'].format(episodes=episodes)}`", ""]
     if data is None:
@@ -179,7 +182,9 @@ def _ppo_partial(folder: Path, figures: Path) -> str:
             f"first reliable (>= 80% of 20): {first_reliable(reached) or 'never'}; last 20: "
             f"{sum(bool(r['reached_goal']) for r in last)}/{len(last)} reached, mean steps "
             f"{sum(r['steps'] for r in last) / max(len(last), 1):.1f}, mean total reinforcement "
-            f"{sum(r['total_reinforcement'] for r in last) / max(len(last), 1):.2f}."
+            f"{sum(r['total_reinforcement'] for r in last) / max(len(last), 1):.2f}. "
+            f"In its first 20 episodes (our learner's budget): "
+            f"{sum(reached[:20])}/{min(20, len(rows))} reached the goal."
         )
     if any(r["rows"] for r in runs):
         figures.mkdir(parents=True, exist_ok=True)
