@@ -197,9 +197,14 @@ def _merge(
     seeds (so one recipe, e.g. ``paper``, can be re-run alone); recipes in RECIPES order."""
     old_path = out / "summary.json"
     merged: dict[str, Any] = {}
+    runs: list[dict[str, Any]] = []
     if old_path.is_file():
         old = json.loads(old_path.read_text())
         same = old.get("_seeds") == summary["_seeds"]
+        runs = [
+            r for r in old.get("_runs", [])
+            if same and not set(r["recipes"]) <= {k for k in summary if not k.startswith("_")}
+        ]
         for recipe, s in old.items():
             if (
                 not recipe.startswith("_") and recipe not in summary and same
@@ -211,6 +216,8 @@ def _merge(
     order = {r: i for i, r in enumerate(RECIPES)}
     result = dict(sorted(merged.items(), key=lambda kv: order.get(kv[0], len(order))))
     result.update({k: v for k, v in summary.items() if k.startswith("_")})
+    ran = [k for k in summary if not k.startswith("_")]
+    result["_runs"] = [*runs, {"recipes": ran, "wall_time_s": summary["_wall_time_s"]}]
     return result
 
 

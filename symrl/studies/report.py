@@ -17,9 +17,7 @@ from typing import Any
 
 COMMANDS = {
     "plan": "symrl plan --out results/plan",
-    "study": "symrl ablate --recipes paper --sets 10 --trials 20 --seed 100 --out results/ablate "
-    "(the same runs as `symrl study paper --sets 10 --trials 20 --seed 100`, whose folder is "
-    "results/ablate/paper)",
+    "study": "symrl ablate --recipes paper --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ppo": "symrl baseline ppo --episodes {episodes} --seeds 100 --out results/baseline-ppo",
     "generalise": "symrl generalise --recipe {recipe} --sets 5 --trials 20 --seed 100 "
@@ -78,7 +76,8 @@ def _section_plan(results: Path, figures: Path) -> list[str]:
 def _section_study(results: Path, figures: Path) -> list[str]:
     folder = results / "ablate" / "paper"
     out = ["## Table 1 and Figs 5-9: the `paper` recipe (`symrl study paper`)", "",
-           f"Command: `{COMMANDS['study']}`", ""]
+           f"Command: `{COMMANDS['study']}` (the same runs as `symrl study paper --sets 10 "
+           "--trials 20 --seed 100`; its folder is `results/ablate/paper`)", ""]
     table = _load(folder / "table1.json")
     if table is None:
         return out + ["*Not run yet.*", ""]
@@ -121,8 +120,10 @@ def _section_ablate(results: Path, figures: Path) -> list[str]:
         "trials (a failed trial counts with its 200 actions). First success: first trial that "
         "reached the goal (sets that never did in brackets).",
         "",
-        f"CPU time per recipe (sum over its sets): {cpu}. Seeds {summary['_seeds'][0]}-"
-        f"{summary['_seeds'][1]}.",
+        f"CPU time per recipe (sum over its sets): {cpu}. Wall time (2 workers): "
+        + "; ".join(f"{', '.join(r['recipes'])}: {r['wall_time_s']:.0f} s"
+                    for r in summary.get("_runs", []))
+        + f". Seeds {summary['_seeds'][0]}-{summary['_seeds'][1]}.",
         "",
         _fig(folder / "comparison.png", figures, "ablate-comparison.png"),
         "",
