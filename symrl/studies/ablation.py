@@ -29,6 +29,7 @@ from symrl.studies.repeatability import (
     SetResult,
     StudyResult,
     _start_summary,
+    code_version,
     curves,
     optimum,
     read_trials_csv,
@@ -146,6 +147,7 @@ def run_ablation(
         for r in recipes
         for k in range(sets)
     ]
+    code = code_version()
     results: list[SetResult] = run_sets(jobs, workers, desc="ablate")
     wall = time.perf_counter() - t0
     opt = optimum()
@@ -157,6 +159,7 @@ def run_ablation(
         table = table1(rows)
         table.update(paper=PAPER_TABLE1, optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1])
         table["other_starts"] = _start_summary(sets_r)
+        table["code"] = code
         table["cpu_time_s"] = round(sum(s.wall_time for s in sets_r), 1)
         study = StudyResult(
             recipe, sets_r, table, Path(out) / recipe if out else None,
@@ -165,6 +168,7 @@ def run_ablation(
         studies[recipe] = study
         summary[recipe] = summarise(rows)
         summary[recipe]["cpu_time_s"] = round(study.wall_time, 1)
+        summary[recipe]["code"] = code
     summary["_optimum"] = opt
     summary["_seeds"] = [seed, seed + sets - 1]
     summary["_wall_time_s"] = round(wall, 1)

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from symrl.studies.ablation import summarise
-from symrl.studies.repeatability import OTHER_STARTS, run_sets
+from symrl.studies.repeatability import OTHER_STARTS, code_version, run_sets
 
 __all__ = ["STARTS", "OBSTACLE", "NOISE_LEVELS", "transfer_set", "run_generalisation",
            "generalise_command"]
@@ -120,6 +120,7 @@ def run_generalisation(
     if sets < 1 or trials < 1:
         raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
     t0 = time.perf_counter()
+    code = code_version()
     transfer = run_sets(
         [{"recipe": recipe, "index": k, "seed": seed + k, "trials": trials} for k in range(sets)],
         workers, desc="generalise: transfer", fn=transfer_set,
@@ -133,6 +134,7 @@ def run_generalisation(
     noisy = run_sets(jobs, workers, desc="generalise: noise")
     report: dict[str, Any] = {
         "recipe": recipe, "sets": sets, "trials": trials, "seeds": [seed, seed + sets - 1],
+        "code": code,
         "obstacle": OBSTACLE, "starts": [], "noise": [],
     }
     for who in ("learned", "reflex_only"):
@@ -169,8 +171,8 @@ def markdown(report: dict[str, Any]) -> str:
     """The three tables of the generalisation study."""
     lines = [
         f"Recipe `{report['recipe']}`, {report['sets']} sets x {report['trials']} trials, seeds "
-        f"{report['seeds'][0]}-{report['seeds'][1]}; greedy runs with noise on. Cells: reached the "
-        "goal / runs (mean actions when reached).",
+        f"{report['seeds'][0]}-{report['seeds'][1]}, code `{report.get('code', '?')}`; greedy "
+        "runs with noise on. Cells: reached the goal / runs (mean actions when reached).",
         "",
         "| start pose | near the learned route | learned controller | reflex alone |",
         "| --- | --- | ---: | ---: |",

@@ -258,6 +258,21 @@ def read_trials_csv(path: Path | str) -> list[dict[str, Any]]:
         return [{k: num(v) for k, v in r.items()} for r in csv.DictReader(fh)]
 
 
+def code_version() -> str:
+    """The git commit the numbers come from, ``+dirty`` if ``symrl/`` has uncommitted changes."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[2]
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, check=True,
+                              capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "symrl"], cwd=root,
+                               check=True, capture_output=True, text=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return head + ("+dirty" if dirty else "")
+
+
 @functools.lru_cache(maxsize=1)
 def _optimum() -> tuple[int, float]:
     from symrl.studies.planner import shortest_path
@@ -329,6 +344,7 @@ def run_study(
     table["paper"] = PAPER_TABLE1
     table["optimum"] = opt
     table["recipe"] = recipe
+    table["code"] = code_version()
     table["seeds"] = [seed, seed + sets - 1]
     table["overrides"] = list(overrides)
     table["other_starts"] = _start_summary(results)
