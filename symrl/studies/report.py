@@ -131,7 +131,7 @@ def _section_ablate(results: Path, figures: Path) -> list[str]:
     for recipe in ("paper_literal",):
         t = folder / recipe / "table1.md"
         if t.is_file():
-            out += [f"Table 1 for `{recipe}`:", "", t.read_text(), ""]
+            out += [t.read_text(), ""]
             name = f"ablate-{recipe}-curves.png"
             out += [_fig(folder / recipe / "curves.png", figures, name), ""]
     return out
