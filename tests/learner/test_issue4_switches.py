@@ -1,0 +1,155 @@
+"""Every switch of the paper recipe (issue #4) pinned through the real policy, loss and train()."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import torch
+from learner_helpers import obs, obs_td, transition
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+from symrl.learner.config import LearnerConfig, load_config
+from symrl.learner.loss import TeseoLoss
+
+ROOM_POSE = (0.0, 0.0, 0.0)
+
+
+def test_defaults_are_literal_and_the_paper_recipe_sets_the_switches():
+    literal = load_config("paper_literal").learner
+    assert not literal.options and not literal.residual
+    paper = load_config("paper").learner
+    assert paper.options and paper.residual and paper.subgoal_past
+    assert paper.option_critic == "mean" and paper.option_try_untried
+    assert (paper.temperature0, paper.temperature_min) == (0.1, 0.0)
+
+
+def test_options_off_steers_at_the_goal(make_policy):
+    policy = make_policy()
+    assert policy.options is None
+    o = obs(pose=ROOM_POSE, goal=(4.5, -0.46))
+    assert policy.reflex_target(o, 0) == pytest.approx(-0.46)
+
+
+def test_options_on_steers_at_the_chosen_subgoal(make_policy):
+    policy = make_policy(options=True)
+    table = policy.options.table
+    policy.options.n.fill_(1)  # every option tried: greedy on q
+    room = policy.region_names.index("room")
+    k = table.labels[room].index("l2@+0.0/0.0")  # the door centre (3.5, -0.5)
+    policy.options.q[room, k] = 1.0
+    o = obs(pose=ROOM_POSE, goal=(4.5, -0.46))
+    with set_exploration_type(ExplorationType.DETERMINISTIC):
+        angle = policy.reflex_target(o, room)
+    assert angle == pytest.approx(math.atan2(-0.5, 3.5), abs=1e-6)
+
+
+def test_option_critic_learns_from_the_loss_rewards_and_end_trial(make_policy):
+    policy = make_policy(options=True, residual=True)
+    loss = TeseoLoss(policy)
+    a, b = obs(pose=ROOM_POSE), obs(pose=(0.2, 0.0, 0.0))
+    for reward in (-1.0, -2.0):
+        loss.update(transition(policy, a, b, reward))
+    record = {"reached_goal": True, "total_reinforcement": -3.0}
+    loss.end_trial(record)
+    room = policy.region_names.index("room")
+    option = int(record["option_room"])  # the option chosen this trial is in the record
+    assert int(policy.options.n[room, option]) == 1
+    assert float(policy.options.q[room, option]) == pytest.approx(-3.0)
+    assert record["epsilon"] == pytest.approx(0.3 * 0.8)
+
+
+def test_option_switches_reach_the_option_learner(make_policy):
+    policy = make_policy(
+        options=True,
+        option_epsilon=0.5,
+        option_epsilon_decay=0.9,
+        option_greedy_after=7,
+        option_try_untried=False,
+        option_reach=0.4,
+        option_critic="best",
+        option_risk=0.5,
+    )
+    cfg = policy.options.learner.config
+    assert (cfg.epsilon, cfg.epsilon_decay, cfg.greedy_after) == (0.5, 0.9, 7)
+    assert (cfg.try_untried, cfg.reach, cfg.critic, cfg.risk) == (False, 0.4, "best", 0.5)
+
+
+def test_subgoal_past_gives_the_corridor_points_past_the_door(make_policy):
+    corridor = make_policy().region_names.index("corridor")
+    with_past = make_policy(options=True).options.table
+    without = make_policy(options=True, subgoal_past=False).options.table
+    assert int(with_past.counts[corridor]) > 1
+    assert int(without.counts[corridor]) == 1
+
+
+def test_residual_new_neurons_start_at_zero_and_act_on_top_of_the_reflex(make_policy):
+    policy = make_policy(residual=True, temperature0=0.0)
+    o = obs(pose=ROOM_POSE, goal=(4.5, -0.46))
+    assert policy.new_neuron_action(o, 0) == 0.0
+    td = policy(obs_td(o))  # grows the first neuron (p = 0)
+    reflex = policy.reflex_action(o, int(td["expert"]))
+    assert float(td["action"]) == pytest.approx(reflex, abs=1e-6)
+    expert = policy.experts[int(td["expert"])]
+    expert.rows.actions[0] = 0.25  # a learned correction
+    with set_exploration_type(ExplorationType.DETERMINISTIC):
+        td = policy(obs_td(o))
+    assert float(td["action"]) == pytest.approx(reflex + 0.25, abs=1e-6)
+
+
+def test_residual_without_reflex_keeps_random_new_actions(make_policy):
+    policy = make_policy(residual=True, reflex=False)
+    actions = {policy.new_neuron_action(obs(), 0) for _ in range(5)}
+    assert len(actions) == 5 and 0.0 not in actions
+
+
+def test_absolute_actions_when_residual_is_off(make_policy):
+    policy = make_policy(temperature0=0.0)
+    o = obs(pose=ROOM_POSE, goal=(4.5, -0.46))
+    policy(obs_td(o))
+    policy.experts[0].rows.actions[0] = 0.25
+    with set_exploration_type(ExplorationType.DETERMINISTIC):
+        td = policy(obs_td(o))
+    assert float(td["action"]) == pytest.approx(0.25, abs=1e-6)
+
+
+def test_checkpoint_keeps_the_option_critic(make_policy):
+    policy = make_policy(options=True)
+    policy.options.q[0, 1] = -4.5
+    policy.options.n[0, 1] = 3
+    fresh = make_policy(options=True)
+    fresh.load_state_dict(policy.state_dict())
+    assert float(fresh.options.q[0, 1]) == -4.5 and int(fresh.options.n[0, 1]) == 3
+    assert fresh.options.learner.q is fresh.options.q
+
+
+def test_short_paper_run_is_deterministic_and_records_options():
+    from symrl.train import train
+
+    config = load_config("paper", ["run.trials=3", "run.seed=5"])
+    a = train(config, progress=False).trials
+    b = train(load_config("paper", ["run.trials=3", "run.seed=5"]), progress=False).trials
+    assert [t["total_reinforcement"] for t in a] == [t["total_reinforcement"] for t in b]
+    assert all("option_room" in t for t in a)
+    assert all(t["reached_goal"] for t in a)
+
+
+def test_config_rejects_bad_option_values():
+    from symrl.learner.config import ConfigError
+
+    with pytest.raises(ConfigError, match="option_epsilon"):
+        load_config("paper", ["learner.option_epsilon=1.5"])
+    with pytest.raises(ConfigError, match="option_critic"):
+        load_config("paper", ["learner.option_critic=max"])
+    assert isinstance(LearnerConfig().options, bool)
+
+
+def test_greedy_option_choice_does_not_consume_exploration(make_policy):
+    policy = make_policy(options=True, option_epsilon=1.0, option_try_untried=False)
+    policy.options.n.fill_(1)
+    policy.options.q[0] = torch.linspace(-9, 0, policy.options.q.shape[1], dtype=torch.float64)
+    policy.options.q[0, ~policy.options.table.valid[0]] = -100.0
+    best = int(torch.where(policy.options.table.valid[0], policy.options.q[0], -1e9).argmax())
+    with set_exploration_type(ExplorationType.DETERMINISTIC):
+        policy.reflex_target(obs(pose=ROOM_POSE), 0)
+    assert policy.options.learner.choice[0] == best
