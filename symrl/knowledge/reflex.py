@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import torch
 from torch import nn
@@ -210,6 +211,14 @@ class FuzzyReflex(nn.Module):
     to the input's dtype, so float32 observations and float64 tests both compute exactly):
       ``sector_mask`` (S, N) bool, ``near_ab`` (S, 2), ``pos``/``neg`` (K, S) bool literals,
       ``rule_out`` (K, 3) rule weight on its output set, ``peaks`` (3,).
+
+    These buffers (the ``state_dict``) are compiled once more into the few index tensors the
+    hot path runs on: sector rays as one padded ``(S, M)`` index (a sector's distance is one
+    gather and one ``amin``), rule antecedents as one padded ``(K, L)`` index into the literal
+    vector ``(mu, 1 - mu)`` (a rule's strength is one gather and one ``amin``). Padding repeats
+    an index of the same row, so a min over the padded row is the min over the set. Constants
+    are cast to each input dtype/device once and cached. A single-sample call is ~30 tensor
+    ops instead of ~60, with the same numbers bit for bit (tests/knowledge/test_reflex.py).
     """
 
     sector_mask: torch.Tensor
@@ -248,25 +257,52 @@ class FuzzyReflex(nn.Module):
         self.register_buffer("neg", neg)
         self.register_buffer("rule_out", rule_out)
         self.register_buffer("peaks", torch.tensor(config.peaks, dtype=torch.float64))
+        self._consts: dict[tuple[torch.dtype, torch.device], _Compiled] = {}
+        self._plain: _Plain | None = None
+
+    # --- the compiled rule base -------------------------------------------------------------
+
+    def _compiled(self, like: torch.Tensor) -> _Compiled:
+        """Index tensors and constants for inputs of ``like``'s dtype and device (cached)."""
+        key = (like.dtype, like.device)
+        consts = self._consts.get(key)
+        if consts is None:
+            consts = self._consts[key] = _Compiled.build(self, like.dtype, like.device)
+        return consts
+
+    def _apply(self, fn, recurse=True):  # .to() / .double() / .cuda(): recompile lazily
+        self._consts, self._plain = {}, None
+        return super()._apply(fn, recurse)
+
+    def _load_from_state_dict(self, *args, **kwargs):  # type: ignore[override]
+        self._consts, self._plain = {}, None
+        super()._load_from_state_dict(*args, **kwargs)
 
     # --- the two behaviours -----------------------------------------------------------------
 
     def near(self, sonar: torch.Tensor) -> torch.Tensor:
         """NEAR membership of every sector ``(..., S)`` from normalised sonars ``(..., N)``."""
-        dist = sonar * self.config.sonar_range
-        # Sector distance = min over its rays; rays outside the sector count as +inf.
-        masked = torch.where(self.sector_mask, dist.unsqueeze(-2), torch.inf)
-        sector = masked.amin(dim=-1)
-        ab = self.near_ab.to(dist.dtype)
-        a, b = ab[:, 0], ab[:, 1]
-        return ((b - sector) / (b - a)).clamp(0.0, 1.0)
+        return self._near(sonar, self._compiled(sonar))
+
+    def _near(self, sonar: torch.Tensor, c: _Compiled) -> torch.Tensor:
+        # Sector distance = min over its rays (one gather of the padded index, one amin).
+        # Scaling after the min is exact: rounding x -> x * range is monotone.
+        rays = sonar.index_select(-1, c.rays).unflatten(-1, c.rays_shape)
+        sector = rays.amin(dim=-1) * self.config.sonar_range
+        return torch.sub(c.b, sector).div_(c.b_minus_a).clamp_(0.0, 1.0)
 
     def avoid(self, sonar: torch.Tensor) -> torch.Tensor:
         """Obstacle-avoidance activations ``(..., 3)``: min for AND, 1 - x for NOT, max per set."""
-        mu = self.near(sonar).unsqueeze(-2)  # (..., 1, S)
-        literal = torch.where(self.pos, mu, torch.where(self.neg, 1.0 - mu, 1.0))  # (..., K, S)
-        strength = literal.amin(dim=-1)  # (..., K)
-        return (strength.unsqueeze(-1) * self.rule_out.to(strength.dtype)).amax(dim=-2)
+        return self._avoid(sonar, self._compiled(sonar))
+
+    def _avoid(self, sonar: torch.Tensor, c: _Compiled) -> torch.Tensor:
+        mu = self._near(sonar, c)
+        literals = torch.cat((mu, torch.rsub(mu, 1.0)), dim=-1)  # (..., 2S): mu, then NOT mu
+        if c.always_true:  # a rule without antecedent (only from hand-made buffers): 1.0
+            literals = torch.cat((literals, torch.ones_like(mu[..., :1])), dim=-1)
+        strength = literals.index_select(-1, c.literals).unflatten(-1, c.literals_shape)
+        strength = strength.amin(dim=-1)  # (..., K)
+        return (strength.unsqueeze(-1) * c.rule_out).amax(dim=-2)
 
     def follow(self, goal_angle: torch.Tensor) -> torch.Tensor:
         """Goal-following activations ``(..., 3)`` from the signed goal angle (left positive).
@@ -275,23 +311,75 @@ class FuzzyReflex(nn.Module):
         """
         wrapped = torch.atan2(torch.sin(goal_angle), torch.cos(goal_angle))
         t = wrapped / self.config.goal_span
-        return torch.stack(
-            [t.clamp(0.0, 1.0), (1.0 - t.abs()).clamp(0.0, 1.0), (-t).clamp(0.0, 1.0)], dim=-1
-        )
+        return torch.stack((t, torch.rsub(t.abs(), 1.0), t.neg()), dim=-1).clamp_(0.0, 1.0)
 
     # --- fusion and defuzzification ---------------------------------------------------------
 
     def fused(self, sonar: torch.Tensor, goal_angle: torch.Tensor) -> torch.Tensor:
         """alpha_f = d_a * alpha_a + d_g * alpha_g (Eq. 5): ``(..., 3)`` (LEFT, FORWARD, RIGHT)."""
         sonar, goal_angle = self._check(sonar, goal_angle)
-        return self.config.d_a * self.avoid(sonar) + self.config.d_g * self.follow(goal_angle)
+        return self._fused(sonar, goal_angle, self._compiled(sonar))
+
+    def _fused(self, sonar: torch.Tensor, goal_angle: torch.Tensor, c: _Compiled) -> torch.Tensor:
+        cfg = self.config
+        return self._avoid(sonar, c).mul_(cfg.d_a).add_(self.follow(goal_angle).mul_(cfg.d_g))
 
     def forward(self, sonar: torch.Tensor, goal_angle: torch.Tensor) -> torch.Tensor:
-        """Height defuzzification: sum(alpha_f * peak) / sum(alpha_f); 0 (ahead) if all silent."""
-        f = self.fused(sonar, goal_angle)
-        total = f.sum(dim=-1)
-        angle = (f * self.peaks.to(f.dtype)).sum(dim=-1) / total.clamp_min(1e-12)
-        return torch.where(total > 0, angle, torch.zeros_like(angle))
+        """Height defuzzification: sum(alpha_f * peak) / sum(alpha_f); 0 (ahead) if all silent.
+
+        All activations are >= 0, so when they are all 0 the numerator is 0 too and the
+        quotient by the clamped total is already the 0 of "all silent"."""
+        if (
+            type(sonar) is torch.Tensor
+            and sonar.dtype is torch.float64
+            and sonar.dim() == 1
+            and type(goal_angle) is torch.Tensor
+            and goal_angle.dtype is torch.float64
+            and goal_angle.dim() == 0
+            and sonar.device.type == "cpu"
+            and goal_angle.device.type == "cpu"
+            and not (sonar.requires_grad or goal_angle.requires_grad)
+        ):  # one float64 sample (the learner's call): plain floats, ~10x fewer dispatches
+            return torch.tensor(self._single(sonar, goal_angle), dtype=torch.float64)
+        sonar, goal_angle = self._check(sonar, goal_angle)
+        c = self._compiled(sonar)
+        f = self._fused(sonar, goal_angle, c)
+        total = f.sum(dim=-1).clamp_min_(1e-12)
+        return (f * c.peaks).sum(dim=-1).div_(total)
+
+    def _single(self, sonar: torch.Tensor, goal_angle: torch.Tensor) -> float:
+        """The crisp angle of one float64 sample with Python floats (same numbers bit for bit as
+        the tensor path, ``tests/knowledge/test_reflex_compiled.py``): the same operations in
+        the same order, in IEEE double; sin and cos stay torch ops, as their results differ
+        from libm's in the last bit for ~0.1% of angles (atan2's do not)."""
+        p = self._plain
+        if p is None:
+            p = self._plain = _Plain.build(self)
+        s = sonar.tolist()
+        if len(s) != p.n_rays:
+            raise ValueError(
+                f"FuzzyReflex: sonar must have shape (..., {p.n_rays}), got {tuple(sonar.shape)}"
+            )
+        g = goal_angle.item()
+        if not math.isfinite(sum(s) + g) and not all(map(math.isfinite, (*s, g))):
+            raise ValueError("FuzzyReflex: sonar or goal_angle contains a non-finite value")
+        # NEAR per sector, then 1 - NEAR: the literal vector (mu, 1 - mu[, 1])
+        mu = []
+        for rays, b, b_minus_a in p.sectors:
+            v = (b - min([s[k] for k in rays]) * p.sonar_range) / b_minus_a
+            mu.append(min(max(v, 0.0), 1.0))
+        literals = mu + [1.0 - m for m in mu] + [1.0]
+        strength = [min([literals[i] for i in rule]) for rule in p.rules]
+        d_a, d_g = p.d_a, p.d_g
+        avoid = [
+            max([st * w for st, w in zip(strength, col, strict=True)]) * d_a for col in p.rule_out
+        ]
+        wrapped = math.atan2(torch.sin(goal_angle).item(), torch.cos(goal_angle).item())
+        t = wrapped / p.goal_span
+        follow = (min(max(t, 0.0), 1.0), min(max(1.0 - abs(t), 0.0), 1.0), min(max(-t, 0.0), 1.0))
+        f0, f1, f2 = (a + fo * d_g for a, fo in zip(avoid, follow, strict=True))
+        p0, p1, p2 = p.peaks
+        return (f0 * p0 + f1 * p1 + f2 * p2) / max(f0 + f1 + f2, 1e-12)
 
     def _check(
         self, sonar: torch.Tensor, goal_angle: torch.Tensor
@@ -303,18 +391,120 @@ class FuzzyReflex(nn.Module):
                 f"FuzzyReflex: sonar must have shape (..., {self.config.n_rays}), "
                 f"got {tuple(sonar.shape)}"
             )
-        goal_angle = torch.as_tensor(goal_angle, dtype=sonar.dtype, device=sonar.device)
-        try:
-            batch = torch.broadcast_shapes(sonar.shape[:-1], goal_angle.shape)
-        except RuntimeError:
-            raise ValueError(
-                f"FuzzyReflex: goal_angle shape {tuple(goal_angle.shape)} does not match the "
-                f"sonar batch shape {tuple(sonar.shape[:-1])}"
-            ) from None
-        if not (bool(torch.isfinite(sonar).all()) and bool(torch.isfinite(goal_angle).all())):
+        if (
+            not isinstance(goal_angle, torch.Tensor)
+            or goal_angle.dtype != sonar.dtype
+            or goal_angle.device != sonar.device
+        ):
+            goal_angle = torch.as_tensor(goal_angle, dtype=sonar.dtype, device=sonar.device)
+        batch = sonar.shape[:-1]
+        if goal_angle.shape != batch:
+            try:
+                batch = torch.broadcast_shapes(batch, goal_angle.shape)
+            except RuntimeError:
+                raise ValueError(
+                    f"FuzzyReflex: goal_angle shape {tuple(goal_angle.shape)} does not match the "
+                    f"sonar batch shape {tuple(sonar.shape[:-1])}"
+                ) from None
+            sonar, goal_angle = sonar.expand(*batch, sonar.shape[-1]), goal_angle.expand(batch)
+        # A NaN or inf anywhere makes the sum non-finite (one reduction, one sync); only then
+        # (or if finite values overflow the sum) look element by element.
+        if not math.isfinite(float(sonar.sum()) + float(goal_angle.sum())) and not (
+            bool(torch.isfinite(sonar).all()) and bool(torch.isfinite(goal_angle).all())
+        ):
             raise ValueError("FuzzyReflex: sonar or goal_angle contains a non-finite value")
-        return sonar.expand(*batch, sonar.shape[-1]), goal_angle.expand(batch)
+        return sonar, goal_angle
 
     def extra_repr(self) -> str:
         c = self.config
         return f"sectors={list(self.sector_names)}, rules={len(c.rules)}, d_a={c.d_a}, d_g={c.d_g}"
+
+
+class _Compiled(NamedTuple):
+    """The rule base of one :class:`FuzzyReflex` as index tensors, for one dtype and device."""
+
+    rays: torch.Tensor
+    """(S*M,) long: the rays of each sector, padded to M by repeating the sector's first ray."""
+    rays_shape: tuple[int, int]
+    b: torch.Tensor
+    """(S,) the b of NEAR(a, b) per sector."""
+    b_minus_a: torch.Tensor
+    """(S,) b - a, computed in the input dtype (as the uncompiled formula did)."""
+    literals: torch.Tensor
+    """(K*L,) long into (mu_1..mu_S, 1-mu_1..1-mu_S[, 1]): each rule's literals, padded."""
+    literals_shape: tuple[int, int]
+    always_true: bool
+    """Some rule has no literal (index 2S, a constant 1)."""
+    rule_out: torch.Tensor
+    """(K, 3) the rule weight on its output set."""
+    peaks: torch.Tensor
+
+    @classmethod
+    def build(cls, reflex: FuzzyReflex, dtype: torch.dtype, device: torch.device) -> _Compiled:
+        mask = reflex.sector_mask.cpu()
+        sectors = [torch.nonzero(row).flatten().tolist() for row in mask]
+        width = max(len(r) for r in sectors)
+        rays = [r + [r[0]] * (width - len(r)) for r in sectors]
+        n_s = len(sectors)
+        # A literal is mu where `pos`, else 1 - mu where `neg`, else absent (as torch.where did).
+        pos, neg = reflex.pos.cpu(), reflex.neg.cpu()
+        rules = [
+            [s if pos[k, s] else n_s + s for s in range(n_s) if pos[k, s] or neg[k, s]]
+            for k in range(pos.shape[0])
+        ]
+        always_true = any(not r for r in rules)
+        rules = [r or [2 * n_s] for r in rules]
+        length = max(len(r) for r in rules)
+        rules = [r + [r[0]] * (length - len(r)) for r in rules]
+        ab = reflex.near_ab.to(dtype=dtype, device=device)
+        b = ab[:, 1].contiguous()
+        return cls(
+            rays=torch.tensor(rays, dtype=torch.long, device=device).flatten(),
+            rays_shape=(n_s, width),
+            b=b,
+            b_minus_a=(b - ab[:, 0]).contiguous(),
+            literals=torch.tensor(rules, dtype=torch.long, device=device).flatten(),
+            literals_shape=(len(rules), length),
+            always_true=always_true,
+            rule_out=reflex.rule_out.to(dtype=dtype, device=device),
+            peaks=reflex.peaks.to(dtype=dtype, device=device),
+        )
+
+
+class _Plain(NamedTuple):
+    """The rule base of one :class:`FuzzyReflex` as Python numbers (the single-sample path)."""
+
+    n_rays: int
+    sectors: list[tuple[tuple[int, ...], float, float]]
+    """Per sector: its rays, b, and b - a (float64, as the tensor path computes them)."""
+    rules: list[tuple[int, ...]]
+    """Per rule: indices of its literals in (mu_1..mu_S, 1-mu_1..1-mu_S, 1)."""
+    rule_out: list[list[float]]
+    """Per output set, the weight of every rule on it (0 for the other sets' rules)."""
+    peaks: tuple[float, float, float]
+    d_a: float
+    d_g: float
+    sonar_range: float
+    goal_span: float
+
+    @classmethod
+    def build(cls, reflex: FuzzyReflex) -> _Plain:
+        c = _Compiled.build(reflex, torch.float64, torch.device("cpu"))
+        n_s, width = c.rays_shape
+        rays = c.rays.view(n_s, width).tolist()
+        n_k, length = c.literals_shape
+        cfg = reflex.config
+        return cls(
+            n_rays=reflex.sector_mask.shape[1],
+            sectors=[
+                (tuple(r), b, bma)
+                for r, b, bma in zip(rays, c.b.tolist(), c.b_minus_a.tolist(), strict=True)
+            ],
+            rules=[tuple(r) for r in c.literals.view(n_k, length).tolist()],
+            rule_out=c.rule_out.T.tolist(),
+            peaks=tuple(c.peaks.tolist()),
+            d_a=float(cfg.d_a),
+            d_g=float(cfg.d_g),
+            sonar_range=float(cfg.sonar_range),
+            goal_span=float(cfg.goal_span),
+        )
