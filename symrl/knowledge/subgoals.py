@@ -52,6 +52,10 @@ class SubgoalConfig:
     (same position along it): once the robot reaches the first, it steers through the passage
     instead of turning at once to the goal and into the post. 0: the follow-up is the goal."""
 
+    min_clearance: float = 0.0
+    """Candidates closer than this to any wall are dropped (metres from the point to the nearest
+    wall; the robot's centre passes through the point). 0 keeps all."""
+
     merge: float = 0.15
     """Candidates closer than this to an earlier one (of the same region) are dropped."""
 
@@ -127,6 +131,15 @@ def _free_runs(world: WorldMap, axis: int, c: float, eps: float, res: float) -> 
         if key is not None and start is None:
             start = (i, key)
     return runs
+
+
+def _clearance(world: WorldMap, xy: tuple[float, float]) -> float:
+    """Distance from a point to the nearest wall segment."""
+    seg = world.segments
+    a, b = seg[:, :2], seg[:, 2:]
+    d = b - a
+    t = np.clip(((np.asarray(xy) - a) * d).sum(1) / (d * d).sum(1), 0.0, 1.0)
+    return float(np.hypot(*(a + t[:, None] * d - np.asarray(xy)).T).min())
 
 
 def _goal_distances(world: WorldMap, links: list[tuple[str, str]]) -> dict[str, float]:
@@ -229,6 +242,8 @@ def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> Subg
                         continue  # behind the robot: only points past the line count
                     xy = p.point(centre + sign * f * half, d)
                     if not bool(world.in_free_area(*xy)):
+                        continue
+                    if _clearance(world, xy) < config.min_clearance:
                         continue
                     if any(math.dist(xy, q) < config.merge for q, _ in cands):
                         continue

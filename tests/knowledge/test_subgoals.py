@@ -135,3 +135,10 @@ def test_through_gives_follow_up_points_past_the_line(world):
     k = table.labels[room].index("l2@+0.0/0.0")  # the door centre on l2
     assert table.then_point(room, k) == pytest.approx((3.9, -0.5))
     assert table.then_point(room, 0) is None  # the goal has no follow-up
+
+
+def test_min_clearance_drops_points_near_the_posts(world):
+    table = build_subgoals(world, SubgoalConfig(min_clearance=0.45))
+    room = table.region_names.index("room")
+    assert "l2@+0.8/0.0" not in table.labels[room]  # (3.5, -0.69): 0.31 m from the post
+    assert "l2@+0.0/0.0" in table.labels[room]  # the door centre: 0.5 m
