@@ -80,7 +80,8 @@ def make_env(config: RunConfig):
     ``true_pose`` from ``info`` (for the trial table and the path)."""
     from torchrl.data import Unbounded
     from torchrl.envs import GymEnv
-    from torchrl.envs.gym_like import default_info_dict_reader
+
+    from symrl.learner.info_reader import InfoReader
 
     ec = config.env
     env = GymEnv(ENV_ID, map=ec.map, noise=ec.noise, max_actions=ec.max_actions, robot=ec.robot())
@@ -89,7 +90,7 @@ def make_env(config: RunConfig):
         "reached_goal": Unbounded(shape=(), dtype=torch.bool),
         "true_pose": Unbounded(shape=(3,), dtype=torch.float64),
     }
-    env.set_info_dict_reader(default_info_dict_reader(list(info_spec), spec=info_spec))
+    env.set_info_dict_reader(InfoReader(info_spec))  # ~40 us a step cheaper than the default
     return env
 
 
@@ -195,6 +196,9 @@ def train(
         return_same_td=True,  # no copy per step: each transition is consumed before the next
         auto_register_policy_transforms=False,
     )
+    # TorchRL 0.14 scans every key of every batch for private ("_...") keys to drop; ours has
+    # none (the preallocated batch holds the specs' keys), and the scan costs ~100 us a step.
+    collector._exclude_private_keys = False
     logger = _make_logger(config, logdir) if logdir is not None else None
     recorder = TrialRecorder(policy.expert_names)
     trials: list[dict[str, Any]] = []
