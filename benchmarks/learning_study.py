@@ -64,7 +64,7 @@ def run_set(
                 angle = math.remainder(math.atan2(ty - y, tx - x) - h, 2 * math.pi)
             action = float(reflex(torch.from_numpy(obs["sonar"]), torch.tensor(angle)))
             obs, r, term, trunc, info = env.step(np.array([action], dtype=np.float32))
-            learner.record(r)
+            learner.record(r, bool(info["collision"]))
             total += r
             steps += 1
             collisions += int(info["collision"])

@@ -101,6 +101,8 @@ class LearnerConfig:
     """Option critic: mean return-to-go over its trials, or the best single one (literal-style)."""
     option_risk: float = 0.0
     """Greedy option score = mean - option_risk * sd of its returns (prefers steady options)."""
+    option_collision_penalty: float = 0.0
+    """Extra penalty per collision in the option critic's return only (rewards unchanged)."""
     subgoal_past: bool = True
     """A region also gets the points just past the passage it is entered through (keeps the
     robot off the far door post when it turns to the goal)."""
@@ -230,6 +232,12 @@ class RunConfig:
             ),
             ("learner.option_reach", lc.option_reach, lc.option_reach >= 0, ">= 0"),
             ("learner.option_risk", lc.option_risk, lc.option_risk >= 0, ">= 0"),
+            (
+                "learner.option_collision_penalty",
+                lc.option_collision_penalty,
+                lc.option_collision_penalty >= 0,
+                ">= 0",
+            ),
             ("run.image_every", self.run.image_every, self.run.image_every >= 1, ">= 1"),
         ]
         for key, value, ok, rule in checks:

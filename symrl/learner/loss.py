@@ -67,7 +67,11 @@ class TeseoLoss(LossModule):
         """The per-step rules; returns (TD error, neurons grown for this transition)."""
         cfg, policy = self.config, self.policy
         if policy.options is not None:  # the option critics need every reinforcement
-            policy.options.record(float(td.get(("next", "reward")).reshape(-1)[0]))
+            collision = td.get(("next", "collision"), None)
+            policy.options.record(
+                float(td.get(("next", "reward")).reshape(-1)[0]),
+                collision is not None and bool(collision.reshape(-1)[0]),
+            )
         if not cfg.learning:
             return 0.0, 0
         row = 0 if td.batch_dims else None

@@ -60,6 +60,10 @@ class OptionConfig:
     returns: rare collisions make an option's returns spread, so risk > 0 prefers the steady
     options. 0: the mean alone."""
 
+    collision_penalty: float = 0.0
+    """Extra penalty per collision in the option critic's return only (the reward is unchanged):
+    an option seen colliding once drops below the steady ones. 0: the plain return."""
+
     prior: str = "order"
     """Tie-break among untried/equal options: "order" (table order, goal first) or "random"."""
 
@@ -76,6 +80,10 @@ class OptionConfig:
             )
         if not (self.reach >= 0.0 and math.isfinite(self.reach)):
             raise ValueError(f"OptionConfig.reach must be a number >= 0, got {self.reach!r}")
+        if not (self.collision_penalty >= 0.0 and math.isfinite(self.collision_penalty)):
+            raise ValueError(
+                f"OptionConfig.collision_penalty must be >= 0, got {self.collision_penalty!r}"
+            )
         if not (self.risk >= 0.0 and math.isfinite(self.risk)):
             raise ValueError(f"OptionConfig.risk must be a number >= 0, got {self.risk!r}")
         if not 0.0 < self.gamma <= 1.0:
@@ -175,9 +183,10 @@ class OptionLearner:
         self.stage = 2
         return self.goal
 
-    def record(self, reward: float) -> None:
-        """The reinforcement of the step just taken."""
-        self.rewards.append(float(reward))
+    def record(self, reward: float, collision: bool = False) -> None:
+        """The reinforcement of the step just taken (and whether it was a collision)."""
+        penalty = self.config.collision_penalty if collision else 0.0
+        self.rewards.append(float(reward) - penalty)
 
     def end_trial(self) -> dict[str, float]:
         """Update each chosen option's critic with the return-to-go from its region's first
@@ -271,6 +280,7 @@ class OptionSteering(nn.Module):
             reach=lc.option_reach,
             critic=lc.option_critic,
             risk=lc.option_risk,
+            collision_penalty=lc.option_collision_penalty,
         )
         return cls(world, config, SubgoalConfig(past=lc.subgoal_past), seed)
 
@@ -280,8 +290,8 @@ class OptionSteering(nn.Module):
         tx, ty = self.learner.target(region, x, y, greedy)
         return math.remainder(math.atan2(ty - y, tx - x) - heading, 2.0 * math.pi)
 
-    def record(self, reward: float) -> None:
-        self.learner.record(reward)
+    def record(self, reward: float, collision: bool = False) -> None:
+        self.learner.record(reward, collision)
 
     def end_trial(self) -> dict[str, float]:
         return self.learner.end_trial()

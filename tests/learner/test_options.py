@@ -157,3 +157,12 @@ def test_follow_up_point_before_the_goal():
     assert learner.target(0, 3.4, -0.5) == pytest.approx((3.9, -0.5))  # reached: go through
     assert learner.target(0, 3.5, -0.5) == pytest.approx((3.9, -0.5))
     assert learner.target(0, 3.8, -0.5) == GOAL  # follow-up reached
+
+
+def test_collision_penalty_only_in_the_option_critic():
+    learner = OptionLearner(_table(), GOAL, OptionConfig(epsilon=0.0, collision_penalty=5.0))
+    learner.target(0, 0.0, 0.0)
+    learner.record(-3.5, collision=True)
+    learner.record(-0.5)
+    learner.end_trial()
+    assert float(learner.q[0, 0]) == pytest.approx(-9.0)
