@@ -79,12 +79,14 @@ def make_env(config: RunConfig):
     """The world as a TorchRL ``GymEnv`` that also reads ``collision``, ``reached_goal`` and
     ``true_pose`` from ``info`` (for the trial table and the path)."""
     from torchrl.data import Unbounded
-    from torchrl.envs import GymEnv
 
-    from symrl.learner.info_reader import InfoReader
+    from symrl.learner.gym_io import InfoReader, SymrlGymEnv
 
     ec = config.env
-    env = GymEnv(ENV_ID, map=ec.map, noise=ec.noise, max_actions=ec.max_actions, robot=ec.robot())
+    # a GymEnv whose per-step readers skip the generic encoding (same tensors, ~90 us cheaper)
+    env = SymrlGymEnv(
+        ENV_ID, map=ec.map, noise=ec.noise, max_actions=ec.max_actions, robot=ec.robot()
+    )
     info_spec = {
         "collision": Unbounded(shape=(), dtype=torch.bool),
         "reached_goal": Unbounded(shape=(), dtype=torch.bool),
