@@ -2,18 +2,21 @@
 
     python benchmarks/bench_train.py [--recipe paper_literal] [--trials 10] [--repeats 3]
 
-Prints, in one run (so machine load affects every line alike):
-  1. the raw gymnasium env loop (random small actions, no learner),
-  2. a TorchRL Collector over the same env with a trivial policy (the Collector's floor),
+Prints, in one run (so machine load affects every line alike), rates in process CPU time and
+their ratios (the machine is shared: wall-clock rates are printed too, but only CPU time is
+stable):
+  1. the raw gymnasium env loop (random small actions, no learner, no TorchRL),
+  2. a TorchRL Collector over the same env (``symrl.train.make_env``, the training loop's
+     Collector settings) with a do-nothing policy: the ceiling of any learner in this loop,
   3. the full ``symrl.train.train`` loop (Collector + policy + TESEO update + trial records),
-  4. the same learner stepped by hand (``env.step_and_maybe_reset``, no Collector, no records),
-and for the full loop the time per step in: env physics, gate (region + input coding), winner
-search, growth (new neurons, incl. the reflex), the policy's forward, the update, trial
-bookkeeping, and what is left (Collector / TorchRL overhead). Timers are wrapped around class
-methods, so the breakdown run is a little slower than the untimed one printed above it.
+  4. the same learner stepped by hand (``env.step_and_maybe_reset``, no Collector, no records);
+then, for the full loop, the CPU time per step and its share in: env physics, TorchRL's env
+glue (``step_and_maybe_reset`` around the physics), the policy's forward, the update (and
+inside it the gate, winner search, growth and the fuzzy reflex), trial bookkeeping, and what is
+left (the Collector: batch stacking, iteration). Timers are wrapped around methods, so the
+instrumented run is a little slower than the untimed one.
 
-Rates are given in wall-clock and in this process's CPU time: on a shared machine (other jobs
-running) the CPU-time figures are the stable ones; the breakdown uses CPU time.
+The rounds of 1-4 are interleaved (1, 2, 3, 4, 1, 2, ...) and the median of each is printed.
 """
 
 from __future__ import annotations
@@ -65,6 +68,7 @@ def collector_floor(config, steps: int) -> float:
         make_env(config), policy, frames_per_batch=1, total_frames=steps,
         track_traj_ids=False, return_same_td=True, auto_register_policy_transforms=False,
     )  # fmt: skip
+    collector._exclude_private_keys = False  # as in symrl.train.train
     t, c = time.perf_counter(), time.process_time()
     n = sum(1 for _ in collector)
     rates = n / (time.perf_counter() - t), n / (time.process_time() - c)
@@ -112,8 +116,13 @@ TIMES: dict[str, float] = defaultdict(float)
 CALLS: dict[str, int] = defaultdict(int)
 
 
+LABELS: list[str] = []
+TIMES_ORDER: list[str] = []  # labels in the order they were wrapped (the printed order)
+
+
 def _timed(cls, name: str, label: str):
     original = getattr(cls, name)
+    TIMES_ORDER.append(label)
 
     def wrapper(*args, **kwargs):
         t = time.process_time()
@@ -129,6 +138,9 @@ def _timed(cls, name: str, label: str):
 
 @contextmanager
 def instrumented():
+    from torchrl.envs import EnvBase
+
+    from symrl.knowledge.reflex import FuzzyReflex
     from symrl.learner.experts import GrowingRBFExpert
     from symrl.learner.loss import TeseoLoss
     from symrl.learner.policy import MixtureOfExpertsPolicy
@@ -136,21 +148,30 @@ def instrumented():
     from symrl.world.env import Hailu2001Env
 
     patches = [
-        _timed(Hailu2001Env, "step", "env step (physics, sensors, reward)"),
+        _timed(EnvBase, "step_and_maybe_reset", ENV_ALL),
+        _timed(Hailu2001Env, "step", PHYSICS),
         _timed(MixtureOfExpertsPolicy, "forward", "policy forward (incl. its perception)"),
         _timed(TeseoLoss, "update", "update (incl. perceiving the next state)"),
         _timed(MixtureOfExpertsPolicy, "region_of", "  gate: region"),
         _timed(MixtureOfExpertsPolicy, "encode", "  gate: input coding x"),
         _timed(GrowingRBFExpert, "nearest", "  winner search"),
-        _timed(MixtureOfExpertsPolicy, "new_neuron_action", "  growth: new action (reflex)"),
+        _timed(MixtureOfExpertsPolicy, "new_neuron_action", "  growth: new action"),
+        _timed(FuzzyReflex, "forward", "    fuzzy reflex"),
         _timed(GrowingRBFExpert, "add", "  growth: add neuron"),
         _timed(TrialRecorder, "step", "trial bookkeeping"),
     ]
+    LABELS[:] = [label for label in TIMES_ORDER]
     try:
         yield
     finally:
-        for cls, name, original in patches:
+        for cls, name, original in reversed(patches):
             setattr(cls, name, original)
+
+
+ENV_ALL = "env: TorchRL step_and_maybe_reset"
+PHYSICS = "env physics (Hailu2001Env.step)"
+GLUE = "env: TorchRL glue around the physics"
+TOP = (GLUE, PHYSICS, "policy forward", "update", "trial bookkeeping")
 
 
 def main() -> None:
@@ -167,21 +188,32 @@ def main() -> None:
     def median(runs):
         return tuple(statistics.median(r[k] for r in runs) for k in (0, 1))
 
-    raw = median([raw_env(2000) for _ in range(args.repeats)])
-    floor = median([collector_floor(config, 1500) for _ in range(args.repeats)])
-    hand = median([hand_loop(config) for _ in range(args.repeats)])
-    runs = [full_loop(config) for _ in range(args.repeats)]
-    full = median([r[0] for r in runs])
+    rounds: dict[str, list] = defaultdict(list)
+    runs = []
+    for _ in range(args.repeats):  # interleaved, so load changes hit every loop alike
+        rounds["raw"].append(raw_env(2000))
+        rounds["floor"].append(collector_floor(config, 1500))
+        runs.append(full_loop(config))
+        rounds["full"].append(runs[-1][0])
+        rounds["hand"].append(hand_loop(config))
+    rates = {k: median(v) for k, v in rounds.items()}
     frames, trials = runs[0][1], runs[0][2]
     print(f"recipe {args.recipe}, {args.trials} trials ({frames} steps), median of {args.repeats}")
-    print(f"{'loop':<46}{'steps/s':>9}{'us/step':>9}{'CPU steps/s':>13}{'CPU us/step':>13}")
-    for label, (wall, cpu) in [
-        ("raw gymnasium env (random actions)", raw),
-        ("Collector + trivial policy (TorchRL floor)", floor),
-        ("full training loop (symrl.train.train)", full),
-        ("same learner, hand loop without Collector", hand),
+    print(
+        f"{'loop':<46}{'steps/s':>9}{'CPU steps/s':>13}{'CPU us/step':>13}"
+        f"{'/ raw env':>11}{'/ floor':>9}"
+    )
+    for key, label in [
+        ("raw", "raw gymnasium env (random actions)"),
+        ("floor", "Collector + do-nothing policy (the floor)"),
+        ("full", "full training loop (symrl.train.train)"),
+        ("hand", "same learner, hand loop without Collector"),
     ]:
-        print(f"{label:<46}{wall:>9.0f}{1e6 / wall:>9.0f}{cpu:>13.0f}{1e6 / cpu:>13.0f}")
+        wall, cpu = rates[key]
+        print(
+            f"{label:<46}{wall:>9.0f}{cpu:>13.0f}{1e6 / cpu:>13.0f}"
+            f"{cpu / rates['raw'][1]:>11.3f}{cpu / rates['floor'][1]:>9.2f}"
+        )
     print(
         f"last trial: {trials[-1]['steps']} actions, total "
         f"{trials[-1]['total_reinforcement']:.2f}, {trials[-1]['neurons']} neurons"
@@ -193,14 +225,25 @@ def main() -> None:
         _, frames, _ = full_loop(config)
     # the loop's own time (train() starts its clock after building env, policy and Collector)
     total = LOOP_SECONDS[-1]
-    print(f"\nwhere a step's CPU time goes (instrumented run, {frames} steps, "
-          f"{1e6 * total / frames:.0f} us/step):")  # fmt: skip
-    top = ("env step", "policy forward", "update", "trial bookkeeping")
-    accounted = sum(v for k, v in TIMES.items() if k.startswith(top))
-    for label, seconds in TIMES.items():
-        print(f"  {label:<50}{1e6 * seconds / frames:>8.0f} us/step  ({CALLS[label]} calls)")
-    rest = 1e6 * (total - accounted) / frames
-    print(f"  {'Collector / TorchRL overhead (the rest)':<50}{rest:>8.0f} us/step")
+    TIMES[GLUE] = TIMES.pop(ENV_ALL) - TIMES[PHYSICS]
+    CALLS[GLUE] = CALLS.pop(ENV_ALL)
+    print(
+        f"\nwhere a step's CPU time goes (instrumented run, {frames} steps, "
+        f"{1e6 * total / frames:.0f} us/step):"
+    )
+    accounted = sum(v for k, v in TIMES.items() if k.startswith(TOP))
+    order = [GLUE, PHYSICS] + [k for k in LABELS if k not in (ENV_ALL, PHYSICS)]
+    for label in (k for k in order if k in TIMES):
+        seconds = TIMES[label]
+        print(
+            f"  {label:<50}{1e6 * seconds / frames:>8.0f} us/step {100 * seconds / total:>5.1f}%"
+            f"  ({CALLS[label]} calls)"
+        )
+    rest = total - accounted
+    print(
+        f"  {'Collector (batch stacking, iteration): the rest':<50}{1e6 * rest / frames:>8.0f}"
+        f" us/step {100 * rest / total:>5.1f}%"
+    )
 
 
 if __name__ == "__main__":
