@@ -347,6 +347,22 @@ class FuzzyReflex(nn.Module):
         total = f.sum(dim=-1).clamp_min_(1e-12)
         return (f * c.peaks).sum(dim=-1).div_(total)
 
+    def angle(self, sonar: torch.Tensor, goal_angle: float) -> float:
+        """The crisp angle of ONE sample ``sonar (n_rays,)`` as a Python float, computed in
+        float64: the same number as ``float(reflex(sonar.double(), tensor(goal_angle,
+        float64)))``, without the module call, the casts and a grad/inference context (the
+        learner's call, once per new neuron)."""
+        goal = torch.tensor(float(goal_angle), dtype=torch.float64)
+        if (
+            type(sonar) is torch.Tensor
+            and sonar.dim() == 1
+            and sonar.is_floating_point()
+            and sonar.device.type == "cpu"
+        ):  # .tolist() of any float dtype gives the exact values .double() would
+            return self._single(sonar, goal)
+        with torch.no_grad():
+            return float(self(sonar.double(), goal))
+
     def _single(self, sonar: torch.Tensor, goal_angle: torch.Tensor) -> float:
         """The crisp angle of one float64 sample with Python floats (same numbers bit for bit as
         the tensor path, ``tests/knowledge/test_reflex_compiled.py``): the same operations in

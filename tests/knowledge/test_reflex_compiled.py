@@ -106,3 +106,14 @@ def test_compiled_constants_follow_dtype_moves_and_state_dict():
     fresh.load_state_dict(state)
     assert torch.equal(fresh(s, goal), -before)
     assert float(fresh(s[0], goal[0])) == -float(before[0])
+
+
+def test_angle_of_one_sample_is_the_float64_call():
+    reflex = FuzzyReflex()
+    s, goal = samples(2000, torch.float32, seed=3)
+    for i in range(len(s)):
+        g = float(goal[i])
+        expected = float(reflex(s[i].double(), torch.tensor(g, dtype=torch.float64)))
+        assert reflex.angle(s[i], g) == expected, i
+    with pytest.raises(ValueError, match="non-finite"):
+        reflex.angle(torch.ones(24), math.nan)
