@@ -234,12 +234,9 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def reflex_action(self, obs: Observation, expert: int) -> float:
         """The fuzzy reflex's crisp angle for this observation.
 
-        Called in float64 (the reflex's own buffer dtype: no per-call casts) under inference
-        mode: ~25% cheaper, and the reflex is the largest cost of a step in paper_literal."""
-        target = self.reflex_target(obs, expert)
-        with torch.inference_mode():
-            angle = self.reflex(obs.sonar.double(), torch.tensor(target, dtype=torch.float64))
-            return float(angle)
+        Computed in float64 (``FuzzyReflex.angle``: the same number as calling the module on
+        ``sonar.double()``, with plain floats for one sample, ~5x cheaper)."""
+        return self.reflex.angle(obs.sonar, self.reflex_target(obs, expert))
 
     def new_neuron_action(self, obs: Observation, expert: int) -> float:
         """Prototypical action of a new neuron: the reflex's (paper 8.3) or uniform random;
