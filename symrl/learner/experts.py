@@ -77,6 +77,13 @@ class GrowingRBFExpert(nn.Module):
         self.rows = SimpleNamespace(
             **{name: getattr(self, name).numpy() for name in _ROWS if name != "centres"}
         )
+        self._active: tuple[int, torch.Tensor, torch.Tensor] | None = None  # nearest()'s views
+
+    def _apply(self, fn, recurse=True):  # .to() / .float() etc. replace the buffers
+        out = super()._apply(fn, recurse)
+        if self.centres.device.type == "cpu":
+            self._refresh_views()
+        return out
 
     # -- size -----------------------------------------------------------------------------
     def __len__(self) -> int:
@@ -112,9 +119,13 @@ class GrowingRBFExpert(nn.Module):
         n = self._n
         if n == 0:
             return -1, float("inf")
+        active = self._active  # the [:n] views, made once per size instead of every call
+        if active is None or active[0] != n:
+            active = (n, self.sqnorms[:n], self.centres[:n])
+            self.__dict__["_active"] = active  # plain attribute: skips Module.__setattr__
         # argmin_j ||x - c_j||^2 = argmin_j (||c_j||^2 - 2 c_j.x): one fused addmv.
-        i = int(torch.addmv(self.sqnorms[:n], self.centres[:n], x, alpha=-2.0).argmin())
-        return i, float(torch.dist(self.centres[i], x))
+        i = int(torch.addmv(active[1], active[2], x, alpha=-2.0).argmin())
+        return i, float(torch.dist(active[2][i], x))
 
     def is_novel(self, distance: float) -> bool:
         """Distance-driven growth test (paper 8.1): nothing within the novelty radius."""
@@ -145,7 +156,7 @@ class GrowingRBFExpert(nn.Module):
         rows.means[n] = mean
         rows.taken[n] = 0.0
         rows.used[n] = False
-        self._n = n + 1
+        self.__dict__["_n"] = n + 1  # plain attribute: skips Module.__setattr__ (~3 us)
         self.count.fill_(n + 1)
         return n
 
