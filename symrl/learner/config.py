@@ -106,6 +106,12 @@ class LearnerConfig:
     subgoal_past: bool = True
     """A region also gets the points just past the passage it is entered through (keeps the
     robot off the far door post when it turns to the goal)."""
+    subgoal_on_line: bool = True
+    """Offer the sub-goals on a region line itself (the passage centre...); False: only the points
+    0.4 m past the line (reaching a point on the line makes the robot turn to the goal while still
+    in front of the door, into the post)."""
+    subgoal_min_clearance: float = 0.0
+    """Drop sub-goals closer than this to a wall (metres; 0 keeps all)."""
     residual: bool = False
     """Neurons learn a correction added to the reflex's current action (a new neuron's p = 0)
     instead of an absolute action copied from the reflex at its birth; with options on, this
@@ -232,6 +238,12 @@ class RunConfig:
             ),
             ("learner.option_reach", lc.option_reach, lc.option_reach >= 0, ">= 0"),
             ("learner.option_risk", lc.option_risk, lc.option_risk >= 0, ">= 0"),
+            (
+                "learner.subgoal_min_clearance",
+                lc.subgoal_min_clearance,
+                lc.subgoal_min_clearance >= 0,
+                ">= 0",
+            ),
             (
                 "learner.option_collision_penalty",
                 lc.option_collision_penalty,

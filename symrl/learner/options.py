@@ -282,7 +282,12 @@ class OptionSteering(nn.Module):
             risk=lc.option_risk,
             collision_penalty=lc.option_collision_penalty,
         )
-        return cls(world, config, SubgoalConfig(past=lc.subgoal_past), seed)
+        subgoals = SubgoalConfig(
+            past=lc.subgoal_past,
+            beyond=(0.0, 0.4) if lc.subgoal_on_line else (0.4,),
+            min_clearance=lc.subgoal_min_clearance,
+        )
+        return cls(world, config, subgoals, seed)
 
     def angle(self, region: int, odometry: tuple[float, float, float], greedy: bool) -> float:
         """Signed angle (left positive) from the odometry heading to this region's target."""

@@ -22,6 +22,7 @@ def test_defaults_are_literal_and_the_paper_recipe_sets_the_switches():
     assert paper.options and paper.residual and paper.subgoal_past
     assert paper.option_critic == "mean" and paper.option_try_untried
     assert (paper.temperature0, paper.temperature_min) == (0.1, 0.0)
+    assert not paper.subgoal_on_line and paper.subgoal_min_clearance == 0.45
 
 
 def test_options_off_steers_at_the_goal(make_policy):
@@ -153,3 +154,16 @@ def test_greedy_option_choice_does_not_consume_exploration(make_policy):
     with set_exploration_type(ExplorationType.DETERMINISTIC):
         policy.reflex_target(obs(pose=ROOM_POSE), 0)
     assert policy.options.learner.choice[0] == best
+
+
+def test_subgoal_on_line_and_min_clearance_shape_the_table(make_policy):
+    room = make_policy().region_names.index("room")
+    full = make_policy(options=True).options.table.labels[room]
+    assert "l2@+0.0/0.0" in full and "l2@+0.8/0.4" in full
+    past_only = make_policy(options=True, subgoal_on_line=False).options.table.labels[room]
+    assert all(label == "goal" or label.endswith("/0.4") for label in past_only)
+    safe = make_policy(
+        options=True, subgoal_on_line=False, subgoal_min_clearance=0.45
+    ).options.table.labels[room]
+    assert "l2@+0.8/0.4" not in safe  # (3.9, -0.69): 0.34 m from the door post
+    assert "l3@+0.8/0.4" in safe  # (4.15, -0.69): 0.51 m
