@@ -217,8 +217,11 @@ class FuzzyReflex(nn.Module):
     gather and one ``amin``), rule antecedents as one padded ``(K, L)`` index into the literal
     vector ``(mu, 1 - mu)`` (a rule's strength is one gather and one ``amin``). Padding repeats
     an index of the same row, so a min over the padded row is the min over the set. Constants
-    are cast to each input dtype/device once and cached. A single-sample call is ~30 tensor
-    ops instead of ~60, with the same numbers bit for bit (tests/knowledge/test_reflex.py).
+    are cast to each input dtype/device once and cached; the cache is dropped by ``.to()`` /
+    ``.float()`` etc. and ``load_state_dict``; after editing a buffer in place, call
+    :meth:`recompile`. A batched call is ~30 tensor ops instead of ~60; one float64 sample
+    (:meth:`angle`, or the module on a 1-D float64 sonar) runs on Python floats. Both give the
+    same numbers bit for bit as the uncompiled formulas (tests/knowledge/test_reflex_compiled.py).
     """
 
     sector_mask: torch.Tensor
@@ -269,6 +272,10 @@ class FuzzyReflex(nn.Module):
         if consts is None:
             consts = self._consts[key] = _Compiled.build(self, like.dtype, like.device)
         return consts
+
+    def recompile(self) -> None:
+        """Drop the compiled constants (rebuilt from the buffers on the next call)."""
+        self._consts, self._plain = {}, None
 
     def _apply(self, fn, recurse=True):  # .to() / .double() / .cuda(): recompile lazily
         self._consts, self._plain = {}, None

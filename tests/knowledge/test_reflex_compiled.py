@@ -117,3 +117,15 @@ def test_angle_of_one_sample_is_the_float64_call():
         assert reflex.angle(s[i], g) == expected, i
     with pytest.raises(ValueError, match="non-finite"):
         reflex.angle(torch.ones(24), math.nan)
+
+
+def test_recompile_after_editing_a_buffer_in_place():
+    reflex = FuzzyReflex()
+    s, goal = samples(50, torch.float64, seed=4)
+    before = reflex(s, goal)
+    single = reflex.angle(s[0], float(goal[0]))
+    with torch.no_grad():
+        reflex.peaks.neg_()
+    reflex.recompile()
+    assert torch.equal(reflex(s, goal), -before)
+    assert reflex.angle(s[0], float(goal[0])) == -single
