@@ -35,6 +35,10 @@ VARIANTS: dict[str, tuple[str, list[str]]] = {
         ["learner.temperature0=0.3", "learner.temperature_min=0.05"],
     ),
     "paper - subgoal_past": ("paper", ["learner.subgoal_past=false"]),
+    "paper - safe sub-goals": (
+        "paper",
+        ["learner.subgoal_on_line=true", "learner.subgoal_min_clearance=0.0"],
+    ),
     "paper - averaging critic": ("paper", ["learner.option_critic=best"]),
     "paper - try untried first": ("paper", ["learner.option_try_untried=false"]),
     "paper - greedy_after": ("paper", ["learner.option_greedy_after=0"]),
