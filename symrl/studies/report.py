@@ -86,6 +86,8 @@ def _section_study(results: Path, figures: Path) -> list[str]:
         f"CPU time {table.get('cpu_time_s', table.get('wall_time_s'))} s (sum over sets, 2 "
         f"shared cores); seeds {table['seeds'][0]}-{table['seeds'][1]}.",
         "",
+        _study_check(results, table),
+        "",
         "Learning curves (Figs 7-9; mean over sets, bars min-max):",
         "",
         _fig(folder / "curves.png", figures, "study-paper-curves.png"),
@@ -100,6 +102,21 @@ def _section_study(results: Path, figures: Path) -> list[str]:
         "",
     ]
     return out
+
+
+def _study_check(results: Path, table: dict[str, Any]) -> str:
+    """Was `symrl study paper` also run on its own, and did it give the same Table 1?"""
+    alone = _load(results / "study-paper" / "table1.json")
+    if alone is None:
+        return "(`symrl study paper` was not run on its own.)"
+    keys = ("neurons", "steps", "total_reinforcement", "collisions", "path_length")
+    same = all(alone.get(k) == table.get(k) for k in keys) and alone["seeds"] == table["seeds"]
+    return (
+        f"`symrl study paper --sets 10 --trials 20 --seed 100 --workers 2` run on its own: wall "
+        f"time {alone['wall_time_s']} s, code `{alone.get('code', '?')}`; its Table 1 is "
+        + ("identical to the one above." if same else "DIFFERENT from the one above (see "
+           "results/study-paper/table1.md).")
+    )
 
 
 def _section_ablate(results: Path, figures: Path) -> list[str]:
