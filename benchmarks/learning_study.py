@@ -24,7 +24,7 @@ import numpy as np
 import torch
 
 import symrl  # noqa: F401  (registers the env)
-from symrl.knowledge.reflex import FuzzyReflex
+from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
 from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.subgoals import SubgoalConfig, build_subgoals
 from symrl.learner.options import OptionConfig, OptionLearner
@@ -37,12 +37,13 @@ def run_set(
     option_config: OptionConfig,
     subgoal_config: SubgoalConfig,
     noise: bool = True,
+    reflex_config: ReflexConfig | None = None,
 ) -> list[dict]:
     """One set: ``trials`` trials of one learner from scratch; env seeded once with ``seed``."""
     env = gymnasium.make("symrl/Hailu2001-v0", noise=noise).unwrapped
     world = env.world
     mapper = RegionMapper.from_map(world)
-    reflex = FuzzyReflex()
+    reflex = FuzzyReflex(reflex_config)
     table = build_subgoals(world, subgoal_config)
     goal = (world.goal.x, world.goal.y)
     learner = OptionLearner(
@@ -137,14 +138,17 @@ def main() -> None:
     parser.add_argument("--design", choices=["options", "reflex"], default="options")
     parser.add_argument("--seeds", default="0-9")
     parser.add_argument("--trials", type=int, default=20)
-    parser.add_argument("--set", action="append", default=[], help="key=value (option/subgoal)")
+    parser.add_argument(
+        "--set", action="append", default=[], help="key=value (option/subgoal/reflex)"
+    )
     parser.add_argument("--no-noise", action="store_true")
     args = parser.parse_args()
     oc = _apply(OptionConfig(), args.set)
     sc = _apply(SubgoalConfig(), args.set)
+    rc = _apply(ReflexConfig(), args.set)
     t0 = time.time()
     sets = [
-        run_set(s, args.trials, args.design, oc, sc, noise=not args.no_noise)
+        run_set(s, args.trials, args.design, oc, sc, noise=not args.no_noise, reflex_config=rc)
         for s in _seeds(args.seeds)
     ]
     res = summarise(sets)

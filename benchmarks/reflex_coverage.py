@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from symrl.drive import drive
+from symrl.knowledge.reflex import ReflexConfig
 from symrl.world.env import Hailu2001Env
 from symrl.world.worldmap import load_map
 
@@ -68,19 +69,23 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=20, help="noisy trials from the start")
     parser.add_argument("--poses", type=int, default=150, help="random free start poses")
     parser.add_argument("--pose-seed", type=int, default=12345, help="seed of the pose sampler")
+    parser.add_argument("--front-gate", type=float, default=0.0, help="ReflexConfig.front_gate")
     parser.add_argument("--out", default=None, help="write all numbers as JSON here")
     args = parser.parse_args()
 
     t0 = time.perf_counter()
-    noisy = [drive(seed=s, noise=True) for s in range(args.seeds)]
-    clean = drive(seed=0, noise=False)
+    rc = ReflexConfig(front_gate=args.front_gate)
+    noisy = [drive(seed=s, noise=True, reflex_config=rc) for s in range(args.seeds)]
+    clean = drive(seed=0, noise=False, reflex_config=rc)
     print(f"from the start, noise on, seeds 0..{args.seeds - 1}: {describe(noisy)}")
     print(f"from the start, noise off: {describe([clean])}")
 
     poses = random_free_poses(args.poses, args.pose_seed)
     from_poses: dict[str, list[dict]] = {}
     for noise in (False, True):
-        trials = [drive(start=p, seed=i, noise=noise) for i, p in enumerate(poses)]
+        trials = [
+            drive(start=p, seed=i, noise=noise, reflex_config=rc) for i, p in enumerate(poses)
+        ]
         from_poses["noise_on" if noise else "noise_off"] = trials
         slow = sum(t["steps"] > 100 for t in trials)
         print(
