@@ -172,10 +172,30 @@ def _section_ppo(results: Path, figures: Path) -> list[str]:
         f"{cfg['episodes']} episodes (= trials). Wall time {data['wall_time_s']} s.",
         "",
         (folder / "summary.md").read_text(),
+        _ppo_first20(folder),
+        "",
         _fig(folder / "ppo.png", figures, "ppo.png"),
         "",
     ]
     return out
+
+
+def _ppo_first20(folder: Path) -> str:
+    """Successes in the first 20 episodes (our learner's budget), collisions early and late."""
+    from symrl.studies.repeatability import read_trials_csv
+
+    rows = read_trials_csv(folder / "episodes.csv")
+    out = []
+    for seed in sorted({r["seed"] for r in rows}):
+        mine = [r for r in rows if r["seed"] == seed]
+        first, last = mine[:100], mine[-100:]
+        out.append(
+            f"Seed {int(seed)}: {sum(bool(r['reached_goal']) for r in mine[:20])}/20 reached the "
+            f"goal in the first 20 episodes (our learner's budget); mean collisions per episode "
+            f"{sum(r['collisions'] for r in first) / len(first):.2f} in the first 100 episodes, "
+            f"{sum(r['collisions'] for r in last) / len(last):.2f} in the last 100."
+        )
+    return " ".join(out)
 
 
 def _ppo_partial(folder: Path, figures: Path) -> str:
