@@ -323,8 +323,9 @@ def _apply(obj: Any, data: dict[str, Any], prefix: str) -> None:
     for name, value in data.items():
         key = f"{prefix}{name}"
         if name not in names:
+            shown = key if isinstance(value, dict) else f"{key}={value!r}"
             raise ConfigError(
-                f"{key}={value!r}: unknown key; known keys here: {', '.join(sorted(names))}"
+                f"{shown}: unknown key {name!r}; known keys here: {', '.join(sorted(names))}"
             )
         current = getattr(obj, name)
         if dataclasses.is_dataclass(current):
