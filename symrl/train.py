@@ -48,7 +48,7 @@ __all__ = [
 # Keys of a trial record that are scalars (the CSV and TensorBoard columns); `path` and
 # `ghosts` are lists of points.
 _TRIAL_SCALARS = (
-    "trial", "steps", "total_reinforcement", "collisions", "reached_goal", "neurons",
+    "trial", "steps", "total_reinforcement", "collisions", "shielded", "reached_goal", "neurons",
     "temperature", "path_length", "wall_time",
 )  # fmt: skip
 
@@ -123,6 +123,7 @@ class TrialRecorder:
         self.steps = 0
         self.total = 0.0
         self.collisions = 0
+        self.shielded = 0
         self.td_error_abs = 0.0
         self.path: list[tuple[float, float]] = []
         self.ghosts: list[tuple[float, float]] = []
@@ -142,6 +143,7 @@ class TrialRecorder:
         self.steps += 1
         self.total += nxt.get("reward").item()
         self.collisions += int(nxt.get("collision").item())
+        self.shielded += int(td.get("shielded").item())
         x, y, _ = nxt.get("true_pose")[0].tolist()
         self.path.append((x, y))
         self.reached = nxt.get("reached_goal").item()
@@ -156,6 +158,7 @@ class TrialRecorder:
             "collisions": self.collisions,
             "reached_goal": self.reached,
             "neurons": policy.total_neurons(),
+            "shielded": self.shielded,
         }
         for name, n in policy.neurons().items():
             record[f"neurons_{name}"] = n
@@ -294,6 +297,7 @@ def evaluate(
             recorder.steps += 1
             recorder.total += float(reward)
             recorder.collisions += int(info["collision"])
+            recorder.shielded += int(td.get("shielded"))
             recorder.path.append(tuple(float(v) for v in info["true_pose"][:2]))
             recorder.reached = bool(info["reached_goal"])
             done = terminated or truncated
@@ -350,6 +354,7 @@ def _log_trial(logger, config: RunConfig, policy, record: dict[str, Any], last: 
     logger.log_scalar("trial/steps", record["steps"], step=n)
     logger.log_scalar("trial/total_reinforcement", record["total_reinforcement"], step=n)
     logger.log_scalar("trial/collisions", record["collisions"], step=n)
+    logger.log_scalar("trial/shielded", record["shielded"], step=n)
     logger.log_scalar("trial/reached_goal", float(record["reached_goal"]), step=n)
     logger.log_scalar("network/neurons", record["neurons"], step=n)
     for name in policy.expert_names:

@@ -112,6 +112,13 @@ class LearnerConfig:
     in front of the door, into the post)."""
     subgoal_min_clearance: float = 0.0
     """Drop sub-goals closer than this to a wall (metres; 0 keeps all)."""
+    shield: bool = False
+    """Veto moves into walls with the IR ring (``symrl.knowledge.shield``): an action whose move
+    would leave less than ``shield_margin`` rim clearance is replaced by the nearest safe angle.
+    The paper uses the IR only for its emergency reversal after the fact."""
+    shield_margin: float = 0.06
+    """Smallest predicted rim clearance a shielded move may leave (m; a virtual collision is
+    below 0.056)."""
     residual: bool = False
     """Neurons learn a correction added to the reflex's current action (a new neuron's p = 0)
     instead of an absolute action copied from the reflex at its birth; with options on, this
@@ -244,6 +251,7 @@ class RunConfig:
                 lc.subgoal_min_clearance >= 0,
                 ">= 0",
             ),
+            ("learner.shield_margin", lc.shield_margin, lc.shield_margin >= 0, ">= 0"),
             (
                 "learner.option_collision_penalty",
                 lc.option_collision_penalty,

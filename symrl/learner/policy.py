@@ -8,7 +8,9 @@ Per step (``research/ALGORITHM.md`` section 1, steps 1-5 and 7-8):
    same one without partition);
 3. the nearest neuron wins; if there is none within the novelty radius, a neuron is grown at x
    with the reflex's action (or a random one without reflex) and utility r(state);
-4. sigma = T / (1 + e^u), xi ~ N(mu, sigma^2), action = clip(p + xi, -pi, pi).
+4. sigma = T / (1 + e^u), xi ~ N(mu, sigma^2), action = clip(p + xi, -pi, pi);
+5. with ``learner.shield`` the IR shield replaces an action whose move would graze a wall by
+   the nearest safe angle (the neuron remembers the action actually taken).
 
 With TorchRL's exploration type DETERMINISTIC / MODE / MEAN the policy is greedy and read-only:
 action = clip(p + mu, -pi, pi); a situation no neuron covers gets the action a new neuron would
@@ -38,6 +40,7 @@ from torchrl.envs.utils import ExplorationType, exploration_type
 
 from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
 from symrl.knowledge.regions import RegionMapper
+from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.learner.config import LearnerConfig
 from symrl.learner.experts import GrowingRBFExpert
 from symrl.learner.options import OptionSteering
@@ -95,11 +98,12 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     unbatched tensordict and writes (``spec`` describes them): ``action`` (1,) float32 in
     [-pi, pi]; ``region`` (map region id), ``expert`` (expert index), ``winner`` (neuron index,
     -1 if none) as long scalars; ``x`` (32,) the input; ``xi`` and ``sigma`` the exploration
-    draw and its std (0 when greedy); ``grown`` whether a neuron was grown for this state.
+    draw and its std (0 when greedy); ``grown`` whether a neuron was grown for this state;
+    ``shielded`` whether the IR shield replaced the action.
     """
 
     in_keys = list(OBS_KEYS)
-    out_keys = ["action", "region", "expert", "winner", "x", "xi", "sigma", "grown"]
+    out_keys = ["action", "region", "expert", "winner", "x", "xi", "sigma", "grown", "shielded"]
 
     temperature: torch.Tensor
     best_total: torch.Tensor
@@ -149,6 +153,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self.options = (
             OptionSteering.from_learner_config(config, self.world, seed) if config.options else None
         )
+        self.shield = (
+            IRShield(ShieldConfig(margin=config.shield_margin), self.robot)
+            if config.shield
+            else None
+        )
         self._noise = np.empty(0, dtype=np.float32)
         self._noise_at = 0
         self._held: Perception | None = None
@@ -161,6 +170,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             xi=Unbounded(shape=(), dtype=torch.float32),
             sigma=Unbounded(shape=(), dtype=torch.float32),
             grown=Categorical(n=2, shape=(), dtype=torch.bool),
+            shielded=Categorical(n=2, shape=(), dtype=torch.bool),
         )
 
     # -- sizes ----------------------------------------------------------------------------
@@ -289,6 +299,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         greedy = exploration_type() in _GREEDY
         per = self._take_held(obs) or self.perceive(obs, grow=not greedy)
         xi = sigma = 0.0
+        taken = None  # the neuron whose action is remembered, and the base it corrects
         if not self.config.learning:
             alpha = self.reflex_action(obs, per.expert)
         elif per.winner < 0 or (greedy and per.novel):
@@ -308,8 +319,14 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 base = self.reflex_action(obs, per.expert)
             alpha = min(max(base + float(rows.actions[i]) + xi, -_PI), _PI)
             if not greedy:
-                rows.taken[i] = alpha - base  # remembered for action replacement (step 8)
-                rows.used[i] = True
+                taken = (rows, i, base)
+        shielded = False
+        if self.shield is not None:
+            alpha, shielded = self.shield.filter(obs.ir, alpha)
+        if taken is not None:
+            rows, i, base = taken
+            rows.taken[i] = alpha - base  # remembered for action replacement (step 8)
+            rows.used[i] = True
         td.set("action", torch.tensor([alpha], dtype=torch.float32))
         td.set("region", torch.tensor(per.region))
         td.set("expert", torch.tensor(per.expert))
@@ -318,6 +335,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         td.set("xi", torch.tensor(xi, dtype=torch.float32))
         td.set("sigma", torch.tensor(sigma, dtype=torch.float32))
         td.set("grown", torch.tensor(per.grown))
+        td.set("shielded", torch.tensor(shielded))
         return td
 
     # -- trial boundaries -----------------------------------------------------------------

@@ -23,6 +23,7 @@ def test_defaults_are_literal_and_the_paper_recipe_sets_the_switches():
     assert paper.option_critic == "mean" and paper.option_try_untried
     assert (paper.temperature0, paper.temperature_min) == (0.1, 0.0)
     assert not paper.subgoal_on_line and paper.subgoal_min_clearance == 0.45
+    assert paper.shield and paper.shield_margin == 0.06 and not literal.shield
 
 
 def test_options_off_steers_at_the_goal(make_policy):
@@ -127,12 +128,45 @@ def test_checkpoint_keeps_the_option_critic(make_policy):
 def test_short_paper_run_is_deterministic_and_records_options():
     from symrl.train import train
 
-    config = load_config("paper", ["run.trials=3", "run.seed=5"])
+    config = load_config("paper", ["run.trials=3", "run.seed=6"])
     a = train(config, progress=False).trials
-    b = train(load_config("paper", ["run.trials=3", "run.seed=5"]), progress=False).trials
+    b = train(load_config("paper", ["run.trials=3", "run.seed=6"]), progress=False).trials
     assert [t["total_reinforcement"] for t in a] == [t["total_reinforcement"] for t in b]
     assert all("option_room" in t for t in a)
     assert all(t["reached_goal"] for t in a)
+    assert sum(t["shielded"] for t in a) > 0  # the shield is at work ...
+    assert sum(t["collisions"] for t in a) == 0  # ... and nothing collides
+
+
+def _ir_wall_ahead(rim: float = 0.1) -> torch.Tensor:
+    """IR readings of a wall straight ahead (sensors 23, 0, 1) at ``rim`` metres."""
+    from symrl.world.robot import RobotConfig
+
+    ir = torch.zeros(24)
+    ir[[23, 0, 1]] = float(RobotConfig().reflectance(rim))
+    return ir
+
+
+def test_shield_replaces_a_move_into_a_wall_and_the_neuron_remembers_it(make_policy):
+    policy = make_policy(shield=True, residual=True, temperature0=0.0)
+    o = obs(pose=ROOM_POSE, goal=(4.0, 0.0))._replace(ir=_ir_wall_ahead())
+    td = policy(obs_td(o))
+    alpha = float(td["action"])
+    assert bool(td["shielded"]) and abs(alpha) > math.radians(30)
+    expert, winner = int(td["expert"]), int(td["winner"])
+    base = policy.reflex_action(o, expert)
+    rows = policy.experts[expert].rows
+    assert float(rows.taken[winner]) == pytest.approx(alpha - base, abs=1e-6)
+    # off: the same observation is not filtered
+    plain = make_policy(residual=True, temperature0=0.0)(obs_td(o))
+    assert not bool(plain["shielded"])
+
+
+def test_shield_leaves_free_space_moves_alone(make_policy):
+    shielded = make_policy(shield=True)(obs_td(obs(pose=ROOM_POSE)))
+    plain = make_policy()(obs_td(obs(pose=ROOM_POSE)))
+    assert not bool(shielded["shielded"])
+    assert float(shielded["action"]) == float(plain["action"])
 
 
 def test_config_rejects_bad_option_values():
@@ -142,6 +176,8 @@ def test_config_rejects_bad_option_values():
         load_config("paper", ["learner.option_epsilon=1.5"])
     with pytest.raises(ConfigError, match="option_critic"):
         load_config("paper", ["learner.option_critic=max"])
+    with pytest.raises(ConfigError, match=r"learner.shield_margin=-0.1"):
+        load_config("paper", ["learner.shield_margin=-0.1"])
     assert isinstance(LearnerConfig().options, bool)
 
 
