@@ -24,6 +24,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "figures"
+CACHE = OUT / "learning"  # one JSON per variant (``--cache`` for another seed group)
 
 # name -> (recipe, overrides). "paper - X" removes one switch of the paper recipe.
 VARIANTS: dict[str, tuple[str, list[str]]] = {
@@ -42,6 +43,13 @@ VARIANTS: dict[str, tuple[str, list[str]]] = {
     "paper - averaging critic": ("paper", ["learner.option_critic=best"]),
     "paper - try untried first": ("paper", ["learner.option_try_untried=false"]),
     "paper - greedy_after": ("paper", ["learner.option_greedy_after=0"]),
+    "paper - shield": ("paper", ["learner.shield=false"]),
+    "paper - soft avoidance (d_a 0.7)": ("paper", ["learner.option_avoidance=[]"]),
+    "paper - RBF experts (learning off)": ("paper", ["learner.learning=false"]),
+    "paper + learned avoidance [0.7, 0.5, 0.3]": (
+        "paper",
+        ["learner.option_avoidance=[0.7, 0.5, 0.3]"],
+    ),
     "paper_literal": ("paper_literal", []),
     "reflex_only": ("reflex_only", []),
     "no_partition": ("no_partition", []),
@@ -50,12 +58,14 @@ VARIANTS: dict[str, tuple[str, list[str]]] = {
 }
 
 
-_COLUMNS = ("trial", "steps", "total_reinforcement", "collisions", "reached_goal", "neurons")
+_COLUMNS = (
+    "trial", "steps", "total_reinforcement", "collisions", "shielded", "reached_goal", "neurons",
+)  # fmt: skip
 
 
 def _keep(key: str) -> bool:
     """The per-trial columns worth keeping (the option choices too); paths are stored apart."""
-    return key in _COLUMNS or key.startswith("option_") or key.startswith("neurons_")
+    return key in _COLUMNS or key.startswith(("option_", "avoid_", "neurons_"))
 
 
 def _slug(name: str) -> str:
@@ -100,7 +110,7 @@ def summary(data: dict, last: int = 5) -> dict[str, float]:
     """Last-``last`` means over sets; the latest first trial from which all later ones reached."""
 
     def col(key: str) -> np.ndarray:
-        return np.array([[float(t[key]) for t in s["trials"]] for s in data["sets"]])
+        return np.array([[float(t.get(key, 0.0)) for t in s["trials"]] for s in data["sets"]])
 
     total, steps, coll = col("total_reinforcement"), col("steps"), col("collisions")
     reached = col("reached_goal") > 0.5
@@ -114,6 +124,8 @@ def summary(data: dict, last: int = 5) -> dict[str, float]:
         "total_sd_sets": float(total[:, -last:].mean(axis=1).std()),
         "steps": float(steps[:, -last:].mean()),
         "collisions": float(coll[:, -last:].mean()),
+        "collisions_all": float(coll.mean()),
+        "shielded": float(col("shielded")[:, -last:].mean()),
         "neurons": float(col("neurons")[:, -1].mean()),
         "first_reach": float(np.mean(first_reach)),
         "all_reach_from": float(max(firsts)),
@@ -124,18 +136,20 @@ def summary(data: dict, last: int = 5) -> dict[str, float]:
 def table(seeds_text: str) -> str:
     lines = [
         "| variant | last-5 total reinforcement | last-5 actions | last-5 collisions / trial "
-        "| neurons (trial 20) | first trial reaching the goal (mean) | all trials reach from |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+        "| collisions / trial, all 20 | shield vetoes / trial, last 5 | neurons (trial 20) "
+        "| first trial reaching the goal (mean) | all trials reach from |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     for name in VARIANTS:
-        path = OUT / "learning" / f"{_slug(name)}.json"
+        path = CACHE / f"{_slug(name)}.json"
         if not path.exists():
             continue
         s = summary(json.loads(path.read_text()))
         steps = f"{s['steps']:.1f}" if s["reached_last5"] > 0 else "never reaches"
         lines.append(
             f"| {name} | {s['total']:.2f} (±{s['total_sd_sets']:.2f}) | {steps} | "
-            f"{s['collisions']:.2f} | {s['neurons']:.0f} | {s['first_reach']:.1f} | "
+            f"{s['collisions']:.2f} | {s['collisions_all']:.2f} | {s['shielded']:.2f} | "
+            f"{s['neurons']:.0f} | {s['first_reach']:.1f} | "
             f"{s['all_reach_from']:.0f} |"
         )
     return f"seeds {seeds_text}, 20 trials, noise on; ± = sd of the set means\n\n" + "\n".join(
@@ -155,7 +169,7 @@ def figures() -> None:
     curves = ["paper", "paper_literal", "reflex_only"]
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for name in curves:
-        path = OUT / "learning" / f"{_slug(name)}.json"
+        path = CACHE / f"{_slug(name)}.json"
         if not path.exists():
             continue
         data = json.loads(path.read_text())
@@ -184,7 +198,7 @@ def figures() -> None:
     world = load_map("hailu2001")
     fig, axes = plt.subplots(1, 3, figsize=(14, 5))
     for ax, name in zip(axes, curves, strict=True):
-        path = OUT / "learning" / f"{_slug(name)}.json"
+        path = CACHE / f"{_slug(name)}.json"
         draw_map(ax, world)
         if path.exists():
             for s in json.loads(path.read_text())["sets"]:
@@ -203,11 +217,20 @@ def main() -> None:
     parser.add_argument("--trials", type=int, default=20)
     parser.add_argument("--only", nargs="*", default=None, help="variant names (default: all)")
     parser.add_argument("--force", action="store_true")
+    parser.add_argument(
+        "--cache",
+        default=None,
+        help="folder of the per-variant JSON (default docs/figures/learning)",
+    )
+    parser.add_argument("--no-figures", action="store_true", help="report: the table only")
     args = parser.parse_args()
-    (OUT / "learning").mkdir(parents=True, exist_ok=True)
+    global CACHE
+    if args.cache:
+        CACHE = Path(args.cache)
+    CACHE.mkdir(parents=True, exist_ok=True)
     if args.command == "run":
         for name in args.only or list(VARIANTS):
-            path = OUT / "learning" / f"{_slug(name)}.json"
+            path = CACHE / f"{_slug(name)}.json"
             if path.exists() and not args.force:
                 continue
             data = run_variant(name, _seeds(args.seeds), args.trials)
@@ -220,7 +243,8 @@ def main() -> None:
                 flush=True,
             )
     else:
-        figures()
+        if not args.no_figures:
+            figures()
         print(table(args.seeds))
 
 

@@ -112,6 +112,12 @@ class LearnerConfig:
     in front of the door, into the post)."""
     subgoal_min_clearance: float = 0.0
     """Drop sub-goals closer than this to a wall (metres; 0 keeps all)."""
+    option_avoidance: list[float] = field(default_factory=list)
+    """Candidate desirabilities d_a of the reflex's obstacle avoidance, one chosen per region and
+    trial by a second averaging critic with the sub-goal options' rules (first entry, mean
+    return-to-go, epsilon-greedy). With the shield guarding the walls, a lower d_a cuts the
+    reflex's zig-zag at the door and in the corridor. Empty: the reflex's own d_a. Needs
+    ``options`` and ``reflex``."""
     shield: bool = False
     """Veto moves into walls with the IR ring (``symrl.knowledge.shield``): an action whose move
     would leave less than ``shield_margin`` rim clearance is replaced by the nearest safe angle.
@@ -259,9 +265,22 @@ class RunConfig:
                 ">= 0",
             ),
             ("run.image_every", self.run.image_every, self.run.image_every >= 1, ">= 1"),
+            *(
+                ("learner.option_avoidance", lc.option_avoidance, 0 <= d_a <= 1, "values in [0, 1]")
+                for d_a in lc.option_avoidance
+            ),
+            (
+                "learner.option_avoidance",
+                lc.option_avoidance,
+                not lc.option_avoidance or (lc.options and lc.reflex),
+                "empty unless learner.options and learner.reflex are true",
+            ),
         ]
         for key, value, ok, rule in checks:
-            if not ok or (isinstance(value, float) and not math.isfinite(value)):
+            finite = all(map(math.isfinite, value)) if isinstance(value, list) else True
+            if isinstance(value, float):
+                finite = math.isfinite(value)
+            if not ok or not finite:
                 raise ConfigError(f"{key}={value!r}: must be {rule}")
         return self
 
@@ -300,6 +319,10 @@ def _coerce(key: str, value: Any, kind: Any) -> Any:
         if value not in allowed:
             raise ConfigError(f"{key}={value!r}: must be one of {', '.join(map(str, allowed))}")
         return value
+    if origin is list:  # list[float]: a YAML list (or one number) of numbers
+        items = value if isinstance(value, (list, tuple)) else [value]
+        (item_kind,) = typing.get_args(kind)
+        return [_coerce(f"{key}[{i}]", item, item_kind) for i, item in enumerate(items)]
     if kind is bool:
         if isinstance(value, bool):
             return value

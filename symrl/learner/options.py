@@ -23,7 +23,7 @@ from torch import nn
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
 from symrl.world.worldmap import WorldMap
 
-__all__ = ["OptionConfig", "OptionLearner", "OptionSteering"]
+__all__ = ["OptionConfig", "OptionLearner", "OptionSteering", "choice_table"]
 
 
 @dataclass
@@ -241,11 +241,22 @@ class OptionLearner:
         return int(candidates[0])
 
 
+def choice_table(region_names: tuple[str, ...], labels: list[str]) -> SubgoalTable:
+    """A table of the same non-spatial choices in every region (its points are unused): lets
+    :class:`OptionLearner` choose any per-region setting by the same rules as sub-goals."""
+    r, k = len(region_names), len(labels)
+    return SubgoalTable(
+        region_names, torch.zeros(r, k, 2), torch.ones(r, k, dtype=torch.bool), [labels] * r
+    )
+
+
 class OptionSteering(nn.Module):
     """What the policy holds when ``learner.options`` is on: the map's sub-goal table, the option
-    learner, and the angle the reflex's goal following should steer toward.
+    learner, and the angle the reflex's goal following should steer toward; with
+    ``avoidance`` values also a second learner choosing the reflex's avoidance desirability
+    d_a per region (:meth:`avoidance`), on the same returns.
 
-    The critic (``q``, ``n``) are buffers, so they are saved and loaded with the policy."""
+    The critics (``q``, ``n``, ...) are buffers, so they are saved and loaded with the policy."""
 
     q: torch.Tensor
     n: torch.Tensor
@@ -256,6 +267,7 @@ class OptionSteering(nn.Module):
         config: OptionConfig | None = None,
         subgoals: SubgoalConfig | None = None,
         seed: int = 0,
+        avoidance: list[float] | tuple[float, ...] = (),
     ) -> None:
         super().__init__()
         self.table = build_subgoals(world, subgoals)
@@ -268,6 +280,24 @@ class OptionSteering(nn.Module):
         self.learner = OptionLearner(
             self.table, goal, config, generator, q=self.q, n=self.n, m2=self.m2
         )
+        self.avoidance_values = tuple(float(v) for v in avoidance)
+        self.avoid_learner: OptionLearner | None = None
+        if self.avoidance_values:
+            labels = [f"d_a={v:g}" for v in self.avoidance_values]
+            avoid_table = choice_table(self.table.region_names, labels)
+            ashape = avoid_table.valid.shape
+            self.register_buffer("avoid_q", torch.zeros(ashape, dtype=torch.float64))
+            self.register_buffer("avoid_n", torch.zeros(ashape, dtype=torch.long))
+            self.register_buffer("avoid_m2", torch.zeros(ashape, dtype=torch.float64))
+            self.avoid_learner = OptionLearner(
+                avoid_table,
+                goal,
+                config,
+                torch.Generator().manual_seed(int(seed) + 15485863),
+                q=self.avoid_q,
+                n=self.avoid_n,
+                m2=self.avoid_m2,
+            )
 
     @classmethod
     def from_learner_config(cls, lc: object, world: WorldMap, seed: int = 0) -> OptionSteering:
@@ -287,7 +317,7 @@ class OptionSteering(nn.Module):
             beyond=(0.0, 0.4) if lc.subgoal_on_line else (0.4,),
             min_clearance=lc.subgoal_min_clearance,
         )
-        return cls(world, config, subgoals, seed)
+        return cls(world, config, subgoals, seed, avoidance=lc.option_avoidance)
 
     def angle(self, region: int, odometry: tuple[float, float, float], greedy: bool) -> float:
         """Signed angle (left positive) from the odometry heading to this region's target."""
@@ -295,11 +325,24 @@ class OptionSteering(nn.Module):
         tx, ty = self.learner.target(region, x, y, greedy)
         return math.remainder(math.atan2(ty - y, tx - x) - heading, 2.0 * math.pi)
 
+    def avoidance(self, region: int, greedy: bool) -> int | None:
+        """Index into ``avoidance_values`` chosen for ``region`` this trial (None: off)."""
+        if self.avoid_learner is None:
+            return None
+        return self.avoid_learner.choose(region, greedy)
+
     def record(self, reward: float, collision: bool = False) -> None:
         self.learner.record(reward, collision)
+        if self.avoid_learner is not None:
+            self.avoid_learner.record(reward, collision)
 
     def end_trial(self) -> dict[str, float]:
-        return self.learner.end_trial()
+        out = self.learner.end_trial()
+        if self.avoid_learner is not None:
+            for key, value in self.avoid_learner.end_trial().items():
+                if key.startswith("option_"):  # the d_a chosen per region, by value
+                    out["avoid_" + key[7:]] = self.avoidance_values[int(value)]
+        return out
 
     def _load_from_state_dict(self, *args, **kwargs) -> None:  # type: ignore[override]
         super()._load_from_state_dict(*args, **kwargs)
@@ -308,3 +351,6 @@ class OptionSteering(nn.Module):
             self.n,
             self.m2,
         )  # copy_ keeps them shared; be explicit
+        if self.avoid_learner is not None:
+            learner = self.avoid_learner
+            learner.q, learner.n, learner.m2 = self.avoid_q, self.avoid_n, self.avoid_m2

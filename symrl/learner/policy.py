@@ -28,6 +28,7 @@ Seams for variants (issue #4): :meth:`reflex_target` (the angle the reflex steer
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -153,6 +154,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self.options = (
             OptionSteering.from_learner_config(config, self.world, seed) if config.options else None
         )
+        # one reflex per avoidance desirability the option learner may choose (option_avoidance)
+        self.avoid_reflexes = nn.ModuleList(
+            FuzzyReflex(replace(self.reflex.config, d_a=d_a)) for d_a in config.option_avoidance
+        )
         self.shield = (
             IRShield(ShieldConfig(margin=config.shield_margin), self.robot)
             if config.shield
@@ -245,8 +250,14 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         """The fuzzy reflex's crisp angle for this observation.
 
         Computed in float64 (``FuzzyReflex.angle``: the same number as calling the module on
-        ``sonar.double()``, with plain floats for one sample, ~5x cheaper)."""
-        return self.reflex.angle(obs.sonar, self.reflex_target(obs, expert))
+        ``sonar.double()``, with plain floats for one sample, ~5x cheaper). With
+        ``learner.option_avoidance`` the reflex has the d_a the option learner chose here."""
+        reflex = self.reflex
+        if self.options is not None and self.options.avoid_learner is not None:
+            odo = tuple(obs.odometry.tolist())
+            greedy = exploration_type() in _GREEDY
+            reflex = self.avoid_reflexes[self.options.avoidance(self.region_of(odo), greedy)]
+        return reflex.angle(obs.sonar, self.reflex_target(obs, expert))
 
     def new_neuron_action(self, obs: Observation, expert: int) -> float:
         """Prototypical action of a new neuron: the reflex's (paper 8.3) or uniform random;

@@ -203,3 +203,54 @@ def test_subgoal_on_line_and_min_clearance_shape_the_table(make_policy):
     ).options.table.labels[room]
     assert "l2@+0.8/0.4" not in safe  # (3.9, -0.69): 0.34 m from the door post
     assert "l3@+0.8/0.4" in safe  # (4.15, -0.69): 0.51 m
+
+
+def test_option_avoidance_config_parses_and_rejects_bad_values():
+    from symrl.learner.config import ConfigError
+
+    assert load_config("paper").learner.option_avoidance == [0.5]
+    assert load_config("paper_literal").learner.option_avoidance == []
+    three = load_config("paper", ["learner.option_avoidance=[0.7, 0.5, 0.3]"])
+    assert three.learner.option_avoidance == [0.7, 0.5, 0.3]
+    with pytest.raises(ConfigError, match=r"learner.option_avoidance=\[0.7, 2.0\]"):
+        load_config("paper", ["learner.option_avoidance=[0.7, 2]"])
+    with pytest.raises(ConfigError, match=r"learner.option_avoidance\[0\]='x'"):
+        load_config("paper", ["learner.option_avoidance=[x]"])
+    with pytest.raises(ConfigError, match="learner.options and learner.reflex"):
+        load_config("paper_literal", ["learner.option_avoidance=[0.5]"])
+
+
+def test_option_avoidance_steers_with_the_chosen_desirability(make_policy):
+    from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
+
+    policy = make_policy(options=True, residual=True, option_avoidance=[0.7, 0.2])
+    room = policy.region_names.index("room")
+    policy.options.avoid_n.fill_(1)  # both tried: greedy on the critic, which prefers d_a 0.2
+    policy.options.avoid_q[room] = torch.tensor([-9.0, -8.0], dtype=torch.float64)
+    sonar = [0.5] * 24
+    sonar[0] = sonar[1] = sonar[23] = 0.06  # a wall ahead: avoidance has something to say
+    o = obs(sonar=sonar, pose=ROOM_POSE)
+    with set_exploration_type(ExplorationType.DETERMINISTIC):
+        got = policy.reflex_action(o, room)
+        target = policy.reflex_target(o, room)
+    soft = FuzzyReflex(ReflexConfig(d_a=0.2)).angle(o.sonar, target)
+    hard = FuzzyReflex(ReflexConfig(d_a=0.7)).angle(o.sonar, target)
+    assert got == pytest.approx(soft) and soft != pytest.approx(hard)
+
+
+def test_option_avoidance_critic_learns_and_survives_a_checkpoint(make_policy):
+    policy = make_policy(options=True, residual=True, option_avoidance=[0.7, 0.5, 0.3])
+    loss = TeseoLoss(policy)
+    a, b = obs(pose=ROOM_POSE), obs(pose=(0.2, 0.0, 0.0))
+    loss.update(transition(policy, a, b, -2.0))
+    record = {"reached_goal": True, "total_reinforcement": -2.0}
+    loss.end_trial(record)
+    room = policy.region_names.index("room")
+    d_a = record["avoid_room"]
+    k = [0.7, 0.5, 0.3].index(d_a)
+    assert int(policy.options.avoid_n[room, k]) == 1
+    assert float(policy.options.avoid_q[room, k]) == pytest.approx(-2.0)
+    fresh = make_policy(options=True, residual=True, option_avoidance=[0.7, 0.5, 0.3])
+    fresh.load_state_dict(policy.state_dict())
+    assert float(fresh.options.avoid_q[room, k]) == pytest.approx(-2.0)
+    assert fresh.options.avoid_learner.q is fresh.options.avoid_q
