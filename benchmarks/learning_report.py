@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import time
 from pathlib import Path
 
@@ -29,7 +30,7 @@ CACHE = OUT / "learning"  # one JSON per variant (``--cache`` for another seed g
 # name -> (recipe, overrides). "paper - X" removes one switch of the paper recipe.
 VARIANTS: dict[str, tuple[str, list[str]]] = {
     "paper": ("paper", []),
-    "paper - options": ("paper", ["learner.options=false"]),
+    "paper - options": ("paper", ["learner.options=false", "learner.option_avoidance=[]"]),
     "paper - residual": ("paper", ["learner.residual=false"]),
     "paper - low temperature": (
         "paper",
@@ -69,7 +70,9 @@ def _keep(key: str) -> bool:
 
 
 def _slug(name: str) -> str:
-    return name.replace(" - ", "__minus__").replace(" ", "_")
+    """A file name for a variant: "paper - shield" -> "paper__minus__shield"."""
+    text = name.replace(" - ", "__minus__").replace(" + ", "__plus__")
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
 
 
 def _seeds(text: str) -> list[int]:
@@ -146,11 +149,12 @@ def table(seeds_text: str) -> str:
             continue
         s = summary(json.loads(path.read_text()))
         steps = f"{s['steps']:.1f}" if s["reached_last5"] > 0 else "never reaches"
+        first = "never" if math.isinf(s["first_reach"]) else f"{s['first_reach']:.1f}"
+        all_from = "never" if math.isinf(s["all_reach_from"]) else f"{s['all_reach_from']:.0f}"
         lines.append(
             f"| {name} | {s['total']:.2f} (±{s['total_sd_sets']:.2f}) | {steps} | "
             f"{s['collisions']:.2f} | {s['collisions_all']:.2f} | {s['shielded']:.2f} | "
-            f"{s['neurons']:.0f} | {s['first_reach']:.1f} | "
-            f"{s['all_reach_from']:.0f} |"
+            f"{s['neurons']:.0f} | {first} | {all_from} |"
         )
     return f"seeds {seeds_text}, 20 trials, noise on; ± = sd of the set means\n\n" + "\n".join(
         lines

@@ -7,6 +7,8 @@ It exists to compare designs in seconds; the reported numbers come from ``symrl 
     python benchmarks/learning_study.py --design options --seeds 0-9
     python benchmarks/learning_study.py --design reflex --seeds 0-9
     python benchmarks/learning_study.py --design options --set epsilon=0.5 --set reach=0.3
+    python benchmarks/learning_study.py --set beyond=0.4 --set min_clearance=0.45 --set d_a=0.5 \
+        --shield 0.06          # the paper recipe's options, avoidance and shield (no RBF experts)
 
 Prints the last-5-trial means over sets (total reinforcement, actions, collisions), the first
 trial from which every later trial reached the goal, and the per-trial curve.
@@ -26,6 +28,7 @@ import torch
 import symrl  # noqa: F401  (registers the env)
 from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
 from symrl.knowledge.regions import RegionMapper
+from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.knowledge.subgoals import SubgoalConfig, build_subgoals
 from symrl.learner.options import OptionConfig, OptionLearner
 
@@ -38,6 +41,7 @@ def run_set(
     subgoal_config: SubgoalConfig,
     noise: bool = True,
     reflex_config: ReflexConfig | None = None,
+    shield: IRShield | None = None,
 ) -> list[dict]:
     """One set: ``trials`` trials of one learner from scratch; env seeded once with ``seed``."""
     env = gymnasium.make("symrl/Hailu2001-v0", noise=noise).unwrapped
@@ -64,6 +68,8 @@ def run_set(
                 tx, ty = learner.target(region, x, y)
                 angle = math.remainder(math.atan2(ty - y, tx - x) - h, 2 * math.pi)
             action = float(reflex(torch.from_numpy(obs["sonar"]), torch.tensor(angle)))
+            if shield is not None:
+                action, _ = shield.filter(torch.from_numpy(obs["ir"]), action)
             obs, r, term, trunc, info = env.step(np.array([action], dtype=np.float32))
             learner.record(r, bool(info["collision"]))
             total += r
@@ -142,13 +148,26 @@ def main() -> None:
         "--set", action="append", default=[], help="key=value (option/subgoal/reflex)"
     )
     parser.add_argument("--no-noise", action="store_true")
+    parser.add_argument(
+        "--shield", type=float, default=None, metavar="MARGIN", help="IR shield with this margin"
+    )
     args = parser.parse_args()
     oc = _apply(OptionConfig(), args.set)
     sc = _apply(SubgoalConfig(), args.set)
     rc = _apply(ReflexConfig(), args.set)
+    shield = None if args.shield is None else IRShield(ShieldConfig(margin=args.shield))
     t0 = time.time()
     sets = [
-        run_set(s, args.trials, args.design, oc, sc, noise=not args.no_noise, reflex_config=rc)
+        run_set(
+            s,
+            args.trials,
+            args.design,
+            oc,
+            sc,
+            noise=not args.no_noise,
+            reflex_config=rc,
+            shield=shield,
+        )
         for s in _seeds(args.seeds)
     ]
     res = summarise(sets)

@@ -20,7 +20,7 @@ COMMANDS = {
     "study": "symrl ablate --recipes paper --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ppo": "symrl baseline ppo --episodes {episodes} --seeds 100 --out results/baseline-ppo",
-    "generalise": "symrl generalise --recipe {recipe} --sets 5 --trials 20 --seed 100 "
+    "generalise": "symrl generalise --recipe {recipe} --sets 10 --trials 20 --seed 100 "
     "--workers 2 --out results/generalise-{recipe}",
 }
 """The commands whose folders this report reads (the PPO budget is read from its summary)."""
