@@ -27,10 +27,13 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "figures"
 CACHE = OUT / "learning"  # one JSON per variant (``--cache`` for another seed group)
 
+_FLFR_SECTION4 = ["reflex.near.FL=[0.2, 0.5]", "reflex.near.FR=[0.2, 0.5]"]
+_FLFR_SOFT = ["reflex.near.FL=[0.1, 0.35]", "reflex.near.FR=[0.1, 0.35]"]
+
 # name -> (recipe, overrides). "paper - X" removes one switch of the paper recipe.
 VARIANTS: dict[str, tuple[str, list[str]]] = {
     "paper": ("paper", []),
-    "paper - options": ("paper", ["learner.options=false", "learner.option_avoidance=[]"]),
+    "paper - options": ("paper", ["learner.options=false"]),
     "paper - residual": ("paper", ["learner.residual=false"]),
     "paper - low temperature": (
         "paper",
@@ -45,7 +48,11 @@ VARIANTS: dict[str, tuple[str, list[str]]] = {
     "paper - try untried first": ("paper", ["learner.option_try_untried=false"]),
     "paper - greedy_after": ("paper", ["learner.option_greedy_after=0"]),
     "paper - shield": ("paper", ["learner.shield=false"]),
-    "paper - soft avoidance (d_a 0.7)": ("paper", ["learner.option_avoidance=[]"]),
+    "paper - soft FL/FR (0.2-0.5 m as section 4)": ("paper", [*_FLFR_SECTION4]),
+    "paper - soft reflex (d_a 0.7 and FL/FR as section 4)": (
+        "paper",
+        ["reflex.d_a=0.7", *_FLFR_SECTION4],
+    ),
     "paper - RBF experts (learning off)": ("paper", ["learner.learning=false"]),
     "paper + learned avoidance [0.7, 0.5, 0.3]": (
         "paper",
@@ -53,6 +60,10 @@ VARIANTS: dict[str, tuple[str, list[str]]] = {
     ),
     "paper_literal": ("paper_literal", []),
     "reflex_only": ("reflex_only", []),
+    "reflex_only + shield + soft reflex": (
+        "reflex_only",
+        ["learner.shield=true", "reflex.d_a=0.5", *_FLFR_SOFT],
+    ),
     "no_partition": ("no_partition", []),
     "no_reflex": ("no_reflex", []),
     "plain": ("plain", []),

@@ -98,13 +98,18 @@ def make_env(config: RunConfig):
 
 def make_policy(config: RunConfig, world=None, robot=None):
     """The controller for ``config`` (fresh: no neurons, temperature T0)."""
+    from symrl.knowledge.reflex import FuzzyReflex
     from symrl.learner.policy import MixtureOfExpertsPolicy
     from symrl.world.robot import RobotConfig
 
     if robot is None:  # the robot the config describes (sensor range, thresholds of r(state))
         robot = RobotConfig.from_dict(config.env.robot())
     return MixtureOfExpertsPolicy(
-        config.learner, world=world or config.env.map, robot=robot, seed=config.run.seed
+        config.learner,
+        world=world or config.env.map,
+        robot=robot,
+        reflex=FuzzyReflex(config.reflex),
+        seed=config.run.seed,
     )
 
 

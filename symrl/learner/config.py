@@ -23,6 +23,8 @@ from typing import Any, Literal
 
 import yaml
 
+from symrl.knowledge.reflex import ReflexConfig
+
 __all__ = [
     "ConfigError",
     "LearnerConfig",
@@ -183,6 +185,9 @@ class RunConfig:
     """The learner and its update."""
     env: EnvConfig = field(default_factory=EnvConfig)
     """The world."""
+    reflex: ReflexConfig = field(default_factory=ReflexConfig)
+    """The fuzzy reflex (``symrl.knowledge.reflex``); defaults: ALGORITHM.md section 4. A recipe
+    may set any field; ``near`` and ``sectors`` entries are merged into the defaults."""
     run: RunSection = field(default_factory=RunSection)
     """Budget, seed, logging."""
 
@@ -276,6 +281,10 @@ class RunConfig:
                 "empty unless learner.options and learner.reflex are true",
             ),
         ]
+        try:
+            self.reflex.validate()
+        except ValueError as err:
+            raise ConfigError(f"reflex: {err}") from None
         for key, value, ok, rule in checks:
             finite = all(map(math.isfinite, value)) if isinstance(value, list) else True
             if isinstance(value, float):
@@ -319,6 +328,23 @@ def _coerce(key: str, value: Any, kind: Any) -> Any:
         if value not in allowed:
             raise ConfigError(f"{key}={value!r}: must be one of {', '.join(map(str, allowed))}")
         return value
+    if origin is dict:  # e.g. reflex.near: a mapping, merged into the current one by the caller
+        if not isinstance(value, dict):
+            raise ConfigError(f"{key}={value!r}: expected a mapping")
+        key_kind, value_kind = typing.get_args(kind)
+        return {
+            _coerce(f"{key}", k, key_kind): _coerce(f"{key}.{k}", v, value_kind)
+            for k, v in value.items()
+        }
+    if origin is tuple:  # tuple[float, float] or tuple[str, ...]: a YAML list
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"{key}={value!r}: expected a list")
+        args = typing.get_args(kind)
+        kinds = [args[0]] * len(value) if len(args) == 2 and args[1] is Ellipsis else list(args)
+        if len(kinds) != len(value):
+            raise ConfigError(f"{key}={value!r}: expected a list of {len(kinds)} values")
+        pairs = enumerate(zip(value, kinds, strict=True))
+        return tuple(_coerce(f"{key}[{i}]", v, k) for i, (v, k) in pairs)
     if origin is list:  # list[float]: a YAML list (or one number) of numbers
         items = value if isinstance(value, (list, tuple)) else [value]
         (item_kind,) = typing.get_args(kind)
@@ -361,6 +387,8 @@ def _apply(obj: Any, data: dict[str, Any], prefix: str) -> None:
         current = getattr(obj, name)
         if dataclasses.is_dataclass(current):
             _apply(current, value, f"{key}.")
+        elif isinstance(current, dict):  # merge: a recipe names only the entries it changes
+            setattr(obj, name, {**current, **_coerce(key, value, hints[name])})
         else:
             setattr(obj, name, _coerce(key, value, hints[name]))
 
@@ -387,8 +415,17 @@ def config_from_dict(data: dict[str, Any], recipe: str = "custom") -> RunConfig:
 
 
 def config_to_dict(config: RunConfig) -> dict[str, Any]:
-    """The config as a plain nested dict (for YAML, checkpoints and the TensorBoard table)."""
-    return dataclasses.asdict(config)
+    """The config as a plain nested dict (for YAML, checkpoints and the TensorBoard table);
+    tuples become lists, which ``config_from_dict`` reads back."""
+
+    def plain(value: Any) -> Any:
+        if isinstance(value, dict):
+            return {k: plain(v) for k, v in value.items()}
+        if isinstance(value, (list, tuple)):
+            return [plain(v) for v in value]
+        return value
+
+    return plain(dataclasses.asdict(config))
 
 
 def load_config(

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import pytest
+import yaml
 
+from symrl.knowledge.reflex import ReflexConfig
 from symrl.learner.config import (
     ConfigError,
     RunConfig,
@@ -36,10 +38,37 @@ def test_paper_literal_is_the_algorithm_defaults():
 
 
 def test_paper_keeps_the_architecture_and_the_budget():
-    # `paper` started equal to paper_literal; its improvements are learner switches only.
+    # `paper` started equal to paper_literal; its improvements are learner and reflex switches.
     paper, literal = load_config("paper"), load_config("paper_literal")
     assert paper.env == literal.env and paper.run == literal.run
     assert paper.learner.partition and paper.learner.reflex and paper.learner.learning
+    assert literal.reflex == ReflexConfig()  # the ALGORITHM.md section 4 reflex
+    # paper: softer avoidance behind the shield, the rules and other sectors unchanged
+    assert paper.reflex.d_a == 0.5 and paper.reflex.rules == literal.reflex.rules
+    assert paper.reflex.near["FL"] == paper.reflex.near["FR"] == (0.10, 0.35)
+    assert paper.reflex.near["F"] == literal.reflex.near["F"]
+
+
+def test_reflex_section_merges_entries_and_names_bad_values():
+    c = load_config("paper_literal", ["reflex.near.F=[0.2, 0.6]", "reflex.d_g=0.25"])
+    assert c.reflex.near["F"] == (0.2, 0.6) and c.reflex.near["L"] == ReflexConfig().near["L"]
+    assert c.reflex.d_g == 0.25
+    with pytest.raises(ConfigError, match=r"reflex: ReflexConfig.near\['F'\] must be"):
+        load_config("paper_literal", ["reflex.near.F=[0.6, 0.2]"])
+    with pytest.raises(ConfigError, match=r"reflex.near.F=\[0.1\]: expected a list of 2"):
+        load_config("paper_literal", ["reflex.near.F=[0.1]"])
+    with pytest.raises(ConfigError, match="no such sector"):
+        load_config("paper_literal", ["reflex.near.XX=[0.1, 0.2]"])
+    with pytest.raises(ConfigError, match=r"reflex.bogus=1: unknown key"):
+        load_config("paper_literal", ["reflex.bogus=1"])
+
+
+def test_the_policy_drives_with_the_recipe_reflex():
+    from symrl.train import make_policy
+
+    policy = make_policy(load_config("paper"))
+    assert policy.reflex.config == load_config("paper").reflex
+    assert make_policy(load_config("paper_literal")).reflex.config == ReflexConfig()
 
 
 def test_ablation_switches():
@@ -105,3 +134,9 @@ def test_unknown_recipe_lists_the_known_ones():
 def test_round_trip_through_dict():
     c = load_config("no_reflex", ["learner.gamma=0.8"])
     assert config_from_dict(config_to_dict(c), recipe="no_reflex") == c
+
+
+def test_round_trip_through_yaml_keeps_the_reflex_and_lists():
+    c = load_config("paper", ["learner.option_avoidance=[0.7, 0.5]"])
+    text = yaml.safe_dump(config_to_dict(c))  # tuples must have become lists
+    assert config_from_dict(yaml.safe_load(text), recipe="paper") == c

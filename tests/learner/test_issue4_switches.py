@@ -208,7 +208,7 @@ def test_subgoal_on_line_and_min_clearance_shape_the_table(make_policy):
 def test_option_avoidance_config_parses_and_rejects_bad_values():
     from symrl.learner.config import ConfigError
 
-    assert load_config("paper").learner.option_avoidance == [0.5]
+    assert load_config("paper").learner.option_avoidance == []  # paper: a fixed softer reflex
     assert load_config("paper_literal").learner.option_avoidance == []
     three = load_config("paper", ["learner.option_avoidance=[0.7, 0.5, 0.3]"])
     assert three.learner.option_avoidance == [0.7, 0.5, 0.3]

@@ -83,6 +83,15 @@ def test_checkpoint_round_trip_gives_the_same_greedy_trajectory(tmp_path):
     assert policy.neurons() == again.neurons()  # greedy evaluation grows nothing
 
 
+def test_checkpoint_keeps_the_recipe_reflex_and_shield(tmp_path):
+    out = tmp_path / "run"
+    config = load_config("paper", ["run.trials=1"])
+    train(config, logdir=out, progress=False)
+    policy, loaded = load_checkpoint(out / "checkpoint.pt")
+    assert loaded.reflex == config.reflex and policy.reflex.config == config.reflex
+    assert policy.shield is not None and policy.options is not None
+
+
 def test_evaluate_command(tmp_path, capsys):
     out = tmp_path / "run"
     train(load_config("paper_literal", ["run.trials=1"]), logdir=out, progress=False)
