@@ -8,7 +8,7 @@ It exists to compare designs in seconds; the reported numbers come from ``symrl 
     python benchmarks/learning_study.py --design reflex --seeds 0-9
     python benchmarks/learning_study.py --design options --set epsilon=0.5 --set reach=0.3
     python benchmarks/learning_study.py --set beyond=0.4 --set min_clearance=0.45 --set d_a=0.5 \
-        --shield 0.06          # the paper recipe's options, avoidance and shield (no RBF experts)
+        --near FL=0.1,0.35 --near FR=0.1,0.35 --shield 0.06   # the paper recipe without RBF experts
 
 Prints the last-5-trial means over sets (total reinforcement, actions, collisions), the first
 trial from which every later trial reached the goal, and the per-trial curve.
@@ -151,10 +151,23 @@ def main() -> None:
     parser.add_argument(
         "--shield", type=float, default=None, metavar="MARGIN", help="IR shield with this margin"
     )
+    parser.add_argument(
+        "--near",
+        action="append",
+        default=[],
+        metavar="SECTOR=A,B",
+        help="reflex NEAR thresholds of one sector, e.g. FL=0.1,0.35 (repeatable)",
+    )
     args = parser.parse_args()
     oc = _apply(OptionConfig(), args.set)
     sc = _apply(SubgoalConfig(), args.set)
     rc = _apply(ReflexConfig(), args.set)
+    if args.near:
+        near = dict(rc.near)
+        for item in args.near:
+            sector, _, ab = item.partition("=")
+            near[sector] = tuple(float(v) for v in ab.split(","))
+        rc = replace(rc, near=near)
     shield = None if args.shield is None else IRShield(ShieldConfig(margin=args.shield))
     t0 = time.time()
     sets = [
