@@ -90,6 +90,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/drive", help="output folder (default out/drive)")
     p.add_argument("--map", default="hailu2001", help="built-in map name or map file")
     p.add_argument("--no-noise", action="store_true", help="turn every noise source off")
+    p.add_argument(
+        "--shield",
+        type=float,
+        nargs="?",
+        const=0.06,
+        default=None,
+        metavar="MARGIN",
+        help="veto moves into walls with the IR shield (margin in m, default 0.06)",
+    )
     p.set_defaults(handler=_drive)
 
     p = sub.add_parser("train", help="train a recipe online, trial by trial")

@@ -20,6 +20,7 @@ import torch
 
 from symrl import ENV_ID
 from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
+from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.world.worldmap import WorldMap
 
 __all__ = ["drive", "drive_command", "save_path_figure"]
@@ -32,6 +33,7 @@ def drive(
     map: str | Path | WorldMap | dict[str, Any] = "hailu2001",
     reflex_config: ReflexConfig | None = None,
     max_actions: int = 200,
+    shield: ShieldConfig | None = None,
 ) -> dict[str, Any]:
     """Run one trial with the reflex as the controller; return its numbers and true path.
 
@@ -39,10 +41,13 @@ def drive(
     ``goal[1]`` (from odometry), exactly what the learner's reflex sees.
     Returns ``steps``, ``collisions``, ``total_reinforcement``, ``reached_goal``,
     ``path_length`` (metres, true path), ``path`` (list of true (x, y)), ``odometry_path``,
-    ``actions`` (the crisp angles), ``start`` (x, y, heading), ``seed``, ``noise``.
+    ``actions`` (the crisp angles), ``start`` (x, y, heading), ``seed``, ``noise``,
+    ``shielded`` (actions the IR shield replaced; 0 without ``shield``).
     """
     reflex = FuzzyReflex(reflex_config)
     env = gymnasium.make(ENV_ID, map=map, noise=noise, max_actions=max_actions)
+    guard = None if shield is None else IRShield(shield, env.unwrapped.robot)
+    shielded = 0
     try:
         options = None if start is None else {"pose": tuple(float(v) for v in start)}
         obs, _ = env.reset(seed=seed, options=options)
@@ -56,6 +61,9 @@ def drive(
                 sonar = torch.from_numpy(np.asarray(obs["sonar"], dtype=np.float32))
                 goal_angle = torch.tensor(float(obs["goal"][1]))
                 alpha = float(reflex(sonar, goal_angle))
+                if guard is not None:
+                    alpha, replaced = guard.filter(torch.from_numpy(obs["ir"]), alpha)
+                    shielded += int(replaced)
                 obs, reward, terminated, truncated, info = env.step(
                     np.array([alpha], dtype=np.float32)
                 )
@@ -81,6 +89,7 @@ def drive(
         "start": start_pose,
         "seed": seed,
         "noise": bool(noise),
+        "shielded": shielded,
     }
 
 
@@ -114,6 +123,7 @@ def summary(result: dict[str, Any]) -> str:
         f"steps: {result['steps']}  collisions: {result['collisions']}  "
         f"total reinforcement: {result['total_reinforcement']:.2f}  "
         f"path length: {result['path_length']:.2f} m"
+        + (f"  shield vetoes: {result['shielded']}" if result.get("shielded") else "")
     )
 
 
@@ -123,11 +133,13 @@ def drive_command(args: argparse.Namespace) -> int:
 
     world = load_map(args.map)
     noise = not args.no_noise
-    result = drive(start=args.start, seed=args.seed, noise=noise, map=world)
+    shield = None if args.shield is None else ShieldConfig(margin=args.shield)
+    result = drive(start=args.start, seed=args.seed, noise=noise, map=world, shield=shield)
     out = Path(args.out)
     x, y, h = result["start"]
     title = (
-        f"reflex alone, start ({x:g}, {y:g}, {math.degrees(h):.0f} deg), seed {args.seed}, "
+        f"reflex{' + IR shield' if shield else ' alone'}, start ({x:g}, {y:g}, "
+        f"{math.degrees(h):.0f} deg), seed {args.seed}, "
         f"noise {'on' if noise else 'off'}\n" + summary(result).replace("  total", "\ntotal")
     )
     png = save_path_figure(result, world, out / "path.png", title=title)

@@ -99,3 +99,20 @@ def test_cli_drive_bad_start_is_a_clear_error(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("symrl drive: error:")
     assert not (tmp_path / "path.png").exists()
+
+
+def test_the_ir_shield_keeps_the_reflex_off_the_walls():
+    from symrl.knowledge.shield import ShieldConfig
+
+    plain = drive(seed=1)
+    guarded = drive(seed=1, shield=ShieldConfig())
+    assert plain["collisions"] > 0 and plain["shielded"] == 0  # seed 1: the reflex hits a post
+    assert guarded["collisions"] == 0 and guarded["shielded"] > 0
+    assert guarded["reached_goal"]
+
+
+def test_drive_cli_shield_flag(tmp_path, capsys):
+    assert main(["drive", "--seed", "1", "--shield", "--out", str(tmp_path)]) == 0
+    assert "collisions: 0" in capsys.readouterr().out
+    assert main(["drive", "--shield", "-1", "--out", str(tmp_path)]) == 2
+    assert "ShieldConfig.margin" in capsys.readouterr().err
