@@ -254,3 +254,16 @@ def test_option_avoidance_critic_learns_and_survives_a_checkpoint(make_policy):
     fresh.load_state_dict(policy.state_dict())
     assert float(fresh.options.avoid_q[room, k]) == pytest.approx(-2.0)
     assert fresh.options.avoid_learner.q is fresh.options.avoid_q
+
+
+def test_paper_reflex_ignores_a_wall_alongside_that_the_section4_reflex_swerves_from():
+    from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
+
+    sonar = torch.ones(24, dtype=torch.float64)
+    sonar[[20, 21, 22]] = 0.4 / 5.0  # a wall 0.4 m away, front-right (a corridor wall at 45 deg)
+    section4 = FuzzyReflex(ReflexConfig()).angle(sonar, 0.0)
+    paper = FuzzyReflex(load_config("paper").reflex).angle(sonar, 0.0)
+    assert section4 > math.radians(10)  # FR near -> LEFT: a turn away from a harmless wall
+    assert paper == pytest.approx(0.0)  # the goal straight ahead wins
+    sonar[[20, 21, 22]] = 0.15 / 5.0  # closer than 0.35 m: the paper reflex avoids it too
+    assert FuzzyReflex(load_config("paper").reflex).angle(sonar, 0.0) > math.radians(10)
