@@ -19,13 +19,13 @@ COMMANDS = {
     "plan": "symrl plan --out results/plan",
     "study": "symrl ablate --recipes paper --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
-    "ppo": "symrl baseline ppo --episodes {episodes} --seeds 100 --out results/baseline-ppo",
+    "ppo": "symrl baseline ppo --episodes {episodes} --seeds 100,101,102 --out results/baseline-ppo",
     "generalise": "symrl generalise --recipe {recipe} --sets 10 --trials 20 --seed 100 "
     "--workers 2 --out results/generalise-{recipe}",
 }
 """The commands whose folders this report reads (the PPO budget is read from its summary)."""
 
-PPO_EPISODES = 800
+PPO_EPISODES = 2000
 """The PPO budget that was started (used when the run was cut short and wrote no summary)."""
 
 INTERPRETATION = Path(__file__).with_name("results_discussion.md")
