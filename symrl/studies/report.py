@@ -19,7 +19,8 @@ COMMANDS = {
     "plan": "symrl plan --out results/plan",
     "study": "symrl ablate --recipes paper --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
-    "ppo": "symrl baseline ppo --episodes {episodes} --seeds 100,101,102 --out results/baseline-ppo",
+    "ppo": "symrl baseline ppo --episodes {episodes} --seeds 100,101,102 "
+    "--out results/baseline-ppo",
     "generalise": "symrl generalise --recipe {recipe} --sets 10 --trials 20 --seed 100 "
     "--workers 2 --out results/generalise-{recipe}",
 }
