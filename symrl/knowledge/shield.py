@@ -47,9 +47,8 @@ class ShieldConfig:
     """Spacing of the candidate angles searched when the proposed one is unsafe (degrees)."""
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.margin, (int, float)) and math.isfinite(self.margin)):
-            raise ValueError(f"ShieldConfig.margin must be a number >= 0, got {self.margin!r}")
-        if self.margin < 0:
+        m = self.margin
+        if not (isinstance(m, (int, float)) and math.isfinite(m) and m >= 0):
             raise ValueError(f"ShieldConfig.margin must be a number >= 0, got {self.margin!r}")
         r = self.resolution_deg
         if not (isinstance(r, (int, float)) and math.isfinite(r) and 0 < r <= 90):

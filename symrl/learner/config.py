@@ -286,9 +286,8 @@ class RunConfig:
         except ValueError as err:
             raise ConfigError(f"reflex: {err}") from None
         for key, value, ok, rule in checks:
-            finite = all(map(math.isfinite, value)) if isinstance(value, list) else True
-            if isinstance(value, float):
-                finite = math.isfinite(value)
+            numbers = value if isinstance(value, list) else [value]
+            finite = all(math.isfinite(v) for v in numbers if isinstance(v, float))
             if not ok or not finite:
                 raise ConfigError(f"{key}={value!r}: must be {rule}")
         return self
