@@ -35,15 +35,79 @@ def _drive(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from symrl.train import train_command
+    import os
+    import time
 
-    return train_command(args)
+    import numpy as np
+
+    from symrl.learner.config import describe_keys, load_config
+    from symrl.runs import RunWriter
+    from symrl.train import train
+    from symrl.world.worldmap import load_map
+
+    if args.help_keys:
+        print(describe_keys())
+        return 0
+    if args.recipe is None:
+        raise ValueError("train: a RECIPE is needed (e.g. `symrl train paper`)")
+    overrides = list(args.overrides or [])
+    for flag, key in ((args.trials, "run.trials"), (args.seed, "run.seed"), (args.map, "env.map")):
+        if flag is not None:
+            overrides.append(f"{key}={flag}")
+    config = load_config(args.recipe, overrides)
+    stamp = time.strftime("%Y%m%d-%H%M%S") + f"-{time.time_ns() // 1000 % 1_000_000:06d}"
+    logdir = args.logdir or f"runs/{config.recipe}__s{config.run.seed}__{stamp}-{os.getpid()}"
+    writer = RunWriter(logdir, config, load_map(config.env.map), overwrite=args.overwrite)
+
+    def on_trial(b: int, record: dict, policy) -> None:
+        writer.trial(record, last=record["trial"] == config.run.trials)
+
+    try:
+        result = train(config, progress=True, on_trial=on_trial)
+    finally:
+        writer.close()
+    writer.finish(result.policy, result.seed)
+    trials, last = result.trials, result.trials[-5:]
+    print(
+        f"{config.recipe} (seed {config.run.seed}): {len(trials)} trials, "
+        f"{result.timings['steps_per_second']:.0f} steps/s; last trial {trials[-1]['steps']} "
+        f"actions, total {trials[-1]['total_reinforcement']:.2f}, {trials[-1]['neurons']} "
+        f"neurons; last-{len(last)} mean {np.mean([t['steps'] for t in last]):.1f} actions, "
+        f"total {np.mean([t['total_reinforcement'] for t in last]):.2f}, "
+        f"goal {sum(t['reached_goal'] for t in trials)}/{len(trials)}"
+    )
+    print(f"wrote {logdir}/ (config.yaml, trials.csv, checkpoint.pt, trajectory.png, tb/)")
+    return 0
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from symrl.train import evaluate_command
+    from pathlib import Path
 
-    return evaluate_command(args)
+    import matplotlib.pyplot as plt
+
+    from symrl.evaluate import evaluate
+    from symrl.runs import load_checkpoint, trajectory_figure
+
+    policy, config = load_checkpoint(args.checkpoint)
+    world = None
+    if args.map is not None:
+        from symrl.world.worldmap import load_map
+
+        world = load_map(args.map)
+    (record,) = evaluate(policy, config, starts=[args.start], seed=args.seed, world=world)
+    out = Path(args.out) if args.out else Path(args.checkpoint).parent
+    out.mkdir(parents=True, exist_ok=True)
+    title = f"greedy: {record['steps']} actions, total {record['total_reinforcement']:.2f}"
+    fig = trajectory_figure(world or policy.world, record, title=title)
+    fig.savefig(out / "evaluate.png", dpi=120)
+    plt.close(fig)
+    print(
+        f"greedy trial: {record['steps']} actions, total {record['total_reinforcement']:.2f}, "
+        f"{record['collisions']} collisions, reached goal {record['reached_goal']}, "
+        f"path {record['path_length']:.2f} m"
+    )
+    print(f"wrote {out / 'evaluate.png'}")
+    return 0
 
 
 def _study(args: argparse.Namespace) -> int:
@@ -101,11 +165,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(handler=_drive)
 
-    p = sub.add_parser("train", help="train a recipe online, trial by trial")
-    p.add_argument("recipe", help="recipe name (paper, paper_literal, ...) or a YAML file")
+    p = sub.add_parser(
+        "train",
+        help="train a recipe online, trial by trial",
+        description="Train a recipe online. Config keys are overridden as key=value "
+        "(e.g. update.gamma=0.9 shield.enabled=false); --help-keys lists every key with its "
+        "default and meaning.",
+    )
+    p.add_argument("recipe", nargs="?", help="recipe name (paper, paper_literal, ...) or a YAML file")
     p.add_argument("--trials", type=int, default=None, help="number of trials (recipe default)")
     p.add_argument("--seed", type=int, default=None, help="random seed (recipe default)")
+    p.add_argument("--map", default=None, help="built-in map name or map file (env.map)")
     p.add_argument("--logdir", default=None, help="run folder (default runs/RECIPE__sSEED__TIME)")
+    p.add_argument("--overwrite", action="store_true", help="replace a run already in --logdir")
+    p.add_argument("--help-keys", action="store_true", help="list every config key and exit")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
     p.set_defaults(handler=_train)
 
@@ -113,6 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("checkpoint", help="checkpoint file written by `symrl train`")
     p.add_argument("--start", type=parse_pose, default=None, help="start pose X,Y,HEADING")
     p.add_argument("--seed", type=int, default=0, help="random seed for the world's noise")
+    p.add_argument("--map", default=None, help="drive in another map (default: its own)")
     p.add_argument("--out", default=None, help="output folder (default: beside the checkpoint)")
     p.set_defaults(handler=_evaluate)
 
@@ -172,7 +246,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         return int(args.handler(args) or 0)
-    except (ValueError, FileNotFoundError) as err:
+    except (ValueError, FileNotFoundError, FileExistsError) as err:
         # Configuration and input errors: one clear line, no deep traceback.
         print(f"symrl {args.command}: error: {err}", file=sys.stderr)
         return 2

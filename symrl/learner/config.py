@@ -1,40 +1,52 @@
-"""Typed run configuration: recipes are YAML files, every knob is a documented dataclass field.
+"""Typed run configuration, loaded and validated by pydantic.
 
-A recipe (``symrl/recipes/<name>.yaml``) sets a few fields of :class:`RunConfig`; the dataclass
-defaults are the literal rules of ``research/ALGORITHM.md`` section 1-2, so a recipe only lists
-what it changes. Command-line overrides (``learner.gamma=0.9``) are applied on top. Unknown keys
-and ill-typed values raise :class:`ConfigError` naming the key and the value, never a bare
-``TypeError``.
+A recipe (``symrl/recipes/<name>.yaml``) sets a few fields of :class:`RunConfig`; the defaults
+are the literal rules of the paper (``docs/ALGORITHM.md``), so a recipe lists only what it
+changes. ``key=value`` overrides (``update.gamma=0.9``) are merged on top; mappings merge entry
+by entry (``reflex.near`` keeps the sectors a recipe does not name). Every error is one line
+naming the key and the value (:class:`ConfigError`).
 
-To add an improvement for the ``paper`` recipe: add a field (with a docstring under it and a
-default that keeps the literal behaviour), read it where it matters, and set it in
-``recipes/paper.yaml``. ``Literal[...]`` fields are checked against their allowed values.
+The sections follow the data flow: ``env`` (world and robot) -> ``gate`` (regions) ->
+``experts`` (growing RBF networks) -> ``options`` (sub-goals for the reflex) -> ``reflex`` ->
+``shield``; ``update`` is the TESEO learning rule; ``run`` the budget.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
-import typing
-from dataclasses import dataclass, field
+import copy
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
 import yaml
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    StrictBool,
+    StrictInt,
+    ValidationError,
+    model_validator,
+)
 
 from symrl.knowledge.reflex import ReflexConfig
+from symrl.world.robot import RobotConfig
 
 __all__ = [
     "ConfigError",
-    "LearnerConfig",
     "EnvConfig",
+    "GateConfig",
+    "ExpertsConfig",
+    "UpdateConfig",
+    "OptionsConfig",
+    "ShieldSection",
     "RunSection",
     "RunConfig",
     "load_config",
     "builtin_recipes",
     "config_to_dict",
     "config_from_dict",
+    "describe_keys",
 ]
 
 
@@ -42,259 +54,154 @@ class ConfigError(ValueError):
     """A recipe or override is malformed; the message names the key and the value."""
 
 
-@dataclass
-class LearnerConfig:
-    """The growing-RBF mixture of experts and its update (paper sections 7-8, ALGORITHM.md)."""
-
-    width: float = 0.1
-    """RBF receptive width (varsigma, paper 7.1); activations are exp(-d^2 / width^2)."""
-    novelty_radius: float = 0.1
-    """Distance-driven growth: a new neuron when the winner is farther (literal: = width)."""
-    gamma: float = 0.95
-    """Discount of the TD error delta = r + gamma * u_now - u_prev."""
-    eta: float = 0.3
-    """Utility learning rate: u_prev += eta * delta."""
-    beta: float = 0.2
-    """Exploration-mean rate (REINFORCE, sigma^2-scaled): mu += beta * delta * (xi - mu)."""
-    kappa: float = 0.1
-    """Centre shift toward the previous input when delta > 0: c += kappa * (x - c)."""
-    error_threshold: float = 2.0
-    """Error-driven growth: |delta| above this adds a neuron at the previous input instead."""
-    temperature0: float = 0.3
-    """Initial exploration temperature T(0), radians (Eq. 6)."""
-    cooling: float = 0.85
-    """Temperature factor applied after each trial: T <- max(T_min, cooling * T)."""
-    temperature_min: float = 0.05
-    """Temperature floor, radians."""
-    capacity: int = 1024
-    """Neurons preallocated per expert; storage doubles when full (up to max_neurons)."""
-    max_neurons: int = 200_000
-    """Hard limit of neurons per expert; growing past it raises a RuntimeError."""
-    partition: bool = True
-    """One expert per map region (the symbolic gate, paper 6.1); False: one expert for all."""
-    reflex: bool = True
-    """New neurons take the fuzzy reflex's action (paper 8.3); False: a uniform random action."""
-    learning: bool = True
-    """False: no neurons and no updates, the reflex drives the robot (reflex_only)."""
-    goal_codes: int = 8
-    """Goal-distance codes phi_m = exp(-((mu_m - rho) / goal_code_width)^2), mu_m = m/(n-1)."""
-    goal_code_width: float = 1.0
-    """Width of the goal-distance codes; 1.0 is the paper's printed (unit-width) form."""
-    utility_init: Literal["reward", "zero", "discounted"] = "reward"
-    """New neuron's utility: reward = r(state) (paper 8.3), zero, or discounted = r/(1-gamma)."""
-    replace_actions: bool = True
-    """After a goal-reaching trial with the best total so far, p <- action taken, mu <- 0 (8.3)."""
-    # --- issue #4: sub-goal options and residual corrections (docs/LEARNING.md) -------------
-    options: bool = False
-    """Steer the reflex's goal following at a per-region sub-goal derived from the map's region
-    lines (the door), chosen once per region and trial by an averaging critic and an
-    epsilon-greedy actor (``symrl/learner/options.py``); False: always at the goal (literal)."""
-    option_epsilon: float = 0.3
-    """Probability of a random option at a region's first entry, first trial."""
-    option_epsilon_decay: float = 0.8
-    """option_epsilon is multiplied by this after every trial."""
-    option_greedy_after: int = 12
-    """From this many finished trials on, options are chosen greedily (0: never forced)."""
-    option_try_untried: bool = True
-    """Every option is tried once before any greedy choice (its critic is unknown until then)."""
-    option_reach: float = 0.25
-    """A sub-goal nearer than this (m, odometry) is reached: aim at the goal for the visit."""
-    option_critic: Literal["mean", "best"] = "mean"
-    """Option critic: mean return-to-go over its trials, or the best single one (literal-style)."""
-    option_risk: float = 0.0
-    """Greedy option score = mean - option_risk * sd of its returns (prefers steady options)."""
-    option_collision_penalty: float = 0.0
-    """Extra penalty per collision in the option critic's return only (rewards unchanged)."""
-    subgoal_past: bool = True
-    """A region also gets the points just past the passage it is entered through (keeps the
-    robot off the far door post when it turns to the goal)."""
-    subgoal_on_line: bool = True
-    """Offer the sub-goals on a region line itself (the passage centre...); False: only the points
-    0.4 m past the line (reaching a point on the line makes the robot turn to the goal while still
-    in front of the door, into the post)."""
-    subgoal_min_clearance: float = 0.0
-    """Drop sub-goals closer than this to a wall (metres; 0 keeps all)."""
-    option_avoidance: list[float] = field(default_factory=list)
-    """Candidate desirabilities d_a of the reflex's obstacle avoidance, one chosen per region and
-    trial by a second averaging critic with the sub-goal options' rules (first entry, mean
-    return-to-go, epsilon-greedy). With the shield guarding the walls, a lower d_a cuts the
-    reflex's zig-zag at the door and in the corridor. Empty: the reflex's own d_a. Needs
-    ``options`` and ``reflex``."""
-    shield: bool = False
-    """Veto moves into walls with the IR ring (``symrl.knowledge.shield``): an action whose move
-    would leave less than ``shield_margin`` rim clearance is replaced by the nearest safe angle.
-    The paper uses the IR only for its emergency reversal after the fact."""
-    shield_margin: float = 0.06
-    """Smallest predicted rim clearance a shielded move may leave (m; a virtual collision is
-    below 0.056)."""
-    residual: bool = False
-    """Neurons learn a correction added to the reflex's current action (a new neuron's p = 0)
-    instead of an absolute action copied from the reflex at its birth; with options on, this
-    keeps every neuron valid whichever sub-goal the reflex steers at. Needs ``reflex``."""
+class _Section(BaseModel):
+    # StrictBool / StrictInt fields: no silent "yes" -> True or 2.5 -> 2 coercion
+    model_config = ConfigDict(extra="forbid", validate_default=True, allow_inf_nan=False)
 
 
-@dataclass
-class EnvConfig:
-    """The simulated world (``symrl/Hailu2001-v0``)."""
+class EnvConfig(_Section):
+    """The simulated world and robot."""
 
     map: str = "hailu2001"
     """Built-in map name or path of a map YAML file."""
-    noise: bool = True
+    noise: StrictBool = True
     """Sensor and motion noise on (False turns every noise source off)."""
-    max_actions: int = 200
-    """A trial is truncated (failed) after this many actions (SPEC 4)."""
-    rotation_noise_deg: float = 0.5
-    """Robot: std of the true rotation per action, degrees (odometry drift; RobotConfig)."""
-    translation_noise: float = 0.01
-    """Robot: std of the true translation as a fraction of the 0.20 m step (RobotConfig)."""
-    sonar_noise_std: float = 0.01
-    """Robot: std of the Gaussian sonar noise, metres (RobotConfig)."""
-    sonar_cone_deg: float = 0.0
-    """Robot: sonar beam aperture in degrees; 0 is a thin ray (SPEC 2 default)."""
-    sonar_cone_rays: int = 5
-    """Robot: sub-rays per sonar when ``sonar_cone_deg > 0`` (a reading is their minimum)."""
-    perfect_odometry: bool = False
-    """Robot: the odometry pose is the true pose (motion noise still moves the robot)."""
-
-    def robot(self) -> dict[str, Any]:
-        """The ``RobotConfig`` fields this section sets (passed to the env as ``robot=``)."""
-        names = ("sonar_noise_std", "translation_noise", "rotation_noise_deg",
-                 "sonar_cone_deg", "sonar_cone_rays", "perfect_odometry")  # fmt: skip
-        return {name: getattr(self, name) for name in names}
+    max_actions: StrictInt = Field(200, ge=1, le=100_000)
+    """A trial is truncated (failed) after this many actions."""
+    robot: RobotConfig = Field(default_factory=RobotConfig)
+    """The B21 (body, sensors, noise levels): any ``RobotConfig`` field."""
 
 
-@dataclass
-class RunSection:
-    """Budget, seed and logging of one training run."""
+class GateConfig(_Section):
+    """The symbolic region gate (paper 6.1)."""
 
-    trials: int = 20
+    partition: StrictBool = True
+    """One expert per map region; False: one expert for the whole world (ablation)."""
+
+
+class ExpertsConfig(_Section):
+    """The growing RBF networks, one per region (paper 7-8)."""
+
+    learning: StrictBool = True
+    """False: no neurons and no updates, the reflex drives the robot (``reflex_only``)."""
+    reflex: StrictBool = True
+    """New neurons take the fuzzy reflex's action (paper 8.3); False: a uniform random action."""
+    residual: StrictBool = False
+    """Neurons learn a correction added to the reflex's current action (a new neuron's p = 0)
+    instead of an absolute action copied from the reflex at its birth. Needs ``reflex``."""
+    width: float = Field(0.1, gt=0)
+    """RBF receptive width (varsigma, paper 7.1); activations exp(-d^2 / width^2)."""
+    novelty_radius: float = Field(0.1, gt=0)
+    """Distance-driven growth: a new neuron when the winner is farther than this."""
+    goal_codes: StrictInt = Field(8, ge=2, le=256)
+    """Goal-distance codes phi_m = exp(-((mu_m - rho) / goal_code_width)^2), mu_m = m/(n-1)."""
+    goal_code_width: float = Field(1.0, gt=0)
+    """Width of the goal-distance codes; 1.0 is the paper's printed (unit-width) form."""
+    capacity: StrictInt = Field(64, ge=1, le=1_000_000)
+    """Neurons preallocated per expert; storage doubles when full (up to ``max_neurons``)."""
+    max_neurons: StrictInt = Field(100_000, ge=1, le=1_000_000)
+    """Hard limit of neurons per expert; growing past it raises an error."""
+
+
+class UpdateConfig(_Section):
+    """The TESEO update (paper 8.3): TD critic, REINFORCE actor, growth, replacement, cooling."""
+
+    gamma: float = Field(0.95, ge=0, le=1)
+    """Discount of the TD error delta = r + gamma * u_now - u_prev."""
+    eta: float = Field(0.3, ge=0)
+    """Utility learning rate: u_prev += eta * delta."""
+    beta: float = Field(0.2, ge=0)
+    """Exploration-mean rate (REINFORCE, sigma^2-scaled): mu += beta * delta * (xi - mu)."""
+    kappa: float = Field(0.1, ge=0, le=1)
+    """Centre shift toward the previous input when delta > 0: c += kappa * (x - c)."""
+    error_threshold: float = Field(2.0, gt=0)
+    """Error-driven growth: |delta| above this adds a neuron at the previous input instead."""
+    temperature0: float = Field(0.3, ge=0)
+    """Initial exploration temperature T(0), radians (Eq. 6)."""
+    cooling: float = Field(0.85, gt=0, le=1)
+    """Temperature factor after each trial: T <- max(temperature_min, cooling * T)."""
+    temperature_min: float = Field(0.05, ge=0)
+    """Temperature floor, radians."""
+    replace_actions: StrictBool = True
+    """After a goal-reaching trial with the best total so far, p <- action taken, mu <- 0."""
+
+
+class OptionsConfig(_Section):
+    """Sub-goal options: per region, where the reflex's goal following steers (the goal or a
+    point of a passage from the map), chosen at the region's first entry in a trial by an
+    averaging critic and an epsilon-greedy actor (``symrl.learner.options``)."""
+
+    enabled: StrictBool = False
+    """False: the reflex always steers at the goal (the paper)."""
+    epsilon: float = Field(0.3, ge=0, le=1)
+    """Probability of a random option at a region's first entry, first trial."""
+    epsilon_decay: float = Field(0.8, ge=0, le=1)
+    """epsilon is multiplied by this after every trial."""
+    greedy_after: StrictInt = Field(12, ge=0)
+    """From this many finished trials on, options are chosen greedily (0: never forced)."""
+    try_untried: StrictBool = True
+    """Every option is tried once before any greedy choice (its critic is unknown until then)."""
+    reach: float = Field(0.25, ge=0)
+    """A sub-goal nearer than this (m, odometry) is reached: aim at the goal for the visit."""
+    critic: Literal["mean", "best"] = "mean"
+    """Option critic: the mean return-to-go over its trials, or the best single one."""
+    subgoal_past: StrictBool = True
+    """A region also gets the points just past the passage it is entered through."""
+    subgoal_on_line: StrictBool = True
+    """Offer sub-goals on a region line itself; False: only the points 0.4 m past it."""
+    subgoal_min_clearance: float = Field(0.0, ge=0)
+    """Drop sub-goals closer than this to a wall (metres; 0 keeps all)."""
+
+
+class ShieldSection(_Section):
+    """The IR safety shield (``symrl.knowledge.shield``)."""
+
+    enabled: StrictBool = False
+    """Veto moves that would leave less than ``margin`` rim clearance (nearest safe turn)."""
+    margin: float = Field(0.06, ge=0, le=1)
+    """Smallest predicted rim clearance a shielded move may leave (m)."""
+
+
+class RunSection(_Section):
+    """Budget, seed and logging of one run."""
+
+    trials: StrictInt = Field(20, ge=1, le=1_000_000)
     """Number of trials (the training budget; paper: 20 per set)."""
-    seed: int = 0
-    """Seed of torch, numpy and the env; the same seed gives the same trials table."""
-    image_every: int = 5
+    seed: StrictInt = Field(0, ge=0, lt=2**63)
+    """Seed of the run; the same seed gives the same trial table."""
+    image_every: StrictInt = Field(5, ge=1)
     """Log the trajectory image to TensorBoard every this many trials (and the last one)."""
 
 
-@dataclass
-class RunConfig:
+class RunConfig(_Section):
     """Everything a run needs; ``recipe`` is the name it was loaded from."""
 
     recipe: str = "paper_literal"
-    """Name of the recipe (used in the run folder's name)."""
-    learner: LearnerConfig = field(default_factory=LearnerConfig)
-    """The learner and its update."""
-    env: EnvConfig = field(default_factory=EnvConfig)
-    """The world."""
-    reflex: ReflexConfig = field(default_factory=ReflexConfig)
-    """The fuzzy reflex (``symrl.knowledge.reflex``); defaults: ALGORITHM.md section 4. A recipe
-    may set any field; ``near`` and ``sectors`` entries are merged into the defaults."""
-    run: RunSection = field(default_factory=RunSection)
-    """Budget, seed, logging."""
+    """Name of the recipe (used in run folder names)."""
+    env: EnvConfig = Field(default_factory=EnvConfig)
+    gate: GateConfig = Field(default_factory=GateConfig)
+    experts: ExpertsConfig = Field(default_factory=ExpertsConfig)
+    update: UpdateConfig = Field(default_factory=UpdateConfig)
+    options: OptionsConfig = Field(default_factory=OptionsConfig)
+    reflex: ReflexConfig = Field(default_factory=ReflexConfig)
+    """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
+    shield: ShieldSection = Field(default_factory=ShieldSection)
+    run: RunSection = Field(default_factory=RunSection)
 
-    def validate(self) -> RunConfig:
-        """Check value ranges; raise ConfigError naming the first bad key."""
-        lc = self.learner
-        checks: list[tuple[str, Any, bool, str]] = [
-            ("learner.width", lc.width, lc.width > 0, "> 0"),
-            ("learner.novelty_radius", lc.novelty_radius, lc.novelty_radius > 0, "> 0"),
-            ("learner.gamma", lc.gamma, 0 <= lc.gamma <= 1, "in [0, 1]"),
-            ("learner.eta", lc.eta, lc.eta >= 0, ">= 0"),
-            ("learner.beta", lc.beta, lc.beta >= 0, ">= 0"),
-            ("learner.kappa", lc.kappa, 0 <= lc.kappa <= 1, "in [0, 1]"),
-            ("learner.error_threshold", lc.error_threshold, lc.error_threshold > 0, "> 0"),
-            ("learner.temperature0", lc.temperature0, lc.temperature0 >= 0, ">= 0"),
-            ("learner.cooling", lc.cooling, 0 < lc.cooling <= 1, "in (0, 1]"),
-            ("learner.temperature_min", lc.temperature_min, lc.temperature_min >= 0, ">= 0"),
-            ("learner.capacity", lc.capacity, lc.capacity >= 1, ">= 1"),
-            ("learner.max_neurons", lc.max_neurons, lc.max_neurons >= lc.capacity, ">= capacity"),
-            ("learner.goal_codes", lc.goal_codes, lc.goal_codes >= 2, ">= 2"),
-            ("learner.goal_code_width", lc.goal_code_width, lc.goal_code_width > 0, "> 0"),
-            ("env.max_actions", self.env.max_actions, self.env.max_actions >= 1, ">= 1"),
-            (
-                "env.sonar_noise_std",
-                self.env.sonar_noise_std,
-                self.env.sonar_noise_std >= 0,
-                ">= 0",
-            ),
-            (
-                "env.translation_noise",
-                self.env.translation_noise,
-                self.env.translation_noise >= 0,
-                ">= 0",
-            ),
-            (
-                "env.rotation_noise_deg",
-                self.env.rotation_noise_deg,
-                self.env.rotation_noise_deg >= 0,
-                ">= 0",
-            ),
-            (
-                "env.sonar_cone_deg",
-                self.env.sonar_cone_deg,
-                0 <= self.env.sonar_cone_deg < 360,
-                "in [0, 360)",
-            ),
-            (
-                "env.sonar_cone_rays",
-                self.env.sonar_cone_rays,
-                self.env.sonar_cone_rays >= 1,
-                ">= 1",
-            ),
-            ("run.trials", self.run.trials, self.run.trials >= 1, ">= 1"),
-            ("learner.option_epsilon", lc.option_epsilon, 0 <= lc.option_epsilon <= 1, "in [0, 1]"),
-            (
-                "learner.option_epsilon_decay",
-                lc.option_epsilon_decay,
-                0 <= lc.option_epsilon_decay <= 1,
-                "in [0, 1]",
-            ),
-            (
-                "learner.option_greedy_after",
-                lc.option_greedy_after,
-                lc.option_greedy_after >= 0,
-                ">= 0",
-            ),
-            ("learner.option_reach", lc.option_reach, lc.option_reach >= 0, ">= 0"),
-            ("learner.option_risk", lc.option_risk, lc.option_risk >= 0, ">= 0"),
-            (
-                "learner.subgoal_min_clearance",
-                lc.subgoal_min_clearance,
-                lc.subgoal_min_clearance >= 0,
-                ">= 0",
-            ),
-            ("learner.shield_margin", lc.shield_margin, lc.shield_margin >= 0, ">= 0"),
-            (
-                "learner.option_collision_penalty",
-                lc.option_collision_penalty,
-                lc.option_collision_penalty >= 0,
-                ">= 0",
-            ),
-            ("run.image_every", self.run.image_every, self.run.image_every >= 1, ">= 1"),
-            *(
-                ("learner.option_avoidance", lc.option_avoidance, 0 <= d_a <= 1, "values in [0, 1]")
-                for d_a in lc.option_avoidance
-            ),
-            (
-                "learner.option_avoidance",
-                lc.option_avoidance,
-                not lc.option_avoidance or (lc.options and lc.reflex),
-                "empty unless learner.options and learner.reflex are true",
-            ),
-        ]
-        try:
-            self.reflex.validate()
-        except ValueError as err:
-            raise ConfigError(f"reflex: {err}") from None
-        for key, value, ok, rule in checks:
-            numbers = value if isinstance(value, list) else [value]
-            finite = all(math.isfinite(v) for v in numbers if isinstance(v, float))
-            if not ok or not finite:
-                raise ConfigError(f"{key}={value!r}: must be {rule}")
+    @model_validator(mode="after")
+    def _consistent(self) -> RunConfig:
+        if self.experts.residual and not self.experts.reflex:
+            raise ValueError("experts.residual=true needs experts.reflex=true")
+        if self.experts.max_neurons < self.experts.capacity:
+            raise ValueError(
+                f"experts.max_neurons={self.experts.max_neurons} must be >= "
+                f"experts.capacity={self.experts.capacity}"
+            )
         return self
 
 
 # ---------------------------------------------------------------------------------------------
-# Loading: recipe file -> dict -> typed dataclasses, then key=value overrides.
+# Loading: recipe file -> dict, merged over the defaults, then key=value overrides, validated.
 
 
 def builtin_recipes() -> list[str]:
@@ -319,112 +226,115 @@ def _recipe_path(recipe: str | Path) -> tuple[str, Path]:
     return text, path
 
 
-def _coerce(key: str, value: Any, kind: Any) -> Any:
-    """Return ``value`` as type ``kind`` or raise ConfigError naming ``key``."""
-    origin = typing.get_origin(kind)
-    if origin is Literal:
-        allowed = typing.get_args(kind)
-        if value not in allowed:
-            raise ConfigError(f"{key}={value!r}: must be one of {', '.join(map(str, allowed))}")
-        return value
-    if origin is dict:  # e.g. reflex.near: a mapping, merged into the current one by the caller
-        if not isinstance(value, dict):
-            raise ConfigError(f"{key}={value!r}: expected a mapping")
-        key_kind, value_kind = typing.get_args(kind)
-        return {
-            _coerce(f"{key}", k, key_kind): _coerce(f"{key}.{k}", v, value_kind)
-            for k, v in value.items()
-        }
-    if origin is tuple:  # tuple[float, float] or tuple[str, ...]: a YAML list
-        if not isinstance(value, (list, tuple)):
-            raise ConfigError(f"{key}={value!r}: expected a list")
-        args = typing.get_args(kind)
-        kinds = [args[0]] * len(value) if len(args) == 2 and args[1] is Ellipsis else list(args)
-        if len(kinds) != len(value):
-            raise ConfigError(f"{key}={value!r}: expected a list of {len(kinds)} values")
-        pairs = enumerate(zip(value, kinds, strict=True))
-        return tuple(_coerce(f"{key}[{i}]", v, k) for i, (v, k) in pairs)
-    if origin is list:  # list[float]: a YAML list (or one number) of numbers
-        items = value if isinstance(value, (list, tuple)) else [value]
-        (item_kind,) = typing.get_args(kind)
-        return [_coerce(f"{key}[{i}]", item, item_kind) for i, item in enumerate(items)]
-    if kind is bool:
-        if isinstance(value, bool):
-            return value
-    elif kind is int:
-        if isinstance(value, int) and not isinstance(value, bool):
-            return value
-    elif kind is float:
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            return float(value)
-        if isinstance(value, str):  # YAML 1.1 reads "1e-3" as a string
-            try:
-                return float(value)
-            except ValueError:
-                pass
-    elif kind is str:
-        if isinstance(value, str):
-            return value
-    else:  # pragma: no cover - only reached if someone adds a field of a new type
-        raise ConfigError(f"{key}: field type {kind!r} is not supported by the loader")
-    raise ConfigError(f"{key}={value!r}: expected {kind.__name__}, got {type(value).__name__}")
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """A YAML loader that refuses a key given twice in one mapping (PyYAML keeps the last)."""
 
 
-def _apply(obj: Any, data: dict[str, Any], prefix: str) -> None:
-    """Set the fields of dataclass ``obj`` from ``data`` (recursively), checking names and types."""
-    if not isinstance(data, dict):
-        raise ConfigError(f"{prefix or 'recipe'}={data!r}: expected a mapping of keys")
-    hints = typing.get_type_hints(type(obj))
-    names = {f.name for f in dataclasses.fields(obj)}
-    for name, value in data.items():
-        key = f"{prefix}{name}"
-        if name not in names:
-            shown = key if isinstance(value, dict) else f"{key}={value!r}"
-            raise ConfigError(
-                f"{shown}: unknown key {name!r}; known keys here: {', '.join(sorted(names))}"
+def _no_duplicates(loader: yaml.SafeLoader, node: yaml.MappingNode, deep: bool = False) -> Any:
+    seen: set[Any] = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r}", key_node.start_mark
             )
-        current = getattr(obj, name)
-        if dataclasses.is_dataclass(current):
-            _apply(current, value, f"{key}.")
-        elif isinstance(current, dict):  # merge: a recipe names only the entries it changes
-            setattr(obj, name, {**current, **_coerce(key, value, hints[name])})
+        seen.add(key)
+    return loader.construct_mapping(node, deep)
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _no_duplicates)
+
+
+def _merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
+    """Deep merge: mappings merge key by key, anything else replaces."""
+    out = dict(base)
+    for key, value in update.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = _merge(out[key], value)
         else:
-            setattr(obj, name, _coerce(key, value, hints[name]))
+            out[key] = value
+    return out
 
 
-def _parse_override(text: str) -> tuple[list[str], Any]:
+def _parse_override(text: str) -> dict[str, Any]:
     if "=" not in text:
-        raise ConfigError(f"override {text!r}: expected key=value, e.g. learner.gamma=0.9")
+        raise ConfigError(f"override {text!r}: expected key=value, e.g. update.gamma=0.9")
     key, raw = text.split("=", 1)
-    key = key.strip()
-    if not key:
+    parts = key.strip().split(".")
+    if not all(parts):
         raise ConfigError(f"override {text!r}: empty key")
     try:
         value = yaml.safe_load(raw) if raw.strip() else raw
     except yaml.YAMLError:
         value = raw
-    return key.split("."), value
+    if isinstance(value, str):  # YAML 1.1 reads 1e-3 as a string
+        try:
+            value = float(value)
+        except ValueError:
+            pass
+    nested: Any = value
+    for part in reversed(parts):
+        nested = {part: nested}
+    return nested
 
 
-def config_from_dict(data: dict[str, Any], recipe: str = "custom") -> RunConfig:
-    """Build a validated RunConfig from a nested dict (e.g. a saved ``config.yaml``)."""
-    config = RunConfig(recipe=recipe)
-    _apply(config, dict(data), "")
-    return config.validate()
+def _one_line(err: ValidationError) -> str:
+    """The first pydantic error as ``key=value: reason``."""
+    first = err.errors()[0]
+    key = ".".join(str(p) for p in first["loc"])
+    value = first.get("input")
+    reason = first["msg"].removeprefix("Value error, ")
+    if first["type"] in ("extra_forbidden", "unexpected_keyword_argument"):
+        shown = key if isinstance(value, dict) else f"{key}={value!r}"
+        return f"{shown}: unknown key; `symrl train --help-keys` lists them all"
+    if isinstance(value, dict) or not key:
+        return f"{key or 'config'}: {reason}"
+    return f"{key}={value!r}: {reason}"
+
+
+def config_from_dict(data: dict[str, Any], recipe: str | None = None) -> RunConfig:
+    """Build a validated RunConfig from a nested dict merged over the defaults."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"config: expected a mapping of sections, got {data!r}")
+    merged = _merge(config_to_dict(RunConfig()), data)
+    if recipe is not None:
+        merged["recipe"] = recipe
+    merged = _tuples(merged)
+    try:
+        return RunConfig.model_validate(merged)
+    except ValidationError as err:
+        raise ConfigError(_one_line(err)) from None
+
+
+def _tuples(data: Any) -> Any:
+    """Lists from YAML become tuples where the dataclass sections expect them."""
+    reflex = data.get("reflex") if isinstance(data, dict) else None
+    if isinstance(reflex, dict):
+        data = copy.deepcopy(data)
+        reflex = data["reflex"]
+        for name in ("rules", "peaks"):
+            if isinstance(reflex.get(name), list):
+                reflex[name] = tuple(reflex[name])
+        for name in ("near", "sectors"):
+            if isinstance(reflex.get(name), dict):
+                reflex[name] = {
+                    k: tuple(v) if isinstance(v, list) else v for k, v in reflex[name].items()
+                }
+    return data
 
 
 def config_to_dict(config: RunConfig) -> dict[str, Any]:
-    """The config as a plain nested dict (for YAML, checkpoints and the TensorBoard table);
-    tuples become lists, which ``config_from_dict`` reads back."""
+    """The config as a plain nested dict (YAML, checkpoints, TensorBoard); tuples become lists,
+    which :func:`config_from_dict` reads back."""
+    return _plain(config.model_dump())
 
-    def plain(value: Any) -> Any:
-        if isinstance(value, dict):
-            return {k: plain(v) for k, v in value.items()}
-        if isinstance(value, (list, tuple)):
-            return [plain(v) for v in value]
-        return value
 
-    return plain(dataclasses.asdict(config))
+def _plain(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
 
 
 def load_config(
@@ -433,18 +343,61 @@ def load_config(
     """Load a recipe by name or path and apply ``key=value`` overrides (dotted keys)."""
     name, path = _recipe_path(recipe)
     try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as err:
-        raise ConfigError(f"recipe {str(path)!r}: not valid YAML ({err})") from None
-    if not isinstance(data, dict):
-        raise ConfigError(f"recipe {str(path)!r}: expected a mapping at the top, got {data!r}")
-    data.setdefault("recipe", name)
-    config = RunConfig()
-    _apply(config, data, "")
+        data = yaml.load(path.read_text(), Loader=_UniqueKeyLoader)
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        detail = str(err).replace("\n", " ")
+        raise ConfigError(f"recipe {str(path)!r}: not valid YAML ({detail})") from None
+    if not isinstance(data, dict) or not data:
+        raise ConfigError(f"recipe {str(path)!r}: expected a non-empty mapping, got {data!r}")
     for text in overrides or []:
-        parts, value = _parse_override(text)
-        nested: Any = value
-        for part in reversed(parts):
-            nested = {part: nested}
-        _apply(config, nested, "")
-    return config.validate()
+        data = _merge(data, _parse_override(text))
+    return config_from_dict(data, recipe=str(data.get("recipe", name)))
+
+
+def describe_keys() -> str:
+    """Every config key with its default and docstring (for ``symrl train --help-keys``)."""
+    import dataclasses
+    import inspect
+
+    def docs(cls: type) -> dict[str, str]:
+        # field docstrings are the string literal right under each field
+        out: dict[str, str] = {}
+        lines = inspect.getsource(cls).splitlines()
+        for i, line in enumerate(lines[:-1]):
+            head = line.strip().split(":")[0]
+            nxt = lines[i + 1].strip()
+            if nxt.startswith('"""') and head.isidentifier():
+                text = [nxt.strip('"')]
+                j = i + 1
+                while not lines[j].rstrip().endswith('"""') or (j == i + 1 and nxt == '"""'):
+                    j += 1
+                    text.append(lines[j].strip().strip('"'))
+                out[head] = " ".join(t for t in text if t)
+        return out
+
+    rows = []
+    defaults = config_to_dict(RunConfig())
+    sections: list[tuple[str, type]] = [
+        ("env", EnvConfig), ("env.robot", RobotConfig), ("gate", GateConfig),
+        ("experts", ExpertsConfig), ("update", UpdateConfig), ("options", OptionsConfig),
+        ("reflex", ReflexConfig), ("shield", ShieldSection), ("run", RunSection),
+    ]  # fmt: skip
+    for prefix, cls in sections:
+        names = (
+            [f.name for f in dataclasses.fields(cls)]
+            if dataclasses.is_dataclass(cls)
+            else list(cls.model_fields)
+        )
+        doc = docs(cls)
+        value: Any = defaults
+        for part in prefix.split("."):
+            value = value[part]
+        rows.append(f"{prefix}:")
+        for name in names:
+            if isinstance(value.get(name), dict) and prefix == "env" and name == "robot":
+                continue
+            default = value.get(name)
+            rows.append(f"  {prefix}.{name} = {default!r}")
+            if doc.get(name):
+                rows.append(f"      {doc[name]}")
+    return "\n".join(rows)

@@ -1,158 +1,204 @@
-"""The TESEO update (paper 8.3, ``research/ALGORITHM.md`` section 1 step 6 and end of trial).
+"""The TESEO update (paper 8.3) as a TorchRL ``LossModule``: it learns, the policy acts.
 
-Per transition (s, a, r, s'), on the previous winner i' (the neuron that chose a):
+Per transition (s, a, r, s') of every robot of the batch, on the neuron i that chose a (grown
+first if the policy met a novel state at s, with p = the policy's ``proto``, u = r(s)):
 
-    delta = r + gamma * u_i - u_i'   (u_i: the winner at s', whatever its expert; 0 if terminated)
-    |delta| > theta:  grow a neuron at x' (p = reflex(x'), u = u_i' + delta, mu = 0)
-    else:             u_i'  += eta * delta                      TD(0)
-                      mu_i' += beta * delta * (xi' - mu_i')     REINFORCE (sigma^2-scaled)
-                      c_i'  += kappa * (x' - c_i')  if delta > 0
+    delta = r + gamma * u' - u_i        u' = 0 if s' is terminal; r if s' is novel (the utility
+                                        its new neuron will get); else the utility of its winner
+    |delta| > theta:  grow a neuron at x (p = proto, u = u_i + delta, mu = 0)   error-driven
+    else:             u_i  += eta * delta                                       TD(0)
+                      mu_i += beta * delta * (xi - mu_i)                        REINFORCE
+                      c_i  += kappa * (x - c_i)   if delta > 0                  centre shift
 
-These are the gradient steps of 1/2 delta^2 (target detached, lr eta) and of
--delta * log N(xi'; mu, sigma^2) (lr beta * sigma^2); ``tests/learner/test_loss.py`` checks
-them against autograd. Growth replaces rows, which an optimizer cannot follow, so the update is
-applied in place under ``no_grad`` (research/TORCHRL.md) and ``forward`` returns diagnostics.
+The paper adapts the previous winner *before* acting on the present sensation: TorchRL's loop
+gives that order (the update of a transition runs before the policy acts on its next state), so
+no state is handed between the two. The steps are the gradient steps of 1/2 delta^2 (target
+detached, lr eta) and of -delta * log N(xi; mu, sigma^2) (lr beta * sigma^2);
+``tests/learner/test_loss.py`` checks them against autograd. Growth replaces rows, which an
+optimizer cannot follow, so they are applied in place under ``no_grad``.
 
-End of trial (:meth:`end_trial`): after a goal-reaching trial whose total reinforcement beats
-every earlier successful one, each neuron used gets p <- the action it took and mu <- 0; then
-T <- max(T_min, lambda_T * T).
+End of a robot's trial (:meth:`end_trial`): after a goal-reaching trial whose total beats every
+earlier successful one, each neuron used gets p <- the action it took and mu <- 0; then
+T <- max(T_min, cooling * T); with options, the critic of each option chosen in the trial steps
+toward its return-to-go from the region's first entry.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule
 
-from symrl.learner.policy import MixtureOfExpertsPolicy, Observation
+from symrl.learner.policy import MixtureOfExpertsPolicy
 
 __all__ = ["TeseoLoss"]
 
 
 class TeseoLoss(LossModule):
-    """Online per-transition update of a :class:`MixtureOfExpertsPolicy` (no optimizer)."""
+    """Online per-transition update of a :class:`MixtureOfExpertsPolicy` (no optimizer).
+
+    ``forward(td)`` takes a batch [B] of transitions (one per robot) and returns a TensorDict
+    of diagnostics (``td_error``, ``grown``, ``neurons``); :meth:`end_trial` closes the trials
+    of some robots.
+    """
+
+    @dataclass
+    class _AcceptedKeys:
+        """Keys the update reads; change them with :meth:`set_keys`."""
+
+        expert: str = "expert"
+        winner: str = "winner"
+        novel: str = "novel"
+        x: str = "x"
+        proto: str = "proto"
+        xi: str = "xi"
+        taken: str = "taken"
+        region: str = "region"
+        option_entry: str = "option_entry"
+        state_reward: str = "state_reward"
+        sonar: str = "sonar"
+        odometry: str = "odometry"
+        goal: str = "goal"
+        reward: str = "reward"
+        done: str = "done"
+        terminated: str = "terminated"
+        truncated: str = "truncated"
+
+    default_keys = _AcceptedKeys
+    tensor_keys: _AcceptedKeys
+    out_keys = ["td_error", "grown", "neurons"]
+
+    trial_return: torch.Tensor
+    entry_return: torch.Tensor
 
     def __init__(self, policy: MixtureOfExpertsPolicy) -> None:
         super().__init__()
-        # A plain reference, not a submodule: the policy's parameters are its own (and are
-        # saved with it), the loss only adapts them.
-        object.__setattr__(self, "policy", policy)
+        # the policy's parameters are the ones learned; the loss keeps a plain reference (the
+        # policy is saved on its own, and TorchRL's functional parameter copies are not needed:
+        # there is no optimizer)
+        self.__dict__["policy"] = policy
         self.config = policy.config
+        batch = policy.batch
+        regions = len(policy.region_names)
+        # option critics: return so far in the trial, and at each region's first entry
+        self.register_buffer("trial_return", torch.zeros(batch, dtype=torch.float64))
+        self.register_buffer("entry_return", torch.zeros(batch, regions, dtype=torch.float64))
 
     @property
     def in_keys(self) -> list:
-        return [
-            "expert", "winner", "x", "xi", "sigma",
-            ("next", "reward"), ("next", "terminated"), ("next", "truncated"),
-        ]  # fmt: skip
+        k = self.tensor_keys
+        own = [k.expert, k.winner, k.novel, k.x, k.proto, k.xi, k.taken, k.region,
+               k.option_entry, k.state_reward]  # fmt: skip
+        nxt = [("next", key) for key in (k.sonar, k.odometry, k.goal, k.reward, k.terminated,
+                                          k.truncated)]  # fmt: skip
+        return own + nxt
 
-    @property
-    def out_keys(self) -> list[str]:
-        return ["td_error", "new_neurons", "neurons"]
+    def _forward_value_estimator_keys(self, **kwargs) -> None:  # no value estimator
+        pass
 
     @torch.no_grad()
     def forward(self, td: TensorDictBase) -> TensorDictBase:
-        """Update the previous winner from one transition (batch [1] from the collector, or []).
+        """Update every robot's previous winner from its transition (batch [B])."""
+        k = self.tensor_keys
+        policy, cfg = self.policy, self.config
+        batch = policy.batch
+        nxt = td.get("next")
+        r = nxt.get(k.reward).reshape(batch).to(torch.float64)
+        if policy.options is not None:
+            entered = td.get(k.option_entry)
+            if bool(entered.any()):
+                rows = entered.nonzero().flatten()
+                self.entry_return[rows, td.get(k.region)[rows]] = self.trial_return[rows]
+            self.trial_return += r
+        zero = torch.zeros(batch, dtype=torch.float64)
+        if not cfg.experts.learning:
+            return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
+                              neurons=policy.neurons().sum(-1), batch_size=[batch])  # fmt: skip
+        bank = policy.experts
+        rows = torch.arange(batch)
+        expert, x, proto = td.get(k.expert), td.get(k.x), td.get(k.proto)
+        winner = td.get(k.winner).clone()
+        grown = torch.zeros(batch, dtype=torch.long)
 
-        Returns ``td_error`` (delta), ``new_neurons`` (grown while processing this transition:
-        at the next state if novel, or error-driven at the previous one) and ``neurons``."""
-        policy = self.policy
-        delta, grown = self.update(td)
-        return TensorDict(
-            td_error=torch.tensor(delta), new_neurons=torch.tensor(grown),
-            neurons=torch.tensor(policy.total_neurons()),
-        )  # fmt: skip
+        # 1. the neuron the policy acted as at a novel state is born now
+        novel = td.get(k.novel)
+        if bool(novel.any()):
+            new = novel.nonzero().flatten()
+            u0 = td.get(k.state_reward).reshape(batch)[new]
+            winner[new] = bank.add(new, expert[new], x[new], proto[new], u0)
+            grown += novel.long()
+        bank.taken[rows, expert, winner] = td.get(k.taken).to(torch.float64)
+        bank.used[rows, expert, winner] = True
 
-    def update(self, td: TensorDictBase) -> tuple[float, int]:
-        """The per-step rules; returns (TD error, neurons grown for this transition)."""
-        cfg, policy = self.config, self.policy
-        if policy.options is not None:  # the option critics need every reinforcement
-            collision = td.get(("next", "collision"), None)
-            policy.options.record(
-                float(td.get(("next", "reward")).reshape(-1)[0]),
-                collision is not None and bool(collision.reshape(-1)[0]),
-            )
-        if not cfg.learning:
-            return 0.0, 0
-        row = 0 if td.batch_dims else None
+        # 2. the utility of the state reached
+        terminated = nxt.get(k.terminated).reshape(batch)
+        truncated = nxt.get(k.truncated).reshape(batch)
+        u_prev = bank.utilities[rows, expert, winner]
+        seen = policy.perceive(nxt.get(k.sonar), nxt.get(k.odometry), nxt.get(k.goal))
+        u_seen = bank.utilities[rows, seen.expert, seen.winner.clamp(min=0)]
+        # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
+        u_trunc = torch.where(seen.winner >= 0, u_seen, u_prev)
+        u_next = torch.where(seen.novel, r, u_seen)
+        u_next = torch.where(truncated, u_trunc, u_next)
+        u_next = torch.where(terminated, zero, u_next)
 
-        def col(key):
-            value = td.get(key)
-            return value[row] if row is not None else value
-
-        def scalar(key):  # one element whatever the batch shape: .item() is a single call
-            return td.get(key).item()
-
-        k, i = scalar("expert"), scalar("winner")
-        if i < 0:
-            return 0.0, 0
-        r = scalar(("next", "reward"))
-        terminated = scalar(("next", "terminated"))
-        truncated = scalar(("next", "truncated"))
-        expert = policy.experts[k]
-        grown = 0
-
-        # Utility of the state reached: the next winner (grown if novel) is perceived now,
-        # before adapting i', and held for the policy's next action (paper 8.3 order).
-        if terminated:
-            u_next = 0.0
-        else:
-            obs = Observation.from_td(td, ("next",), row)
-            nxt = policy.perceive(obs, reward=r, grow=not truncated)
-            if truncated:  # the trial ends here: bootstrap from the nearest neuron, grow nothing
-                u_next = (
-                    float(policy.experts[nxt.expert].rows.utilities[nxt.winner])
-                    if nxt.winner >= 0 else float(expert.rows.utilities[i])
-                )  # fmt: skip
-            else:
-                policy.hold(nxt)
-                grown += int(nxt.grown)
-                u_next = float(policy.experts[nxt.expert].rows.utilities[nxt.winner])
-
-        rows = expert.rows  # fetched after any growth: storage may have moved
-        u_prev = float(rows.utilities[i])
-        delta = r + cfg.gamma * u_next - u_prev
-        x = col("x")
-        if abs(delta) > cfg.error_threshold:
-            # Error-driven growth (paper 8.1): split the situation instead of adapting i'.
-            obs_prev = Observation.from_td(td, (), row)
-            expert.add(x, policy.new_neuron_action(obs_prev, k), u_prev + delta)
-            grown += 1
-        else:
-            xi = scalar("xi")
-            mu = float(rows.means[i])
-            rows.utilities[i] = u_prev + cfg.eta * delta
-            rows.means[i] = mu + cfg.beta * delta * (xi - mu)
-            if delta > 0:
-                expert.shift_centre(i, x, cfg.kappa)
-        return delta, grown
+        # 3. TD error; error-driven growth or the TD / REINFORCE / centre steps
+        delta = r + cfg.update.gamma * u_next - u_prev
+        split = delta.abs() > cfg.update.error_threshold
+        if bool(split.any()):
+            s = split.nonzero().flatten()
+            bank.add(s, expert[s], x[s], proto[s], u_prev[s] + delta[s])
+            grown += split.long()
+        keep = ~split
+        if bool(keep.any()):
+            a = keep.nonzero().flatten()
+            e, i, d = expert[a], winner[a], delta[a]
+            bank.utilities[a, e, i] = u_prev[a] + cfg.update.eta * d
+            mu = bank.means[a, e, i]
+            bank.means[a, e, i] = mu + cfg.update.beta * d * (td.get(k.xi)[a] - mu)
+            up = d > 0
+            if bool(up.any()):
+                a, e, i = a[up], e[up], i[up]
+                centres = bank.centres[a, e, i]
+                bank.centres[a, e, i] = centres.lerp(x[a], cfg.update.kappa)
+        return TensorDict(td_error=delta, grown=grown, neurons=policy.neurons().sum(-1),
+                          batch_size=[batch])  # fmt: skip
 
     @torch.no_grad()
-    def end_trial(self, record: dict) -> dict:
-        """Action replacement after a better successful trial, then cooling; returns what it did
-        (``replaced`` neurons, ``best_total`` so far, ``improved``).
-
-        ``record`` needs ``reached_goal`` and ``total_reinforcement``; it is passed on to the
-        policy's own :meth:`~MixtureOfExpertsPolicy.end_trial`.
-        """
-        cfg, policy = self.config, self.policy
-        replaced = 0
-        improved = False
-        if cfg.learning:
-            total = float(record["total_reinforcement"])
-            if bool(record["reached_goal"]) and total > float(policy.best_total):
-                improved = True
-                policy.best_total.fill_(total)
-                if cfg.replace_actions:
-                    replaced = sum(e.replace_actions() for e in policy.experts)
-            cooled = max(cfg.temperature_min, cfg.cooling * float(policy.temperature))
-            policy.temperature.fill_(cooled)
-        policy.end_trial(record)
-        return {"replaced": replaced, "best_total": float(policy.best_total), "improved": improved}
+    def end_trial(
+        self, rows: torch.Tensor, totals: torch.Tensor, reached: torch.Tensor
+    ) -> dict[str, torch.Tensor]:
+        """Close the trials of robots ``rows`` (their totals and whether they reached the goal):
+        action replacement after a better success, cooling, the option critics. Returns
+        ``replaced`` (neurons per row), ``improved`` and ``best_total``."""
+        policy, cfg = self.policy, self.config
+        totals = totals.to(torch.float64)
+        replaced = torch.zeros(rows.shape[0], dtype=torch.long)
+        improved = torch.zeros(rows.shape[0], dtype=torch.bool)
+        if cfg.experts.learning:
+            improved = reached & (totals > policy.best_total[rows])
+            policy.best_total[rows] = torch.where(improved, totals, policy.best_total[rows])
+            if cfg.update.replace_actions and bool(improved.any()):
+                replaced[improved] = policy.experts.replace_actions(rows[improved])
+            cooled = (cfg.update.cooling * policy.temperature[rows]).clamp(
+                min=cfg.update.temperature_min
+            )
+            policy.temperature[rows] = cooled
+            policy.experts.clear_trial(rows)
+        if policy.options is not None:
+            returns = self.trial_return[rows, None] - self.entry_return[rows]
+            policy.options.learn(rows, returns)
+            self.trial_return[rows] = 0.0
+            self.entry_return[rows] = 0.0
+        policy.trials_done[rows] += 1
+        return {"replaced": replaced, "improved": improved, "best_total": policy.best_total[rows]}
 
     def extra_repr(self) -> str:
-        c = self.config
+        u = self.config.update
         return (
-            f"gamma={c.gamma}, eta={c.eta}, beta={c.beta}, kappa={c.kappa}, "
-            f"theta={c.error_threshold}"
+            f"gamma={u.gamma}, eta={u.eta}, beta={u.beta}, kappa={u.kappa}, "
+            f"theta={u.error_threshold}"
         )
+

@@ -1,0 +1,74 @@
+"""Greedy trials of learned controllers (``symrl evaluate``, the studies' other starts).
+
+A batch of robots, each driven by its own controller (or copies of one), each from its own
+start pose, one trial each, with TorchRL's DETERMINISTIC exploration type: the policy adds no
+noise and stores nothing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import torch
+
+from symrl.learner.config import RunConfig
+
+__all__ = ["rollout", "evaluate"]
+
+
+@torch.no_grad()
+def rollout(policy: Any, env: Any) -> list[dict[str, Any]]:
+    """One greedy trial per robot of ``env`` (batch size = ``policy.batch``); their records."""
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+    from symrl.train import TrialRecorder
+
+    batch = policy.batch
+    recorder = TrialRecorder(batch)
+    records: list[dict[str, Any] | None] = [None] * batch
+    policy.begin_trial(torch.arange(batch))
+    with set_exploration_type(ExplorationType.DETERMINISTIC):
+        td = env.reset()
+        while any(r is None for r in records):
+            policy(td)
+            td = env.step(td)
+            done = recorder.step(td, torch.zeros(batch))
+            for b in np.flatnonzero(done):
+                if records[b] is None:
+                    record = recorder.finish(int(b))
+                    record["reached_goal"] = bool(td.get(("next", "reached_goal")).reshape(-1)[b])
+                    records[b] = record
+            td = env.step_and_maybe_reset(td)[1] if done.any() else env.step_mdp(td)
+    return records  # type: ignore[return-value]
+
+
+def evaluate(
+    policy: Any,
+    config: RunConfig,
+    starts: Sequence[tuple[float, float, float] | None] | None = None,
+    seed: int = 0,
+    noise: bool = True,
+    world: Any = None,
+) -> list[dict[str, Any]]:
+    """Drive a one-robot controller greedily once from each start (radians; None: the map's
+    start), in ``world`` (default: the one it learned in). Returns one record per start."""
+    from symrl.learner.policy import MixtureOfExpertsPolicy
+    from symrl.train import make_env
+
+    starts = list(starts) if starts else [None]
+    world = world if world is not None else policy.world
+    copies = MixtureOfExpertsPolicy.from_robot_states(
+        policy.config, world, [policy.state_dict()] * len(starts), [seed] * len(starts)
+    )
+    cfg = config.model_copy(update={"env": config.env.model_copy(update={"noise": noise})})
+    env = make_env(cfg, [seed + k for k in range(len(starts))], world=world)
+    if any(s is not None for s in starts):
+        w = world
+        env.set_starts(np.array([s if s is not None else (w.start.x, w.start.y, w.start.heading)
+                                 for s in starts], dtype=np.float64))  # fmt: skip
+    try:
+        return rollout(copies, env)
+    finally:
+        env.close()

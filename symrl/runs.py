@@ -1,0 +1,324 @@
+"""What a run leaves on disk: its folder, config, trial table, TensorBoard events, checkpoint
+and figures. The training loop (``symrl.train``) calls :class:`RunWriter` once per trial.
+
+A run folder::
+
+    config.yaml      the resolved config, written when the run starts (with versions)
+    trials.csv       one row per finished trial, appended and flushed as it finishes
+    tb/              TensorBoard events (scalars per trial, trajectory images, HParams)
+    checkpoint.pt    the controller, the config and the map's content (self-contained)
+    trajectory.png   the last trial's path
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+
+from symrl.learner.config import ConfigError, RunConfig, config_from_dict, config_to_dict
+
+__all__ = [
+    "RunWriter",
+    "trial_columns",
+    "expert_names",
+    "write_trials_csv",
+    "read_trials_csv",
+    "save_checkpoint",
+    "load_checkpoint",
+    "trajectory_figure",
+    "CheckpointError",
+]
+
+CHECKPOINT_FORMAT = 2
+_BASE_COLUMNS = (
+    "trial", "steps", "total_reinforcement", "collisions", "shielded", "reached_goal",
+    "neurons", "temperature", "replaced", "improved", "mean_abs_td_error", "path_length",
+)  # fmt: skip
+
+
+class CheckpointError(ValueError):
+    """A checkpoint file cannot be used; the message names the file and the fault."""
+
+
+def expert_names(config: RunConfig, world: Any) -> tuple[str, ...]:
+    """The experts of a controller: one per map region, or one for all without partition."""
+    return tuple(world.regions.names) if config.gate.partition else ("all",)
+
+
+def trial_columns(config: RunConfig, world: Any) -> list[str]:
+    """Columns of the trial table of a run (fixed before its first trial)."""
+    columns = list(_BASE_COLUMNS)
+    columns += [f"neurons_{name}" for name in expert_names(config, world)]
+    if config.options.enabled:
+        columns += [f"option_{name}" for name in world.regions.names]
+    return columns
+
+
+def _fmt(value: Any) -> Any:
+    if isinstance(value, float):
+        return f"{value:.6g}" if math.isfinite(value) else str(value)
+    return value
+
+
+def write_trials_csv(path: str | Path, rows: list[dict[str, Any]], columns: list[str] | None = None) -> None:
+    """One row per trial (or per set and trial), every scalar column; paths are left out."""
+    if columns is None:
+        seen: dict[str, None] = {}
+        for row in rows:
+            for k, v in row.items():
+                if not isinstance(v, (list, tuple, dict)):
+                    seen.setdefault(k)
+        columns = list(seen)
+    with open(path, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: _fmt(row[k]) for k in columns if k in row})
+
+
+def read_trials_csv(path: str | Path) -> list[dict[str, Any]]:
+    """Read a trial table back with numbers as numbers."""
+
+    def num(v: str) -> Any:
+        if v in ("True", "False"):
+            return v == "True"
+        for kind in (int, float):
+            try:
+                return kind(v)
+            except ValueError:
+                pass
+        return v
+
+    with open(path, newline="") as fh:
+        return [{k: num(v) for k, v in row.items() if v != ""} for row in csv.DictReader(fh)]
+
+
+# ---------------------------------------------------------------------------------------------
+# Checkpoints
+
+
+def _atomic_save(obj: Any, path: Path) -> None:
+    """torch.save to a temporary file in the same folder, then rename: never half a file."""
+    fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        torch.save(obj, tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _map_content(world: Any) -> dict[str, Any] | None:
+    """The map file's parsed content, so a checkpoint does not depend on the file staying."""
+    source = Path(str(getattr(world, "source", "")))
+    if source.is_file():
+        return yaml.safe_load(source.read_text())
+    return None
+
+
+def save_checkpoint(path: str | Path, policy: Any, config: RunConfig, seed: int) -> None:
+    """The controller of one robot (a B = 1 policy), its config, seed and map content."""
+    path = Path(path)
+    from symrl.provenance import provenance
+
+    _atomic_save(
+        {
+            "format": CHECKPOINT_FORMAT,
+            "provenance": provenance(),
+            "config": config_to_dict(config),
+            "map": _map_content(policy.world),
+            "seed": int(seed),
+            "policy": policy.state_dict(),
+        },
+        path,
+    )
+
+
+def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
+    """Rebuild ``(policy, config)`` from :func:`save_checkpoint`; every fault of the file is a
+    one-line :class:`CheckpointError`."""
+    from symrl.learner.policy import MixtureOfExpertsPolicy
+    from symrl.world.worldmap import MapError, load_map
+
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"checkpoint {str(path)!r}: no such file")
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as err:  # noqa: BLE001 - any unreadable file is the same user error
+        detail = str(err).splitlines()[0][:120] if str(err) else type(err).__name__
+        raise CheckpointError(
+            f"checkpoint {str(path)!r}: not a readable symrl checkpoint ({detail})"
+        ) from None
+    if not isinstance(data, dict) or "config" not in data or "policy" not in data:
+        raise CheckpointError(f"checkpoint {str(path)!r}: not written by symrl train")
+    if data.get("format") != CHECKPOINT_FORMAT:
+        raise CheckpointError(
+            f"checkpoint {str(path)!r}: format {data.get('format')!r}, this symrl reads "
+            f"format {CHECKPOINT_FORMAT}"
+        )
+    try:
+        cfg = dict(data["config"])
+        config = config_from_dict(cfg, recipe=str(cfg.get("recipe", "checkpoint")))
+        world = load_map(data["map"]) if data.get("map") else load_map(config.env.map)
+    except (ConfigError, MapError) as err:
+        raise CheckpointError(f"checkpoint {str(path)!r}: {err}") from None
+    policy = MixtureOfExpertsPolicy(config, world, [int(data.get("seed", config.run.seed))])
+    state = data["policy"]
+    try:
+        policy.load_state_dict(state)
+    except (RuntimeError, KeyError) as err:
+        first = str(err).splitlines()[0][:160]
+        raise CheckpointError(
+            f"checkpoint {str(path)!r}: weights do not match its config ({first})"
+        ) from None
+    for key, value in state.items():  # best_total is -inf until a trial reaches the goal
+        finite = torch.isfinite(value) | (key == "best_total")
+        if value.is_floating_point() and not bool((finite & ~torch.isnan(value)).all()):
+            raise CheckpointError(f"checkpoint {str(path)!r}: non-finite values in {key}")
+    return policy, config
+
+
+# ---------------------------------------------------------------------------------------------
+# Figures
+
+
+def trajectory_figure(world: Any, record: dict[str, Any], title: str | None = None):
+    """The map, the trial's true path, its start and its ghosts (where the acting neuron
+    changed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from symrl.world.render import draw_path, draw_world
+
+    fig, ax = plt.subplots(figsize=(5.5, 5))
+    draw_world(ax, world)
+    path = np.asarray(record["path"])
+    draw_path(ax, record["path"], label="path")
+    ax.plot(path[0, 0], path[0, 1], marker="o", color="black", ls="none", label="start")
+    if record.get("ghosts"):
+        g = np.asarray(record["ghosts"])
+        ax.scatter(g[:, 0], g[:, 1], s=22, facecolors="none", edgecolors="tab:purple",
+                   label="ghosts (acting neuron changed)", zorder=4)  # fmt: skip
+    ax.set_title(
+        title
+        or f"trial {record.get('trial', '')}: {record['steps']} actions, "
+        f"total {record['total_reinforcement']:.2f}"
+    )
+    ax.legend(loc="upper left", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+# ---------------------------------------------------------------------------------------------
+# The run folder
+
+
+class RunWriter:
+    """Writes one run's folder as the run goes (see the module docstring)."""
+
+    def __init__(self, logdir: str | Path, config: RunConfig, world: Any, overwrite: bool = False):
+        from torchrl.record.loggers import TensorboardLogger
+
+        from symrl.provenance import provenance
+
+        self.dir = Path(logdir)
+        if self.dir.exists() and not self.dir.is_dir():
+            raise FileExistsError(f"--logdir {str(self.dir)!r}: exists and is not a folder")
+        if (self.dir / "config.yaml").exists() and not overwrite:
+            raise FileExistsError(
+                f"--logdir {str(self.dir)!r}: already holds a run (pass --overwrite to replace it)"
+            )
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.config = config
+        self.world = world
+        self.expert_names = expert_names(config, world)
+        meta = {**config_to_dict(config), "provenance": provenance()}
+        (self.dir / "config.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
+        self.columns = trial_columns(config, world)
+        self._csv = open(self.dir / "trials.csv", "w", newline="")  # noqa: SIM115 - kept open
+        self._writer = csv.DictWriter(self._csv, fieldnames=self.columns, extrasaction="ignore")
+        self._writer.writeheader()
+        self._csv.flush()
+        self.logger = TensorboardLogger(exp_name="tb", log_dir=str(self.dir))
+        rows = ["| key | value |", "| --- | --- |"]
+        rows += [f"| {k} | {v} |" for k, v in _flat(config_to_dict(config)).items()]
+        self.logger.experiment.add_text("config", "\n".join(rows), 0)
+        self.trials: list[dict[str, Any]] = []
+
+    def trial(self, record: dict[str, Any], last: bool) -> None:
+        """Append one finished trial: CSV row (flushed), TensorBoard scalars and images."""
+        self.trials.append(record)
+        self._writer.writerow({k: _fmt(record[k]) for k in self.columns if k in record})
+        self._csv.flush()
+        n, log = record["trial"], self.logger.log_scalar
+        log("trial/steps", record["steps"], step=n)
+        log("trial/total_reinforcement", record["total_reinforcement"], step=n)
+        log("trial/collisions", record["collisions"], step=n)
+        log("trial/shielded", record["shielded"], step=n)
+        log("trial/reached_goal", float(record["reached_goal"]), step=n)
+        log("network/neurons", record["neurons"], step=n)
+        for name in self.expert_names:
+            log(f"network/neurons/{name}", record[f"neurons_{name}"], step=n)
+        log("explore/temperature", record["temperature"], step=n)
+        log("learn/mean_abs_td_error", record["mean_abs_td_error"], step=n)
+        log("learn/replaced_actions", record["replaced"], step=n)
+        if last or n == 1 or n % self.config.run.image_every == 0:
+            fig = trajectory_figure(self.world, record)
+            self.logger.experiment.add_figure("trial/trajectory", fig, global_step=n, close=True)
+
+    def finish(self, policy: Any, seed: int) -> None:
+        """Checkpoint, last trajectory, HParams; close the files."""
+        import matplotlib.pyplot as plt
+
+        self._csv.close()
+        save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed)
+        if self.trials:
+            fig = trajectory_figure(self.world, self.trials[-1])
+            fig.savefig(self.dir / "trajectory.png", dpi=120)
+            plt.close(fig)
+            last = self.trials[-5:]
+            metrics = {
+                "hparam/last5_total_reinforcement": float(
+                    np.mean([t["total_reinforcement"] for t in last])
+                ),
+                "hparam/last5_actions": float(np.mean([t["steps"] for t in last])),
+                "hparam/collisions": float(sum(t["collisions"] for t in self.trials)),
+            }
+            hparams = {
+                k: (v if isinstance(v, (int, float, str, bool)) else str(v))
+                for k, v in _flat(config_to_dict(self.config)).items()
+            }
+            self.logger.experiment.add_hparams(hparams, metrics, run_name=".")
+        self.logger.experiment.flush()
+        self.logger.experiment.close()
+
+    _closed = False
+
+    def close(self) -> None:
+        """Flush and close what is open (the run may have been interrupted)."""
+        if not self._csv.closed:
+            self._csv.close()
+        self.logger.experiment.flush()
+
+
+
+def _flat(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        if isinstance(value, dict) and key not in ("near", "sectors"):
+            out.update(_flat(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
