@@ -1,0 +1,297 @@
+"""The one study runner: N sets of a recipe as batches of robots, plus the statistics over sets.
+
+Set k of a study is robot k of a batched training loop seeded ``seed + k`` (``symrl.train``), so
+it is the same run as ``symrl train RECIPE --seed SEED+k`` alone, whatever the batch size or the
+number of worker processes. ``workers`` > 1 splits the sets into that many batches, one per
+process; one batch in this process is usually fastest (the batch amortises the per-step cost).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from symrl.learner.config import RunConfig, config_from_dict, config_to_dict, load_config
+
+__all__ = [
+    "SetResult",
+    "resolve_config",
+    "run_sets",
+    "evaluate_states",
+    "last_trial_rows",
+    "table1",
+    "curves",
+    "mean_std",
+    "summarise",
+    "optimum",
+    "LAST",
+]
+
+LAST = 5
+"""Trials at the end of a set that its summary averages over."""
+_SKIP = ("path", "ghosts")
+
+
+@dataclass
+class SetResult:
+    """One set (one robot of a training batch): its trial rows, chosen paths and controller."""
+
+    index: int
+    seed: int
+    rows: list[dict[str, Any]]
+    paths: dict[int, list[list[float]]] = field(default_factory=dict)
+    """Trial number -> true path, for the first, first successful and final trials."""
+    ghosts: dict[int, list[list[float]]] = field(default_factory=dict)
+    evaluations: list[dict[str, Any]] = field(default_factory=list)
+    """Greedy runs of the final controller from other start poses (with their paths)."""
+    controller: dict[str, Any] = field(default_factory=dict)
+    """The final controller's state dict (loads into a one-robot policy)."""
+
+
+def resolve_config(recipe: str | RunConfig, overrides: Sequence[str] = ()) -> RunConfig:
+    """A recipe name/path with overrides, or a ready config (overrides then applied to it)."""
+    if isinstance(recipe, RunConfig):
+        if not overrides:
+            return recipe
+        from symrl.learner.config import _merge, _parse_override
+
+        data = config_to_dict(recipe)
+        for text in overrides:
+            data = _merge(data, _parse_override(text))
+        return config_from_dict(data, recipe=recipe.recipe)
+    return load_config(recipe, list(overrides))
+
+
+def _xy(path: Any) -> list[list[float]]:
+    return np.asarray(path, dtype=float).reshape(-1, 2).round(4).tolist()
+
+
+def evaluate_states(
+    config: RunConfig,
+    world: Any,
+    states: Sequence[dict[str, Any]],
+    starts: Sequence[tuple[float, float, float]],
+    seeds: Sequence[int],
+) -> list[dict[str, Any]]:
+    """Greedy trials of controller ``states[i]`` from ``starts[i]`` with noise seed ``seeds[i]``,
+    all in one batch; one compact record (with its path) per run."""
+    from symrl.evaluate import rollout
+    from symrl.learner.policy import MixtureOfExpertsPolicy
+    from symrl.train import make_env
+
+    if not states:
+        return []
+    policy = MixtureOfExpertsPolicy.from_robot_states(config, world, list(states), list(seeds))
+    env = make_env(config, list(seeds), world=world, starts=np.asarray(starts, dtype=np.float64))
+    try:
+        records = rollout(policy, env)
+    finally:
+        env.close()
+    return [
+        {
+            "start": [float(v) for v in start],
+            "reached_goal": bool(r["reached_goal"]),
+            "steps": int(r["steps"]),
+            "collisions": int(r["collisions"]),
+            "total_reinforcement": float(r["total_reinforcement"]),
+            "path": _xy(r["path"]),
+        }
+        for start, r in zip(starts, records, strict=True)
+    ]
+
+
+def _run_batch(
+    config_data: dict[str, Any],
+    indices: Sequence[int],
+    seeds: Sequence[int],
+    starts: Sequence[tuple[float, float, float]],
+    progress: bool,
+) -> list[SetResult]:
+    """Train one robot per seed in one batch, then drive each final controller from ``starts``
+    (runs in a worker process, or in this one)."""
+    import torch
+
+    from symrl.train import train_batch
+
+    torch.set_num_threads(1)
+    config = config_from_dict(config_data)
+    results = train_batch(config, seeds, progress=progress)
+    out = []
+    for index, res in zip(indices, results, strict=True):
+        rows, paths, ghosts = [], {}, {}
+        first_success = next((t["trial"] for t in res.trials if t["reached_goal"]), None)
+        keep = {res.trials[0]["trial"], res.trials[-1]["trial"], first_success}
+        for t in res.trials:
+            rows.append({"set": index, "seed": res.seed,
+                         **{k: v for k, v in t.items() if k not in _SKIP}})  # fmt: skip
+            if t["trial"] in keep:
+                paths[int(t["trial"])] = _xy(t["path"])
+                ghosts[int(t["trial"])] = _xy(t["ghosts"])
+        out.append(SetResult(index, res.seed, rows, paths, ghosts,
+                             controller=res.policy.state_dict()))  # fmt: skip
+    if starts:
+        world = results[0].policy.world
+        pairs = [(s, k) for s in out for k in range(len(starts))]
+        evs = evaluate_states(
+            config, world, [s.controller for s, _ in pairs], [starts[k] for _, k in pairs],
+            [s.seed + 1000 * (k + 1) for s, k in pairs],
+        )  # fmt: skip
+        for (s, _), ev in zip(pairs, evs, strict=True):
+            s.evaluations.append(ev)
+    return out
+
+
+def run_sets(
+    recipe: str | RunConfig,
+    sets: int,
+    trials: int,
+    seed: int = 100,
+    overrides: Sequence[str] = (),
+    starts: Sequence[tuple[float, float, float]] = (),
+    workers: int | None = 1,
+    progress: bool = True,
+) -> list[SetResult]:
+    """Train ``sets`` sets (set k: ``seed + k``) of ``trials`` trials and drive each final
+    controller from ``starts``; sets in order."""
+    if sets < 1 or trials < 1:
+        raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
+    workers = 1 if workers is None else workers
+    if workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {workers}")
+    config = resolve_config(recipe, [*overrides, f"run.trials={trials}", f"run.seed={seed}"])
+    data = config_to_dict(config)
+    workers = min(workers, sets, os.cpu_count() or 1)
+    chunks = [list(c) for c in np.array_split(np.arange(sets), workers) if len(c)]
+    jobs = [(data, c, [seed + k for k in c], list(starts)) for c in chunks]
+    if len(jobs) == 1:
+        return _run_batch(*jobs[0], progress=progress)
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    ctx = multiprocessing.get_context("spawn")  # no forked torch / OpenMP state
+    with ProcessPoolExecutor(len(jobs), mp_context=ctx) as pool:
+        futures = [pool.submit(_run_batch, *job, False) for job in jobs]
+        return [s for fut in futures for s in fut.result()]
+
+
+# --- statistics over sets ------------------------------------------------------------------
+
+
+def last_trial_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The row of the last trial of every set (sets in increasing order)."""
+    last: dict[int, dict[str, Any]] = {}
+    for row in rows:
+        s = int(row["set"])
+        if s not in last or int(row["trial"]) > int(last[s]["trial"]):
+            last[s] = row
+    return [last[s] for s in sorted(last)]
+
+
+def table1(
+    rows: Sequence[dict[str, Any]],
+    keys: Sequence[str] = (
+        "neurons", "steps", "total_reinforcement", "collisions", "reached_goal", "path_length",
+    ),  # fmt: skip
+) -> dict[str, Any]:
+    """Mean, sample variance (ddof 1), min and max over sets of each key at the last trial."""
+    if not rows:
+        raise ValueError("table1: no trial rows")
+    last = last_trial_rows(rows)
+    out: dict[str, Any] = {"sets": len(last), "trial": int(last[0]["trial"])}
+    for key in keys:
+        if key not in last[0]:
+            continue
+        v = np.array([float(r[key]) for r in last])
+        out[key] = {
+            "mean": float(v.mean()),
+            "variance": float(v.var(ddof=1)) if len(v) > 1 else float("nan"),
+            "min": float(v.min()),
+            "max": float(v.max()),
+        }
+    return out
+
+
+def curves(rows: Sequence[dict[str, Any]], key: str) -> np.ndarray:
+    """(sets, trials) array of ``key`` (NaN where a set has fewer trials)."""
+    sets = sorted({int(r["set"]) for r in rows})
+    trials = sorted({int(r["trial"]) for r in rows})
+    col = {t: j for j, t in enumerate(trials)}
+    row = {s: i for i, s in enumerate(sets)}
+    out = np.full((len(sets), len(trials)), np.nan)
+    for r in rows:
+        out[row[int(r["set"])], col[int(r["trial"])]] = float(r[key])
+    return out
+
+
+def mean_std(values: Sequence[float]) -> dict[str, float]:
+    """Mean and sample standard deviation, plus a 95 % bootstrap interval of the mean."""
+    v = np.asarray(values, dtype=float)
+    if v.size == 0:
+        return {"mean": float("nan"), "std": float("nan"), "ci95": [float("nan")] * 2}
+    rng = np.random.default_rng(0)  # fixed: the same rows give the same interval
+    boot = rng.choice(v, size=(2000, v.size), replace=True).mean(axis=1)
+    return {
+        "mean": float(v.mean()),
+        "std": float(v.std(ddof=1)) if v.size > 1 else 0.0,
+        "ci95": [float(np.percentile(boot, 2.5)), float(np.percentile(boot, 97.5))],
+    }
+
+
+def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any]:
+    """The summary of one recipe's sets: first success, success rate over the last ``last``
+    trials, their mean actions and total reinforcement (per set, then mean, sd and a 95 %
+    bootstrap interval over sets), neurons and collisions at the last trial, all collisions."""
+    if not rows:
+        raise ValueError("summarise: no trial rows")
+    by_set: dict[int, list[dict[str, Any]]] = {}
+    for r in rows:
+        by_set.setdefault(int(r["set"]), []).append(r)
+    never = 0
+    firsts, success, steps, reinf, neurons, coll_last, coll_all = ([] for _ in range(7))
+    for s in sorted(by_set):
+        trials = sorted(by_set[s], key=lambda r: int(r["trial"]))
+        first = next((int(r["trial"]) for r in trials if bool(r["reached_goal"])), None)
+        if first is None:
+            never += 1
+        else:
+            firsts.append(first)
+        tail = trials[-last:]
+        success += [float(bool(r["reached_goal"])) for r in tail]
+        steps.append(np.mean([float(r["steps"]) for r in tail]))
+        reinf.append(np.mean([float(r["total_reinforcement"]) for r in tail]))
+        neurons.append(float(trials[-1]["neurons"]))
+        coll_last.append(float(trials[-1]["collisions"]))
+        coll_all.append(sum(float(r["collisions"]) for r in trials))
+    return {
+        "sets": len(by_set),
+        "trials": max(int(r["trial"]) for r in rows),
+        "first_success": {**mean_std(firsts), "never": never},
+        f"success_last{last}": float(np.mean(success)),
+        f"steps_last{last}": mean_std(steps),
+        f"total_reinforcement_last{last}": mean_std(reinf),
+        "neurons_last": mean_std(neurons),
+        "collisions_last": mean_std(coll_last),
+        "collisions_all_trials": mean_std(coll_all),
+    }
+
+
+@functools.lru_cache(maxsize=8)
+def _optimum(map_name: str) -> tuple[int, float]:
+    from symrl.studies.planner import shortest_path
+    from symrl.world import load_map
+
+    plan = shortest_path(load_map(map_name))
+    return plan.actions, round(plan.length, 3)
+
+
+def optimum(map_name: str = "hailu2001") -> dict[str, Any]:
+    """The shortest path of a map (``symrl plan``), for the tables (computed once per map)."""
+    t0 = time.perf_counter()
+    steps, length = _optimum(map_name)
+    return {"steps": steps, "length_m": length, "seconds": round(time.perf_counter() - t0, 2)}
