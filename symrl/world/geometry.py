@@ -61,6 +61,7 @@ class Walls:
         self._axd = self.ax * self.dy - self.ay * self.dx  # a x d; w x d = a x d - p x d
         self._k = np.empty((3 * n, 2))
         self._k[:n] = self._nd
+        self._scratch: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         ends = np.concatenate([seg[:, :2], seg[:, 2:]], axis=0)
         self.vertices = np.unique(ends, axis=0)  # (m, 2) distinct segment end points
         self.vx, self.vy = self.vertices[:, 0].copy(), self.vertices[:, 1].copy()
@@ -222,14 +223,11 @@ class Walls:
         call of :meth:`cast`; a single ``(B, 2) @ (2, n)`` product would round differently)."""
         n = self._n
         b, r = angles.shape
-        u = np.empty((b, 2, r))
+        u, k, xy = self._cast_buffers(b, r)
         np.cos(angles, out=u[:, 0])
         np.sin(angles, out=u[:, 1])
-        k = np.empty((b, 3 * n, 2))
-        k[:, :n] = self._nd
         np.add(self._aj[:, 0], y[:, None], out=k[:, n : 2 * n, 0])
         np.add(self._aj[:, 1], -x[:, None], out=k[:, n : 2 * n, 1])
-        xy = np.empty((b, 2, 1))
         xy[:, 0, 0] = x
         xy[:, 1, 0] = y
         tnum = self._axd - np.matmul(self._nd, xy)[:, :, 0]  # w x d, one (n,2)@(2,) per row
@@ -242,6 +240,19 @@ class Walls:
         ok = (s >= -_S_EPS) & (s <= 1.0 + _S_EPS)
         inv_t = np.fmax.reduce(prod[:, 2 * n :], axis=1, where=ok, initial=1.0 / max_range)
         return 1.0 / inv_t
+
+    def _cast_buffers(self, b: int, r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Scratch arrays of :meth:`cast_many` for B = b, R = r, kept for the next call (the
+        same few shapes recur every step; allocating them is a noticeable part of a step)."""
+        key = (b, r)
+        bufs = self._scratch.get(key)
+        if bufs is None:
+            if len(self._scratch) >= 8:
+                self._scratch.clear()
+            k = np.empty((b, 3 * self._n, 2))
+            k[:, : self._n] = self._nd
+            bufs = self._scratch[key] = (np.empty((b, 2, r)), k, np.empty((b, 2, 1)))
+        return bufs
 
     def _sectors_many(
         self,
@@ -293,8 +304,12 @@ class Walls:
         nr = len(ray_offsets)
         edges = (heading - 0.5 * width)[:, None] + width * np.arange(n_sectors + 1)
         t = self.cast_many(x, y, np.concatenate((angles, edges), axis=1), ray_range)
+        if near.all():
+            edge_d = np.minimum(t[:, nr:], sector_range)
+            sectors = self._sectors_many(x, y, ex, ey, heading, n_sectors, edge_d, sector_range)
+            return t[:, :nr], sectors, clear
         sectors = np.full((len(x), n_sectors), sector_range)
-        rows = np.flatnonzero(near)
+        rows = near.nonzero()[0]
         edge_d = np.minimum(t[rows, nr:], sector_range)
         sectors[rows] = self._sectors_many(
             x[rows], y[rows], ex[rows], ey[rows], heading[rows], n_sectors, edge_d, sector_range

@@ -52,6 +52,15 @@ def _math_map(fn: Callable[..., float], a: np.ndarray, b: np.ndarray | float) ->
     return np.fromiter(map(fn, a.tolist(), second), np.float64, count=len(a))
 
 
+def _columns(x: np.ndarray, y: np.ndarray, h: np.ndarray, dtype: type = np.float64) -> np.ndarray:
+    """A new (k, 3) array of the three columns (cheaper than ``np.stack`` at small k)."""
+    out = np.empty((len(x), 3), dtype)
+    out[:, 0] = x
+    out[:, 1] = y
+    out[:, 2] = h
+    return out
+
+
 class Readings(NamedTuple):
     """What the robots of one reset or step report, one row per robot concerned.
 
@@ -94,9 +103,10 @@ class RobotBatch:
     """B robots in one world, reset and stepped together (numpy float64, no torch).
 
     State (replaced, never mutated in place, so arrays handed out earlier stay valid):
-    ``true_pose`` and ``odometry_pose`` ``(B, 3)`` float64, ``actions_taken`` ``(B,)`` int64 and
-    ``sonar`` ``(B, n)`` float64, the last sonar reading in metres (for rendering). Before the
-    first :meth:`reset` every robot sits at the map's start, unsensed.
+    ``true_pose`` and ``odometry_pose`` ``(B, 3)`` float64 (new arrays on every access),
+    ``actions_taken`` ``(B,)`` int64 and ``sonar`` ``(B, n)`` float64, the last sonar reading in
+    metres (for rendering). Before the first :meth:`reset` every robot sits at the map's start,
+    unsensed.
     """
 
     def __init__(
@@ -138,16 +148,25 @@ class RobotBatch:
         self._noisy = self._sonar_std > 0 or self._rot_std > 0 or self._trans_std > 0
         self._goal = (world.goal.x, world.goal.y, world.goal.radius)
 
-        start = np.array([[world.start.x, world.start.y, world.start.heading]])
-        start[:, 2] = _wrap(start[:, 2])
-        self.true_pose = np.repeat(start, self.size, axis=0)
-        self.odometry_pose = self.true_pose.copy()
+        # the state, one (B,) array per coordinate (columns are cheaper to update than (B, 3))
+        ones = np.ones(self.size)
+        self._x, self._y = world.start.x * ones, world.start.y * ones
+        self._h = _wrap(world.start.heading * ones)
+        self._xo, self._yo, self._ho = self._x, self._y, self._h
         self.actions_taken = np.zeros(self.size, dtype=np.int64)
         self.sonar = np.zeros((self.size, n))
         # closest wall points (relative) and clearance of each true pose: reused by the next step
-        self._ex, self._ey, self._clear = self.walls.closest_many(
-            self.true_pose[:, 0], self.true_pose[:, 1]
-        )
+        self._ex, self._ey, self._clear = self.walls.closest_many(self._x, self._y)
+
+    @property
+    def true_pose(self) -> np.ndarray:
+        """(B, 3) float64: the true poses (x, y, heading), headings in [-pi, pi]."""
+        return _columns(self._x, self._y, self._h)
+
+    @property
+    def odometry_pose(self) -> np.ndarray:
+        """(B, 3) float64: the poses the robots believe."""
+        return _columns(self._xo, self._yo, self._ho)
 
     # --- spaces --------------------------------------------------------------------------
 
@@ -227,21 +246,21 @@ class RobotBatch:
         self.check_poses(poses, rows)
         x, y = poses[:, 0].copy(), poses[:, 1].copy()
         h = _wrap(poses[:, 2])
-        pose = np.stack((x, y, h), axis=1)
         near = self.walls.closest_many(x, y)
         rim, refl, clear = self._sense(x, y, h, near)
         if self._sonar_std > 0.0:
-            noise = np.stack([rngs[b].standard_normal(self.n_sensors) for b in rows.tolist()])
+            noise = np.empty((len(rows), self.n_sensors))
+            for i, b in enumerate(rows.tolist()):
+                rngs[b].standard_normal(out=noise[i])
             rim = rim + self._sonar_std * noise
         sonar = np.minimum(np.maximum(rim, 0.0), self.robot.sonar_range)
 
-        for name, value in (("true_pose", pose), ("odometry_pose", pose), ("sonar", sonar)):
-            state = getattr(self, name).copy()
-            state[rows] = value
-            setattr(self, name, state)
-        self.actions_taken = self.actions_taken.copy()
-        self.actions_taken[rows] = 0
-        for name, value in (("_ex", near[0]), ("_ey", near[1]), ("_clear", clear)):
+        # copy-on-write: arrays handed out before stay as they were
+        for name, value in (
+            ("_x", x), ("_y", y), ("_h", h), ("_xo", x), ("_yo", y), ("_ho", h),
+            ("sonar", sonar), ("actions_taken", 0),
+            ("_ex", near[0]), ("_ey", near[1]), ("_clear", clear),
+        ):  # fmt: skip
             state = getattr(self, name).copy()
             state[rows] = value
             setattr(self, name, state)
@@ -250,7 +269,7 @@ class RobotBatch:
         angle = self._goal_angle(x, y)
         f2 = -np.abs(_wrap(h - angle)) / _PI
         no = [np.zeros(len(rows), dtype=bool) for _ in range(5)]
-        return self._readings(sonar, refl, x, y, h, pose, f1, f2, *no, angle)
+        return self._readings(sonar, refl, x, y, h, x, y, h, f1, f2, *no, angle)
 
     def step(self, alpha: np.ndarray, rngs: Sequence[np.random.Generator]) -> Readings:
         """Every robot takes one action: rotate by ``alpha[b]`` (radians, clipped to [-pi, pi];
@@ -260,14 +279,15 @@ class RobotBatch:
         alpha = np.asarray(alpha, dtype=np.float64).reshape(-1)
         if alpha.shape != (self.size,):
             raise ValueError(f"step: need {self.size} actions, one per robot, got {alpha.size}")
-        finite = np.isfinite(alpha)
-        if not finite.all():
-            b = int(np.argmin(finite))
+        if not np.isfinite(alpha).all():
+            b = int(np.argmin(np.isfinite(alpha)))
             raise ValueError(f"step: the action of robot {b} must be finite, got {alpha[b]!r}")
         alpha = np.minimum(np.maximum(alpha, -_PI), _PI)
-        x0, y0, h0 = self.true_pose[:, 0], self.true_pose[:, 1], self.true_pose[:, 2]
+        x0, y0, h0 = self._x, self._y, self._h
         if self._noisy:  # one draw per robot and step: rotation, translation, the n sonars
-            z = np.stack([rng.standard_normal(self.n_sensors + 2) for rng in rngs])
+            z = np.empty((self.size, self.n_sensors + 2))
+            for b, rng in enumerate(rngs):
+                rng.standard_normal(out=z[b])
             rot_err, trans_err = self._rot_std * z[:, 0], self._trans_std * z[:, 1]
         else:
             z = None
@@ -282,13 +302,15 @@ class RobotBatch:
         # virtual = an IR reflectance > threshold, i.e. a rim distance below 0.056 m (the IR
         # sectors tile the ring, so the smallest IR distance is exactly the clearance)
         ex, ey, clear = self.walls.closest_many(x1, y1)
-        real = np.zeros(self.size, dtype=bool)
-        maybe = np.flatnonzero(self._clear <= robot.radius + np.abs(length) + 1e-9)
-        if len(maybe):
-            m = maybe
+        maybe = self._clear <= robot.radius + np.abs(length) + 1e-9
+        if maybe.any():
+            m = maybe.nonzero()[0]
+            real = np.zeros(self.size, dtype=bool)
             real[m] = self.walls.swept_disc_contact_many(
                 x0[m], y0[m], x1[m], y1[m], robot.radius, self._clear[m], clear[m]
             )
+        else:
+            real = maybe
         d = np.minimum(np.maximum(clear - robot.radius, 0.0), robot.ir_range)
         reflectance = 100.0 * _math_map(pow, 1.0 - d / robot.ir_range, 3.0)
         virtual = ~real & (reflectance > robot.ir_collision_threshold)
@@ -301,18 +323,20 @@ class RobotBatch:
             ey = np.where(back, self._ey, ey)
             clear = np.where(collision, self._clear, clear)
         rim, refl, clear = self._sense(x1, y1, h1, (ex, ey, clear))
-        pose = np.stack((x1, y1, h1), axis=1)
-        self.true_pose = pose
+        self._x, self._y, self._h = x1, y1, h1
         self._ex, self._ey, self._clear = ex, ey, clear
 
         if robot.perfect_odometry:
             xo, yo, ho = x1, y1, h1
         else:
-            odo = self.odometry_pose
-            xo, yo, ho = odo[:, 0], odo[:, 1], _wrap(odo[:, 2] + alpha)
-            xo = np.where(collision, xo, xo + robot.step * np.cos(ho))
-            yo = np.where(collision, yo, yo + robot.step * np.sin(ho))
-        self.odometry_pose = np.stack((xo, yo, ho), axis=1)
+            xo, yo, ho = self._xo, self._yo, _wrap(self._ho + alpha)
+            if not collision.all():  # a collision reverses the odometry's translation too
+                moved_x = xo + robot.step * np.cos(ho)
+                moved_y = yo + robot.step * np.sin(ho)
+                stuck = collision.any()
+                xo = np.where(collision, xo, moved_x) if stuck else moved_x
+                yo = np.where(collision, yo, moved_y) if stuck else moved_y
+        self._xo, self._yo, self._ho = xo, yo, ho
         self.actions_taken = self.actions_taken + 1
 
         if z is not None and self._sonar_std > 0.0:
@@ -326,8 +350,8 @@ class RobotBatch:
         reached = _math_map(math.hypot, x1 - gx, y1 - gy) <= gr
         truncated = ~reached & (self.actions_taken >= self.max_actions)
         return self._readings(
-            sonar, refl, xo, yo, ho, pose, f1, f2, collision, real, virtual, reached, truncated,
-            angle,
+            sonar, refl, xo, yo, ho, x1, y1, h1, f1, f2, collision, real, virtual, reached,
+            truncated, angle,
         )  # fmt: skip
 
     # --- internals -------------------------------------------------------------------------
@@ -376,7 +400,9 @@ class RobotBatch:
         xo: np.ndarray,
         yo: np.ndarray,
         ho: np.ndarray,
-        pose: np.ndarray,
+        x: np.ndarray,
+        y: np.ndarray,
+        h: np.ndarray,
         f1: np.ndarray,
         f2: np.ndarray,
         collision: np.ndarray,
@@ -395,7 +421,7 @@ class RobotBatch:
             sonar=(sonar * (1.0 / self.robot.sonar_range)).astype(f32),
             ir=refl.astype(f32),
             bumper=real.astype(f32)[:, None],
-            odometry=np.stack((xo, yo, ho), axis=1).astype(f32),
+            odometry=_columns(xo, yo, ho, f32),
             goal=goal,
             reward=f1 + f2,
             f1=f1,
@@ -405,5 +431,5 @@ class RobotBatch:
             virtual_collision=virtual,
             reached_goal=reached,
             truncated=truncated,
-            true_pose=pose.copy(),
+            true_pose=_columns(x, y, h),
         )
