@@ -10,19 +10,13 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from symrl.world.geometry import Walls
+from symrl.world.physics import Readings, RobotBatch
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap, load_map
 
 __all__ = ["Hailu2001Env"]
 
 _PI = math.pi
-_TWO_PI = 2.0 * math.pi
-
-
-def _wrap(angle: float) -> float:
-    """Wrap an angle to [-pi, pi]."""
-    return (angle + _PI) % _TWO_PI - _PI
 
 
 class Hailu2001Env(gymnasium.Env):
@@ -158,63 +152,20 @@ class Hailu2001Env(gymnasium.Env):
             )
         self.render_mode = render_mode
 
-        n = robot.n_sensors
+        # the physics: a batch of one robot; this env is its Gymnasium face
+        self._batch = RobotBatch(self.world, robot, 1, self.noise, max_actions)
+        self._n = robot.n_sensors
         self.action_space = spaces.Box(-np.pi, np.pi, (1,), np.float32)
-        # the odometry moves at most `step` per action, so within a trial it stays this close
-        # to the map (finite bounds, so spaces can be sampled and checked)
-        reach = max_actions * robot.step
-        xmin, xmax, ymin, ymax = self.world.bounds
-        far = math.hypot(xmax - xmin, ymax - ymin) + 2.0 * reach
         self.observation_space = spaces.Dict(
             {
-                "sonar": spaces.Box(0.0, 1.0, (n,), np.float32),
-                "ir": spaces.Box(0.0, 100.0, (n,), np.float32),
-                "bumper": spaces.Box(0.0, 1.0, (1,), np.float32),
-                "odometry": spaces.Box(
-                    np.array([xmin - reach, ymin - reach, -np.pi], np.float32),
-                    np.array([xmax + reach, ymax + reach, np.pi], np.float32),
-                    dtype=np.float32,
-                ),
-                "goal": spaces.Box(
-                    np.array([0.0, -np.pi], np.float32),
-                    np.array([far, np.pi], np.float32),
-                    dtype=np.float32,
-                ),
+                key: spaces.Box(low, high, dtype=np.float32)
+                for key, (low, high) in self._batch.observation_bounds().items()
             }
         )
-
-        # --- precomputed constants of the per-step model --------------------------------
-        self._walls = Walls(self.world.segments)
-        self._n = n
-        axes = (_TWO_PI / n) * np.arange(n)
-        if robot.sonar_cone_deg > 0.0:
-            m = robot.sonar_cone_rays
-            half = 0.5 * math.radians(robot.sonar_cone_deg)
-            sub = np.linspace(-half, half, m) if m > 1 else np.zeros(1)
-            sonar_offsets = (axes[:, None] + sub[None, :]).ravel()
-        else:
-            m = 1
-            sonar_offsets = axes
-        self._cone_rays = m
-        self._sonar_offsets = sonar_offsets
-        self._cast_range = robot.radius + robot.sonar_range
-        self._ir_zero = np.zeros(n)
-        self._ir_reach = robot.radius + robot.ir_range
-        self._sonar_std = robot.sonar_noise_std if self.noise else 0.0
-        self._rot_std = math.radians(robot.rotation_noise_deg) if self.noise else 0.0
-        self._trans_std = robot.translation_noise * robot.step if self.noise else 0.0
-        self._noisy = self._sonar_std > 0 or self._rot_std > 0 or self._trans_std > 0
-        self._goal = (self.world.goal.x, self.world.goal.y, self.world.goal.radius)
-
-        # --- state ----------------------------------------------------------------------
-        self._true = (self.world.start.x, self.world.start.y, _wrap(self.world.start.heading))
-        self._odom = self._true
-        self._clear = math.inf  # true clearance of the current pose (for the swept-test skip)
-        self._near: Any = None  # Walls.closest at the current true pose
-        self._actions = 0
+        self._row = np.zeros(1, dtype=np.intp)
         self.path: list[tuple[float, float]] = []
         self.odometry_path: list[tuple[float, float]] = []
-        self._last_sonar: np.ndarray | None = None
+        self._sensed = False  # a reading exists (render draws the sonar only after a reset)
         self._renderer: Any = None
 
     # --- public state ----------------------------------------------------------------------
@@ -222,27 +173,27 @@ class Hailu2001Env(gymnasium.Env):
     @property
     def true_pose(self) -> np.ndarray:
         """The true pose (x, y, heading), heading wrapped to [-pi, pi]."""
-        return np.array(self._true, dtype=np.float64)
+        return self._batch.true_pose[0].copy()
 
     @property
     def odometry_pose(self) -> np.ndarray:
         """The pose the robot believes (x, y, heading)."""
-        return np.array(self._odom, dtype=np.float64)
+        return self._batch.odometry_pose[0].copy()
 
     @property
     def actions_taken(self) -> int:
         """Actions taken since the last reset."""
-        return self._actions
+        return int(self._batch.actions_taken[0])
 
     def sense(self, x: float, y: float, heading: float) -> tuple[np.ndarray, np.ndarray]:
         """Noise-free sonar rim distances (metres) and IR reflectances at any pose (no state
         change): for planners, figures and benchmarks."""
-        rim, refl, _ = self._sense(float(x), float(y), float(heading))
-        return rim.copy(), refl.copy()
+        rim, refl = self._batch.sense(np.array([x]), np.array([y]), np.array([heading]))
+        return rim[0], refl[0]
 
     def clearance(self, x: float, y: float) -> float:
         """Distance from the point to the nearest wall (the robot's centre clearance there)."""
-        return float(self._walls.clearance(np.array([x, y], dtype=np.float64)))
+        return float(self._batch.walls.clearance(np.array([x, y], dtype=np.float64)))
 
     # --- gymnasium API ---------------------------------------------------------------------
 
@@ -261,87 +212,28 @@ class Hailu2001Env(gymnasium.Env):
             if options.get("pose") is not None:
                 pose = options["pose"]
         x, y, h = self._check_pose(pose)
-        self._true = (x, y, h)
-        self._odom = self._true
-        self._actions = 0
+        r = self._batch.reset(self._row, np.array([[x, y, h]]), (self.np_random,))
         self.path = [(x, y)]
         self.odometry_path = [(x, y)]
-        self._near = self._walls.closest(x, y)
-        rim, refl, clear = self._sense(x, y, h, self._near)
-        self._clear = clear
-        noise = self.np_random.standard_normal(self._n) if self._sonar_std > 0.0 else None
-        sonar = self._noisy_sonar(rim, noise)
-        info = self._info(False, False, 0.0, 0.0, False)
-        obs = self._observation(sonar, refl, False)
+        self._sensed = True
+        # the reset state's reinforcement (r.reward) is the batched env's; here f1 = f2 = 0
+        info = self._info(r, False)
         if self.render_mode == "human":
             self.render()
-        return obs, info
+        return self._observation(r), info
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         alpha = self._parse_action(action)
-        robot = self.robot
-        x0, y0, h0 = self._true
-        if self._noisy:  # one draw per step: rotation, translation, then the n sonars
-            z = self.np_random.standard_normal(self._n + 2)
-            rot_err, trans_err = self._rot_std * float(z[0]), self._trans_std * float(z[1])
-        else:
-            z = None
-            rot_err = trans_err = 0.0
-        h1 = _wrap(h0 + alpha + rot_err)
-        length = robot.step + trans_err
-        x1 = x0 + length * math.cos(h1)
-        y1 = y0 + length * math.sin(h1)
-
-        # collision test from the clearance at the end of the move: real = the swept disc
-        # touches a wall (impossible while the clearance exceeds radius + translation),
-        # virtual = an IR reflectance > 70, i.e. a rim distance below 0.056 m (the IR sectors
-        # tile the ring, so the smallest IR distance is exactly the clearance)
-        near = self._walls.closest(x1, y1)
-        clear = near[2]
-        real = self._clear <= robot.radius + abs(length) + 1e-9 and (
-            self._walls.swept_disc_contact(x0, y0, x1, y1, robot.radius, self._clear, clear)
-        )
-        d = min(max(clear - robot.radius, 0.0), robot.ir_range)
-        reflectance = 100.0 * (1.0 - d / robot.ir_range) ** 3
-        virtual = not real and reflectance > robot.ir_collision_threshold
-        collision = real or virtual
-        if collision:  # emergency handler: back to the pose before the translation
-            x1, y1 = x0, y0
-            near = self._near
-        rim, refl, clear = self._sense(x1, y1, h1, near)
-        self._true = (x1, y1, h1)
-        self._clear = clear
-        self._near = near
-
-        if robot.perfect_odometry:
-            self._odom = self._true
-        else:
-            xo, yo, ho = self._odom
-            ho = _wrap(ho + alpha)
-            if not collision:
-                xo += robot.step * math.cos(ho)
-                yo += robot.step * math.sin(ho)
-            self._odom = (xo, yo, ho)
-        self._actions += 1
+        r = self._batch.step(np.array([alpha]), (self.np_random,))
+        x1, y1 = r.true_pose[0, :2].tolist()
         self.path.append((x1, y1))
-        self.odometry_path.append(self._odom[:2])
-
-        sonar = self._noisy_sonar(rim, None if z is None else z[2:])
-        if collision:
-            f1 = -3.0
-        else:
-            dmin = float(sonar.min())
-            f1 = -1.0 + dmin / robot.close_distance if dmin < robot.close_distance else 0.0
-        xo, yo, ho = self._odom
-        gx, gy, gr = self._goal
-        f2 = -abs(_wrap(ho - math.atan2(gy - yo, gx - xo))) / _PI
-        reached = math.hypot(x1 - gx, y1 - gy) <= gr
-        truncated = not reached and self._actions >= self.max_actions
-        obs = self._observation(sonar, refl, real)
-        info = self._info(collision, real, f1, f2, reached, virtual)
+        xo, yo = self._batch.odometry_pose[0, :2].tolist()
+        self.odometry_path.append((xo, yo))
+        obs = self._observation(r)
+        info = self._info(r, True)
         if self.render_mode == "human":
             self.render()
-        return obs, f1 + f2, reached, truncated, info
+        return obs, float(r.reward[0]), bool(r.reached_goal[0]), bool(r.truncated[0]), info
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -353,7 +245,7 @@ class Hailu2001Env(gymnasium.Env):
 
         if self._renderer is None:
             self._renderer = EnvRenderer(self.world, self.robot, human=self.render_mode == "human")
-        sonar = self._last_sonar if self._last_sonar is not None else np.zeros(self._n)
+        sonar = self._batch.sonar[0] if self._sensed else np.zeros(self._n)
         frame = self._renderer.draw(self.true_pose, sonar, self.path, self.odometry_path)
         return frame if self.render_mode == "rgb_array" else None
 
@@ -389,7 +281,7 @@ class Hailu2001Env(gymnasium.Env):
                 f"reset: pose {pose!r} is too close to a wall: clearance {clear:.3f} m "
                 f"<= robot radius {self.robot.radius} m"
             )
-        return x, y, _wrap(h)
+        return x, y, h  # RobotBatch.reset wraps the heading (once: wrapping twice may round)
 
     def _parse_action(self, action: Any) -> float:
         arr = np.asarray(action, dtype=np.float64)
@@ -400,67 +292,18 @@ class Hailu2001Env(gymnasium.Env):
             raise ValueError(f"action must be finite, got {action!r}")
         return -_PI if alpha < -_PI else (_PI if alpha > _PI else alpha)
 
-    def _sense(
-        self, x: float, y: float, h: float, near: Any = None
-    ) -> tuple[np.ndarray, np.ndarray, float]:
-        """Noise-free sonar rim distances, IR reflectances and the true clearance at a pose
-        (``near``: ``Walls.closest`` at this point, if already computed)."""
-        robot = self.robot
-        rays, sectors, clear = self._walls.scan(
-            x, y, h, self._sonar_offsets, self._n, self._cast_range, self._ir_reach, near
-        )
-        if self._cone_rays > 1:
-            rays = np.minimum.reduce(rays.reshape(self._n, self._cone_rays), axis=1)
-        rim = np.minimum(rays - robot.radius, robot.sonar_range)
-        if sectors is None:  # nothing within IR range
-            return rim, self._ir_zero, clear
-        return rim, self._reflectance(sectors - robot.radius), clear
+    def _observation(self, r: Readings) -> dict[str, np.ndarray]:
+        return {"sonar": r.sonar[0], "ir": r.ir[0], "bumper": r.bumper[0],
+                "odometry": r.odometry[0], "goal": r.goal[0]}  # fmt: skip
 
-    def _reflectance(self, rim_distance: Any) -> Any:
-        """100 * (1 - d / ir_range)^3, d clipped to [0, ir_range] (scalar or array)."""
-        r = self.robot.ir_range
-        d = np.minimum(np.maximum(rim_distance, 0.0), r)
-        return 100.0 * (1.0 - d * (1.0 / r)) ** 3
-
-    def _noisy_sonar(self, rim: np.ndarray, noise: np.ndarray | None) -> np.ndarray:
-        """Add ``sonar_noise_std`` times the standard normal ``noise`` and clip to the range."""
-        if noise is not None and self._sonar_std > 0.0:
-            rim = rim + self._sonar_std * noise
-        sonar = np.minimum(np.maximum(rim, 0.0), self.robot.sonar_range)
-        self._last_sonar = sonar
-        return sonar
-
-    def _observation(
-        self, sonar: np.ndarray, refl: np.ndarray, bumper: bool
-    ) -> dict[str, np.ndarray]:
-        xo, yo, ho = self._odom
-        gx, gy, _ = self._goal
-        dx, dy = gx - xo, gy - yo
+    def _info(self, r: Readings, stepped: bool) -> dict[str, Any]:
+        """The info dict; after a reset the flags are False and f1 = f2 = 0."""
         return {
-            "sonar": (sonar * (1.0 / self.robot.sonar_range)).astype(np.float32),
-            "ir": refl.astype(np.float32),
-            "bumper": np.array([1.0 if bumper else 0.0], dtype=np.float32),
-            "odometry": np.array([xo, yo, ho], dtype=np.float32),
-            "goal": np.array(
-                [math.hypot(dx, dy), _wrap(math.atan2(dy, dx) - ho)], dtype=np.float32
-            ),
-        }
-
-    def _info(
-        self,
-        collision: bool,
-        real: bool,
-        f1: float,
-        f2: float,
-        reached: bool,
-        virtual: bool = False,
-    ) -> dict[str, Any]:
-        return {
-            "true_pose": np.array(self._true, dtype=np.float64),
-            "collision": np.bool_(collision),
-            "real_collision": np.bool_(real),
-            "virtual_collision": np.bool_(virtual),
-            "f1": np.float64(f1),
-            "f2": np.float64(f2),
-            "reached_goal": np.bool_(reached),
+            "true_pose": r.true_pose[0],
+            "collision": np.bool_(r.collision[0]),
+            "real_collision": np.bool_(r.real_collision[0]),
+            "virtual_collision": np.bool_(r.virtual_collision[0]),
+            "f1": np.float64(r.f1[0] if stepped else 0.0),
+            "f2": np.float64(r.f2[0] if stepped else 0.0),
+            "reached_goal": np.bool_(r.reached_goal[0]),
         }

@@ -5,6 +5,12 @@ once, so the per-step queries are a handful of numpy operations over ``(segments
 Python loop over rays or segments (the env calls them hundreds of thousands of times). The
 module-level functions are convenience wrappers that build a ``Walls`` per call; hot loops should
 build one ``Walls`` and call its methods.
+
+The ``*_many`` methods answer the same queries for B points or poses at once (arrays with a leading
+B axis), for :class:`symrl.world.physics.RobotBatch`. Row b of their result is bitwise equal to the
+scalar method at pose b, whatever B is: they use the same floating-point operations in the same
+order, element-wise, and the ray cast does one small matrix product per row (``np.matmul`` over a
+stack), the same BLAS call as the scalar :meth:`Walls.cast`, so no result depends on the batch.
 """
 
 from __future__ import annotations
@@ -55,6 +61,7 @@ class Walls:
         self._axd = self.ax * self.dy - self.ay * self.dx  # a x d; w x d = a x d - p x d
         self._k = np.empty((3 * n, 2))
         self._k[:n] = self._nd
+        self._scratch: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         ends = np.concatenate([seg[:, :2], seg[:, 2:]], axis=0)
         self.vertices = np.unique(ends, axis=0)  # (m, 2) distinct segment end points
         self.vx, self.vy = self.vertices[:, 0].copy(), self.vertices[:, 1].copy()
@@ -192,6 +199,152 @@ class Walls:
         edge_d = np.minimum(t[nr:], sector_range)
         sectors = self._sectors(x, y, ex, ey, heading, n_sectors, edge_d, sector_range)
         return t[:nr], sectors, clear
+
+    # --- the same queries for B poses at once ----------------------------------------------
+
+    def closest_many(
+        self, x: np.ndarray, y: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`closest` for B points: ex, ey ``(B, n)`` and the clearances ``(B,)``."""
+        wx = self.ax - x[:, None]
+        wy = self.ay - y[:, None]
+        s = (wx * self.dx + wy * self.dy) * self._neg_inv_len2
+        s = np.minimum(np.maximum(s, 0.0), 1.0)
+        ex = wx + s * self.dx
+        ey = wy + s * self.dy
+        return ex, ey, np.sqrt(np.minimum.reduce(ex * ex + ey * ey, axis=1))
+
+    def cast_many(
+        self, x: np.ndarray, y: np.ndarray, angles: np.ndarray, max_range: float
+    ) -> np.ndarray:
+        """:meth:`cast` for B origins, each with its own R angles ``(B, R)``: ``(B, R)``.
+
+        One ``(3n, 2) @ (2, R)`` product per row through a stacked ``np.matmul`` (the BLAS
+        call of :meth:`cast`; a single ``(B, 2) @ (2, n)`` product would round differently)."""
+        n = self._n
+        b, r = angles.shape
+        u, k, xy = self._cast_buffers(b, r)
+        np.cos(angles, out=u[:, 0])
+        np.sin(angles, out=u[:, 1])
+        np.add(self._aj[:, 0], y[:, None], out=k[:, n : 2 * n, 0])
+        np.add(self._aj[:, 1], -x[:, None], out=k[:, n : 2 * n, 1])
+        xy[:, 0, 0] = x
+        xy[:, 1, 0] = y
+        tnum = self._axd - np.matmul(self._nd, xy)[:, :, 0]  # w x d, one (n,2)@(2,) per row
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            inv_tnum = 1.0 / tnum
+            inv_tnum[tnum == 0.0] = 0.0
+            np.multiply(self._nd, inv_tnum[:, :, None], out=k[:, 2 * n :])
+            prod = np.matmul(k, u)  # (B, 3n, R)
+            s = prod[:, n : 2 * n] / prod[:, :n]
+        ok = (s >= -_S_EPS) & (s <= 1.0 + _S_EPS)
+        inv_t = np.fmax.reduce(prod[:, 2 * n :], axis=1, where=ok, initial=1.0 / max_range)
+        return 1.0 / inv_t
+
+    def _cast_buffers(self, b: int, r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Scratch arrays of :meth:`cast_many` for B = b, R = r, kept for the next call (the
+        same few shapes recur every step; allocating them is a noticeable part of a step)."""
+        key = (b, r)
+        bufs = self._scratch.get(key)
+        if bufs is None:
+            if len(self._scratch) >= 8:
+                self._scratch.clear()
+            k = np.empty((b, 3 * self._n, 2))
+            k[:, : self._n] = self._nd
+            bufs = self._scratch[key] = (np.empty((b, 2, r)), k, np.empty((b, 2, 1)))
+        return bufs
+
+    def _sectors_many(
+        self,
+        x: np.ndarray,
+        y: np.ndarray,
+        ex: np.ndarray,
+        ey: np.ndarray,
+        heading: np.ndarray,
+        n: int,
+        edge_d: np.ndarray,
+        max_range: float,
+    ) -> np.ndarray:
+        """:meth:`_sectors` for B poses (``edge_d`` ``(B, n + 1)``): ``(B, n)``."""
+        width = _TWO_PI / n
+        b = len(x)
+        cx = np.concatenate((ex, self.vx - x[:, None]), axis=1)
+        cy = np.concatenate((ey, self.vy - y[:, None]), axis=1)
+        rel = np.arctan2(cy, cx) - (heading - 0.5 * width)[:, None]
+        idx = (np.mod(rel, _TWO_PI) * (1.0 / width)).astype(np.intp)
+        idx += (n + 1) * np.arange(b)[:, None]  # row b's bins in the flat buffer
+        best = np.empty((b, n + 1))
+        np.minimum(edge_d[:, :-1], edge_d[:, 1:], out=best[:, :n])
+        best[:, n] = max_range
+        np.minimum.at(best.reshape(-1), idx.reshape(-1), np.hypot(cx, cy).reshape(-1))
+        np.minimum(best[:, 0], best[:, n], out=best[:, 0])
+        return best[:, :n]
+
+    def scan_many(
+        self,
+        x: np.ndarray,
+        y: np.ndarray,
+        heading: np.ndarray,
+        ray_offsets: np.ndarray,
+        n_sectors: int,
+        ray_range: float,
+        sector_range: float,
+        closest: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """:meth:`scan` for B poses: rays ``(B, R)``, sectors ``(B, n_sectors)`` and the
+        clearances ``(B,)``. Rows with a clearance of at least ``sector_range`` (where
+        :meth:`scan` returns ``None``) read ``sector_range`` in every sector; ``sectors`` is
+        ``None`` when that holds for every row. ``closest``: :meth:`closest_many` at the points."""
+        ex, ey, clear = self.closest_many(x, y) if closest is None else closest
+        near = clear < sector_range
+        angles = heading[:, None] + ray_offsets
+        if not near.any():
+            return self.cast_many(x, y, angles, ray_range), None, clear
+        width = _TWO_PI / n_sectors
+        nr = len(ray_offsets)
+        edges = (heading - 0.5 * width)[:, None] + width * np.arange(n_sectors + 1)
+        t = self.cast_many(x, y, np.concatenate((angles, edges), axis=1), ray_range)
+        if near.all():
+            edge_d = np.minimum(t[:, nr:], sector_range)
+            sectors = self._sectors_many(x, y, ex, ey, heading, n_sectors, edge_d, sector_range)
+            return t[:, :nr], sectors, clear
+        sectors = np.full((len(x), n_sectors), sector_range)
+        rows = near.nonzero()[0]
+        edge_d = np.minimum(t[rows, nr:], sector_range)
+        sectors[rows] = self._sectors_many(
+            x[rows], y[rows], ex[rows], ey[rows], heading[rows], n_sectors, edge_d, sector_range
+        )
+        return t[:, :nr], sectors, clear
+
+    def swept_disc_contact_many(
+        self,
+        x0: np.ndarray,
+        y0: np.ndarray,
+        x1: np.ndarray,
+        y1: np.ndarray,
+        radius: float,
+        clear0: np.ndarray,
+        clear1: np.ndarray,
+    ) -> np.ndarray:
+        """:meth:`swept_disc_contact` for B motions with known end clearances: ``(B,)`` bool."""
+        mx, my = x1 - x0, y1 - y0
+        mlen2 = mx * mx + my * my
+        with np.errstate(divide="ignore", invalid="ignore"):
+            wx = self.vx - x0[:, None]
+            wy = self.vy - y0[:, None]
+            s = (wx * mx[:, None] + wy * my[:, None]) * (1.0 / mlen2)[:, None]
+            s = np.minimum(np.maximum(s, 0.0), 1.0)
+            ex = wx - s * mx[:, None]
+            ey = wy - s * my[:, None]
+            vertex = np.minimum.reduce(ex * ex + ey * ey, axis=1) < radius * radius
+        far_apart = np.sqrt(mlen2) >= clear0 + clear1  # only then can the motion cross a wall
+        o1 = mx[:, None] * (self.ay - y0[:, None]) - my[:, None] * (self.ax - x0[:, None])
+        o2 = mx[:, None] * (self.by - y0[:, None]) - my[:, None] * (self.bx - x0[:, None])
+        o3 = self.dx * (y0[:, None] - self.ay) - self.dy * (x0[:, None] - self.ax)
+        o4 = self.dx * (y1[:, None] - self.ay) - self.dy * (x1[:, None] - self.ax)
+        cross = np.any((o1 * o2 < 0.0) & (o3 * o4 < 0.0), axis=1)
+        moved = mlen2 != 0.0
+        return (clear0 < radius) | (clear1 < radius) | (moved & (vertex | (far_apart & cross)))
 
     # --- motion ----------------------------------------------------------------------------
 

@@ -1,0 +1,212 @@
+"""The training face of the world: a TorchRL ``EnvBase`` of B robots stepped together.
+
+``BatchedWorldEnv`` wraps one :class:`~symrl.world.physics.RobotBatch` (the same physics as the
+Gymnasium :class:`~symrl.world.env.Hailu2001Env`, which is its B = 1 face) with ``batch_size=[B]``.
+Each robot has its own ``np.random.Generator``, so robot b's trajectory depends only on its seed
+and its actions, never on B or on the other robots. Episodes end per robot; TorchRL's partial
+resets (a ``"_reset"`` mask, as the Collector's ``step_and_maybe_reset`` sends) restart only the
+robots concerned.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import EnvBase
+
+from symrl.world.physics import Readings, RobotBatch
+from symrl.world.robot import RobotConfig
+from symrl.world.worldmap import WorldMap, load_map
+
+__all__ = ["BatchedWorldEnv"]
+
+_OBS_KEYS = ("sonar", "ir", "bumper", "odometry", "goal")
+
+
+class BatchedWorldEnv(EnvBase):
+    """B robots in one world, one TorchRL env with ``batch_size=[B]`` (CPU).
+
+    Observation keys (leading dim B): ``sonar`` (B, n) f32 in [0, 1], ``ir`` (B, n) f32,
+    ``bumper`` (B, 1) f32, ``odometry`` (B, 3) f32, ``goal`` (B, 2) f32 (as the Gymnasium env),
+    ``state_reward`` (B, 1) f32 -- the reinforcement f1 + f2 of the state just reached: equal to
+    ``reward`` after a step, the reset state's value after a reset (the learner needs the value of
+    a trial's first state) --, ``collision`` and ``reached_goal`` (B, 1) bool, ``true_pose``
+    (B, 3) f64. Action: ``Bounded(-pi, pi, (B, 1))`` f32, the rotation before the translation
+    (clipped to [-pi, pi]; a non-finite value raises ValueError naming the robot). Reward (B, 1)
+    f32; ``done``/``terminated``/``truncated`` (B, 1) bool (terminated = the TRUE centre in the
+    goal circle, truncated = ``max_actions`` actions).
+
+    Seeding: robot b's generator is ``np.random.default_rng(seeds[b])`` (the stream gymnasium's
+    ``reset(seed=s)`` creates, so robot b matches ``Hailu2001Env`` reset with ``seed=seeds[b]``
+    given the same actions), or ``default_rng(seed + b)`` after ``env.set_seed(seed)``; without
+    either, fresh OS entropy. Resets never reseed a robot's stream.
+
+    Start poses: the map's start, or per robot after ``env.set_starts(poses)`` ((B, 3), radians;
+    ``None`` restores the map's start). ``env.physics`` is the underlying ``RobotBatch``.
+    """
+
+    def __init__(
+        self,
+        world: str | Path | WorldMap | dict[str, Any] = "hailu2001",
+        size: int = 1,
+        robot: RobotConfig | dict[str, Any] | None = None,
+        noise: bool = True,
+        max_actions: int = 200,
+        seeds: Sequence[int] | None = None,
+    ) -> None:
+        if isinstance(size, bool) or not isinstance(size, int) or size < 1:
+            raise ValueError(f"BatchedWorldEnv: size must be a positive integer, got {size!r}")
+        if robot is None:
+            robot = RobotConfig()
+        elif isinstance(robot, dict):
+            robot = RobotConfig.from_dict(robot)
+        elif not isinstance(robot, RobotConfig):
+            raise ValueError(f"robot must be a RobotConfig or a dict of its fields, got {robot!r}")
+        if not isinstance(noise, (bool, np.bool_)):
+            raise ValueError(f"noise must be True or False, got {noise!r}")
+        super().__init__(device="cpu", batch_size=torch.Size([size]))
+        self.world: WorldMap = world if isinstance(world, WorldMap) else load_map(world)
+        self.robot: RobotConfig = robot
+        self.physics = RobotBatch(self.world, robot, size, bool(noise), max_actions)
+        self.size = size
+        if seeds is None:
+            self._rngs = [np.random.default_rng() for _ in range(size)]
+        else:
+            seeds = list(seeds)
+            if len(seeds) != size:
+                raise ValueError(f"seeds: need {size} seeds, one per robot, got {len(seeds)}")
+            self._rngs = [np.random.default_rng(s) for s in seeds]
+        self._starts = self._map_starts()
+        self._last: dict[str, np.ndarray] | None = None  # outputs of the last reset or step
+        self._make_specs()
+
+    # --- configuration -------------------------------------------------------------------
+
+    @property
+    def rngs(self) -> list[np.random.Generator]:
+        """One generator per robot (robot b draws all its noise from ``rngs[b]``)."""
+        return self._rngs
+
+    def set_starts(self, poses: np.ndarray | Sequence[Sequence[float]] | None) -> None:
+        """Start poses of the following resets: (B, 3) (x, y, heading in radians), or ``None``
+        for the map's start. Every pose is checked (free area, clearance above the radius)."""
+        if poses is None:
+            self._starts = self._map_starts()
+            return
+        starts = np.array(poses, dtype=np.float64)
+        if starts.shape != (self.size, 3):
+            raise ValueError(
+                f"set_starts: poses must have shape ({self.size}, 3), got {starts.shape}"
+            )
+        self.physics.check_poses(starts)
+        self._starts = starts
+
+    def _map_starts(self) -> np.ndarray:
+        s = self.world.start
+        return np.tile(np.array([s.x, s.y, s.heading]), (self.size, 1))
+
+    def _make_specs(self) -> None:
+        b, n = self.size, self.robot.n_sensors
+
+        def box(low: np.ndarray, high: np.ndarray) -> Bounded:
+            shape = (b, *low.shape)
+            return Bounded(
+                torch.from_numpy(np.broadcast_to(low, shape).copy()),
+                torch.from_numpy(np.broadcast_to(high, shape).copy()),
+                shape,
+                dtype=torch.float32,
+            )
+
+        def flag() -> Categorical:
+            return Categorical(2, (b, 1), dtype=torch.bool)
+
+        bounds = self.physics.observation_bounds()
+        self.observation_spec = Composite(
+            **{key: box(*bounds[key]) for key in _OBS_KEYS},
+            state_reward=Bounded(-4.0, 0.0, (b, 1), dtype=torch.float32),
+            collision=flag(),
+            reached_goal=flag(),
+            true_pose=Unbounded((b, 3), dtype=torch.float64),
+            shape=(b,),
+        )
+        assert self.observation_spec["sonar"].shape == (b, n)
+        self.action_spec = Bounded(-math.pi, math.pi, (b, 1), dtype=torch.float32)
+        self.reward_spec = Unbounded((b, 1), dtype=torch.float32)
+        self.done_spec = Composite(done=flag(), terminated=flag(), truncated=flag(), shape=(b,))
+
+    # --- EnvBase ---------------------------------------------------------------------------
+
+    def _set_seed(self, seed: int | None) -> None:
+        """Robot b gets ``np.random.default_rng(seed + b)`` (fresh entropy for ``None``)."""
+        if seed is None:
+            self._rngs = [np.random.default_rng() for _ in range(self.size)]
+        else:
+            self._rngs = [np.random.default_rng(int(seed) + b) for b in range(self.size)]
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
+        mask = None if tensordict is None else tensordict.get("_reset", None)
+        if mask is None or self._last is None:
+            rows = np.arange(self.size)
+        else:
+            rows = np.flatnonzero(mask.reshape(self.size).cpu().numpy())
+            if len(rows) == 0:
+                return self._tensordict(self._last)
+        r = self.physics.reset(rows, self._starts[rows], self._rngs)
+        out = self._arrays(r)
+        out.pop("reward")
+        for key in ("done", "terminated", "truncated"):
+            out[key] = np.zeros((len(rows), 1), dtype=bool)
+        if len(rows) < self.size:  # the other robots keep their last outputs
+            assert self._last is not None
+            merged = {}
+            for key, value in out.items():
+                full = self._last[key].copy()
+                full[rows] = value
+                merged[key] = full
+            out = merged
+        self._last = out
+        return self._tensordict(out)
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        action = tensordict.get("action")
+        alpha = action.detach().reshape(self.size).to("cpu", torch.float64).numpy()
+        r = self.physics.step(alpha, self._rngs)
+        out = self._arrays(r)
+        out["terminated"] = r.reached_goal[:, None].copy()
+        out["truncated"] = r.truncated[:, None]
+        out["done"] = out["terminated"] | out["truncated"]
+        self._last = out
+        return self._tensordict(out)
+
+    # --- internals -------------------------------------------------------------------------
+
+    def _arrays(self, r: Readings) -> dict[str, np.ndarray]:
+        """Numpy outputs of one reset or step (rows of ``r``); torch shares their memory."""
+        reward = r.reward.astype(np.float32)[:, None]
+        return {
+            "sonar": r.sonar,
+            "ir": r.ir,
+            "bumper": r.bumper,
+            "odometry": r.odometry,
+            "goal": r.goal,
+            "state_reward": reward,
+            "reward": reward.copy(),
+            "collision": r.collision[:, None],
+            "reached_goal": r.reached_goal[:, None],
+            "true_pose": r.true_pose,
+        }
+
+    def _tensordict(self, out: dict[str, np.ndarray]) -> TensorDictBase:
+        """The output TensorDict, built directly (no per-key spec encoding: the hot loop)."""
+        return TensorDict._new_unsafe(
+            {key: torch.from_numpy(value) for key, value in out.items()},
+            batch_size=self.batch_size,
+            device=self.device,
+        )

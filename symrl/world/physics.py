@@ -1,0 +1,435 @@
+"""The B21's physics for B robots at once: the one model behind the Gymnasium and TorchRL envs.
+
+:class:`RobotBatch` holds B robots in one :class:`~symrl.world.worldmap.WorldMap` and steps them
+together, with no Python loop over robots on the geometric path (the ``Walls.*_many`` queries).
+The model is the paper's (see :class:`symrl.world.env.Hailu2001Env` for the full description):
+rotate (+ noise), translate 0.20 m (+ noise), a real collision when the swept disc touches a
+wall, a virtual one when an IR reflectance after the move exceeds the threshold, the emergency
+reversal to the pose before the translation, odometry, noisy and clipped sonar, r = f1 + f2, the
+goal tested on the TRUE pose and truncation after ``max_actions`` actions.
+
+Randomness: every robot has its own ``np.random.Generator``, held by the caller and passed to
+:meth:`RobotBatch.reset` and :meth:`RobotBatch.step`. Per step robot b draws
+``standard_normal(n + 2)`` from its generator (rotation, translation, the n sonars) when any noise
+is on, and ``standard_normal(n)`` at its reset when the sonar noise is on.
+
+Robot b's trajectory is bitwise the same whatever B is and wherever b sits in the batch: every
+operation is element-wise or a per-row reduction (min/max, exact in any order), the ray cast's
+matrix product is one BLAS call per row, and the few transcendental functions whose numpy SIMD
+loops round differently from the C library (atan2, hypot, pow) go through ``math`` per element,
+as the original scalar model did. So the B = 1 batch (the Gymnasium env) reproduces the scalar
+model's trajectories exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from itertools import repeat
+from typing import NamedTuple
+
+import numpy as np
+
+from symrl.world.geometry import Walls
+from symrl.world.robot import RobotConfig
+from symrl.world.worldmap import WorldMap
+
+__all__ = ["Readings", "RobotBatch"]
+
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    """Wrap angles to [-pi, pi] (the same operations as Python's float ``%``)."""
+    return np.mod(angle + _PI, _TWO_PI) - _PI
+
+
+def _math_map(fn: Callable[..., float], a: np.ndarray, b: np.ndarray | float) -> np.ndarray:
+    """``fn(a, b)`` element-wise with the C library's ``fn`` (``math.atan2``, ``math.hypot``,
+    ``pow``): numpy's SIMD versions differ in the last bit, and the scalar ones define the model."""
+    second = b.tolist() if isinstance(b, np.ndarray) else repeat(b)
+    return np.fromiter(map(fn, a.tolist(), second), np.float64, count=len(a))
+
+
+def _columns(x: np.ndarray, y: np.ndarray, h: np.ndarray, dtype: type = np.float64) -> np.ndarray:
+    """A new (k, 3) array of the three columns (cheaper than ``np.stack`` at small k)."""
+    out = np.empty((len(x), 3), dtype)
+    out[:, 0] = x
+    out[:, 1] = y
+    out[:, 2] = h
+    return out
+
+
+class Readings(NamedTuple):
+    """What the robots of one reset or step report, one row per robot concerned.
+
+    Observation arrays are float32 (ready for the spaces/specs); the rest float64 or bool.
+    After a reset, ``reward``/``f1``/``f2`` are the reinforcement of the reset state (f1 from the
+    sonar rule without a collision, f2 from the heading) and every flag is False.
+    """
+
+    sonar: np.ndarray
+    """(k, n) float32 in [0, 1]: sonar rim distance / sonar_range, noise added and clipped."""
+    ir: np.ndarray
+    """(k, n) float32 in [0, 100]: IR reflectances."""
+    bumper: np.ndarray
+    """(k, 1) float32: 1 on a real collision during this step."""
+    odometry: np.ndarray
+    """(k, 3) float32: the pose the robot believes (x, y, heading)."""
+    goal: np.ndarray
+    """(k, 2) float32: distance and signed angle (left +) to the goal, from the odometry."""
+    reward: np.ndarray
+    """(k,) float64: f1 + f2, the reinforcement of the state reached."""
+    f1: np.ndarray
+    """(k,) float64: -3 on a collision, else -1 + min sonar / d_c near a wall, else 0."""
+    f2: np.ndarray
+    """(k,) float64: -(acute angle between the odometry heading and the goal) / pi."""
+    collision: np.ndarray
+    """(k,) bool: real or virtual collision (the move was reversed)."""
+    real_collision: np.ndarray
+    """(k,) bool: the swept disc touched a wall."""
+    virtual_collision: np.ndarray
+    """(k,) bool: no contact, but an IR reflectance above the threshold after the move."""
+    reached_goal: np.ndarray
+    """(k,) bool: the TRUE centre is within the goal radius (termination)."""
+    truncated: np.ndarray
+    """(k,) bool: ``max_actions`` actions without reaching the goal."""
+    true_pose: np.ndarray
+    """(k, 3) float64: the true pose (x, y, heading) after the reset or step."""
+
+
+class RobotBatch:
+    """B robots in one world, reset and stepped together (numpy float64, no torch).
+
+    State (replaced, never mutated in place, so arrays handed out earlier stay valid):
+    ``true_pose`` and ``odometry_pose`` ``(B, 3)`` float64 (new arrays on every access),
+    ``actions_taken`` ``(B,)`` int64 and ``sonar`` ``(B, n)`` float64, the last sonar reading in
+    metres (for rendering). Before the first :meth:`reset` every robot sits at the map's start,
+    unsensed.
+    """
+
+    def __init__(
+        self,
+        world: WorldMap,
+        robot: RobotConfig,
+        size: int,
+        noise: bool = True,
+        max_actions: int = 200,
+    ) -> None:
+        if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
+            raise ValueError(f"RobotBatch: size must be a positive integer, got {size!r}")
+        if isinstance(max_actions, bool) or not isinstance(max_actions, int) or max_actions < 1:
+            raise ValueError(f"max_actions must be a positive integer, got {max_actions!r}")
+        self.world = world
+        self.robot = robot
+        self.size = int(size)
+        self.noise = bool(noise)
+        self.max_actions = max_actions
+        self.walls = Walls(world.segments)
+
+        n = robot.n_sensors
+        self.n_sensors = n
+        axes = (_TWO_PI / n) * np.arange(n)
+        if robot.sonar_cone_deg > 0.0:
+            m = robot.sonar_cone_rays
+            half = 0.5 * math.radians(robot.sonar_cone_deg)
+            sub = np.linspace(-half, half, m) if m > 1 else np.zeros(1)
+            self._sonar_offsets = (axes[:, None] + sub[None, :]).ravel()
+        else:
+            m = 1
+            self._sonar_offsets = axes
+        self._cone_rays = m
+        self._cast_range = robot.radius + robot.sonar_range
+        self._ir_reach = robot.radius + robot.ir_range
+        self._sonar_std = robot.sonar_noise_std if self.noise else 0.0
+        self._rot_std = math.radians(robot.rotation_noise_deg) if self.noise else 0.0
+        self._trans_std = robot.translation_noise * robot.step if self.noise else 0.0
+        self._noisy = self._sonar_std > 0 or self._rot_std > 0 or self._trans_std > 0
+        self._goal = (world.goal.x, world.goal.y, world.goal.radius)
+
+        # the state, one (B,) array per coordinate (columns are cheaper to update than (B, 3))
+        ones = np.ones(self.size)
+        self._x, self._y = world.start.x * ones, world.start.y * ones
+        self._h = _wrap(world.start.heading * ones)
+        self._xo, self._yo, self._ho = self._x, self._y, self._h
+        self.actions_taken = np.zeros(self.size, dtype=np.int64)
+        self.sonar = np.zeros((self.size, n))
+        # closest wall points (relative) and clearance of each true pose: reused by the next step
+        self._ex, self._ey, self._clear = self.walls.closest_many(self._x, self._y)
+
+    @property
+    def true_pose(self) -> np.ndarray:
+        """(B, 3) float64: the true poses (x, y, heading), headings in [-pi, pi]."""
+        return _columns(self._x, self._y, self._h)
+
+    @property
+    def odometry_pose(self) -> np.ndarray:
+        """(B, 3) float64: the poses the robots believe."""
+        return _columns(self._xo, self._yo, self._ho)
+
+    # --- spaces --------------------------------------------------------------------------
+
+    def observation_bounds(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """(low, high) float32 per observation key, one robot's shape. The odometry moves at most
+        ``step`` per action, so within a trial it stays within ``max_actions * step`` of the map
+        (finite bounds, so spaces can be sampled and checked)."""
+        n = self.n_sensors
+        reach = self.max_actions * self.robot.step
+        xmin, xmax, ymin, ymax = self.world.bounds
+        far = math.hypot(xmax - xmin, ymax - ymin) + 2.0 * reach
+        f32 = np.float32
+        return {
+            "sonar": (np.zeros(n, f32), np.ones(n, f32)),
+            "ir": (np.zeros(n, f32), np.full(n, 100.0, f32)),
+            "bumper": (np.zeros(1, f32), np.ones(1, f32)),
+            "odometry": (
+                np.array([xmin - reach, ymin - reach, -np.pi], f32),
+                np.array([xmax + reach, ymax + reach, np.pi], f32),
+            ),
+            "goal": (np.array([0.0, -np.pi], f32), np.array([far, np.pi], f32)),
+        }
+
+    # --- queries ---------------------------------------------------------------------------
+
+    def sense(
+        self, x: np.ndarray, y: np.ndarray, heading: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Noise-free sonar rim distances (metres) and IR reflectances ``(k, n)`` at k poses (no
+        state change): for planners, figures and benchmarks."""
+        x, y, h = (np.asarray(v, dtype=np.float64).reshape(-1) for v in (x, y, heading))
+        rim, refl, _ = self._sense(x, y, h, None)
+        return rim, refl
+
+    def check_poses(self, poses: np.ndarray, rows: np.ndarray | None = None) -> None:
+        """Raise a one-line ValueError naming the first pose (and robot) that is not finite, not
+        in the free area, or whose clearance is not above the robot's radius."""
+        who = range(len(poses)) if rows is None else rows
+        finite = np.all(np.isfinite(poses), axis=1)
+        free = np.zeros(len(poses), dtype=bool)
+        free[finite] = self.world.in_free_area(poses[finite, 0], poses[finite, 1])
+        clear = np.full(len(poses), -np.inf)
+        clear[free] = self.walls.clearance(poses[free, :2])
+        bad = np.flatnonzero(~(clear > self.robot.radius))
+        if len(bad) == 0:
+            return
+        i = int(bad[0])
+        pose = tuple(float(v) for v in poses[i])
+        if not finite[i]:
+            why = "is not 3 finite numbers (x, y, heading)"
+        elif not free[i]:
+            why = f"is not in the free area of map {self.world.name!r}"
+        else:
+            why = (
+                f"is too close to a wall: clearance {clear[i]:.3f} m <= robot radius "
+                f"{self.robot.radius} m"
+            )
+        raise ValueError(f"reset: pose {pose!r} of robot {int(who[i])} {why}")
+
+    # --- reset and step --------------------------------------------------------------------
+
+    def reset(
+        self, rows: np.ndarray, poses: np.ndarray, rngs: Sequence[np.random.Generator]
+    ) -> Readings:
+        """Put robots ``rows`` (int indices) at ``poses`` ``(k, 3)`` (heading in radians), with
+        the odometry at the true pose, and sense. ``rngs`` holds one generator per robot of the
+        batch (``rngs[b]`` for robot b); robot b draws its sonar noise from it. Returns the
+        readings of those rows, in their order."""
+        rows = np.asarray(rows, dtype=np.intp).reshape(-1)
+        poses = np.asarray(poses, dtype=np.float64)
+        if poses.shape != (len(rows), 3):
+            raise ValueError(f"reset: poses must have shape ({len(rows)}, 3), got {poses.shape}")
+        if len(rows) and (rows.min() < 0 or rows.max() >= self.size):
+            raise ValueError(f"reset: rows must be in [0, {self.size}), got {rows.tolist()}")
+        if len(np.unique(rows)) != len(rows):
+            raise ValueError(f"reset: rows must be distinct, got {rows.tolist()}")
+        self.check_poses(poses, rows)
+        x, y = poses[:, 0].copy(), poses[:, 1].copy()
+        h = _wrap(poses[:, 2])
+        near = self.walls.closest_many(x, y)
+        rim, refl, clear = self._sense(x, y, h, near)
+        if self._sonar_std > 0.0:
+            noise = np.empty((len(rows), self.n_sensors))
+            for i, b in enumerate(rows.tolist()):
+                rngs[b].standard_normal(out=noise[i])
+            rim = rim + self._sonar_std * noise
+        sonar = np.minimum(np.maximum(rim, 0.0), self.robot.sonar_range)
+
+        # copy-on-write: arrays handed out before stay as they were
+        for name, value in (
+            ("_x", x), ("_y", y), ("_h", h), ("_xo", x), ("_yo", y), ("_ho", h),
+            ("sonar", sonar), ("actions_taken", 0),
+            ("_ex", near[0]), ("_ey", near[1]), ("_clear", clear),
+        ):  # fmt: skip
+            state = getattr(self, name).copy()
+            state[rows] = value
+            setattr(self, name, state)
+
+        f1 = self._f1(sonar, np.zeros(len(rows), dtype=bool))
+        angle = self._goal_angle(x, y)
+        f2 = -np.abs(_wrap(h - angle)) / _PI
+        no = [np.zeros(len(rows), dtype=bool) for _ in range(5)]
+        return self._readings(sonar, refl, x, y, h, x, y, h, f1, f2, *no, angle)
+
+    def step(self, alpha: np.ndarray, rngs: Sequence[np.random.Generator]) -> Readings:
+        """Every robot takes one action: rotate by ``alpha[b]`` (radians, clipped to [-pi, pi];
+        a non-finite value raises ValueError naming the robot), translate, handle collisions.
+        ``rngs[b]`` is robot b's generator. Returns the readings of all B robots."""
+        robot = self.robot
+        alpha = np.asarray(alpha, dtype=np.float64).reshape(-1)
+        if alpha.shape != (self.size,):
+            raise ValueError(f"step: need {self.size} actions, one per robot, got {alpha.size}")
+        if not np.isfinite(alpha).all():
+            b = int(np.argmin(np.isfinite(alpha)))
+            raise ValueError(f"step: the action of robot {b} must be finite, got {alpha[b]!r}")
+        alpha = np.minimum(np.maximum(alpha, -_PI), _PI)
+        x0, y0, h0 = self._x, self._y, self._h
+        if self._noisy:  # one draw per robot and step: rotation, translation, the n sonars
+            z = np.empty((self.size, self.n_sensors + 2))
+            for b, rng in enumerate(rngs):
+                rng.standard_normal(out=z[b])
+            rot_err, trans_err = self._rot_std * z[:, 0], self._trans_std * z[:, 1]
+        else:
+            z = None
+            rot_err = trans_err = 0.0
+        h1 = _wrap(h0 + alpha + rot_err)
+        length = robot.step + trans_err
+        x1 = x0 + length * np.cos(h1)
+        y1 = y0 + length * np.sin(h1)
+
+        # collision test from the clearance at the end of the move: real = the swept disc
+        # touches a wall (impossible while the clearance exceeds radius + translation),
+        # virtual = an IR reflectance > threshold, i.e. a rim distance below 0.056 m (the IR
+        # sectors tile the ring, so the smallest IR distance is exactly the clearance)
+        ex, ey, clear = self.walls.closest_many(x1, y1)
+        maybe = self._clear <= robot.radius + np.abs(length) + 1e-9
+        if maybe.any():
+            m = maybe.nonzero()[0]
+            real = np.zeros(self.size, dtype=bool)
+            real[m] = self.walls.swept_disc_contact_many(
+                x0[m], y0[m], x1[m], y1[m], robot.radius, self._clear[m], clear[m]
+            )
+        else:
+            real = maybe
+        d = np.minimum(np.maximum(clear - robot.radius, 0.0), robot.ir_range)
+        reflectance = 100.0 * _math_map(pow, 1.0 - d / robot.ir_range, 3.0)
+        virtual = ~real & (reflectance > robot.ir_collision_threshold)
+        collision = real | virtual
+        if collision.any():  # emergency handler: back to the pose before the translation
+            x1 = np.where(collision, x0, x1)
+            y1 = np.where(collision, y0, y1)
+            back = collision[:, None]
+            ex = np.where(back, self._ex, ex)
+            ey = np.where(back, self._ey, ey)
+            clear = np.where(collision, self._clear, clear)
+        rim, refl, clear = self._sense(x1, y1, h1, (ex, ey, clear))
+        self._x, self._y, self._h = x1, y1, h1
+        self._ex, self._ey, self._clear = ex, ey, clear
+
+        if robot.perfect_odometry:
+            xo, yo, ho = x1, y1, h1
+        else:
+            xo, yo, ho = self._xo, self._yo, _wrap(self._ho + alpha)
+            if not collision.all():  # a collision reverses the odometry's translation too
+                moved_x = xo + robot.step * np.cos(ho)
+                moved_y = yo + robot.step * np.sin(ho)
+                stuck = collision.any()
+                xo = np.where(collision, xo, moved_x) if stuck else moved_x
+                yo = np.where(collision, yo, moved_y) if stuck else moved_y
+        self._xo, self._yo, self._ho = xo, yo, ho
+        self.actions_taken = self.actions_taken + 1
+
+        if z is not None and self._sonar_std > 0.0:
+            rim = rim + self._sonar_std * z[:, 2:]
+        sonar = np.minimum(np.maximum(rim, 0.0), robot.sonar_range)
+        self.sonar = sonar
+        f1 = self._f1(sonar, collision)
+        angle = self._goal_angle(xo, yo)
+        f2 = -np.abs(_wrap(ho - angle)) / _PI
+        gx, gy, gr = self._goal
+        reached = _math_map(math.hypot, x1 - gx, y1 - gy) <= gr
+        truncated = ~reached & (self.actions_taken >= self.max_actions)
+        return self._readings(
+            sonar, refl, xo, yo, ho, x1, y1, h1, f1, f2, collision, real, virtual, reached,
+            truncated, angle,
+        )  # fmt: skip
+
+    # --- internals -------------------------------------------------------------------------
+
+    def _sense(
+        self,
+        x: np.ndarray,
+        y: np.ndarray,
+        h: np.ndarray,
+        near: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Noise-free sonar rim distances, IR reflectances ``(k, n)`` and true clearances ``(k,)``
+        at k poses (``near``: ``Walls.closest_many`` there, if already computed)."""
+        robot = self.robot
+        n = self.n_sensors
+        rays, sectors, clear = self.walls.scan_many(
+            x, y, h, self._sonar_offsets, n, self._cast_range, self._ir_reach, near
+        )
+        if self._cone_rays > 1:
+            rays = np.minimum.reduce(rays.reshape(len(x), n, self._cone_rays), axis=2)
+        rim = np.minimum(rays - robot.radius, robot.sonar_range)
+        if sectors is None:  # nothing within IR range of any robot
+            return rim, np.zeros((len(x), n)), clear
+        r = robot.ir_range
+        d = np.minimum(np.maximum(sectors - robot.radius, 0.0), r)
+        refl = 100.0 * (1.0 - d * (1.0 / r)) ** 3
+        refl[clear >= self._ir_reach] = 0.0  # rows with nothing within IR range read 0
+        return rim, refl, clear
+
+    def _f1(self, sonar: np.ndarray, collision: np.ndarray) -> np.ndarray:
+        """Eq. 3: -3 on a collision, -1 + d_min / d_c if the nearest sonar reading is below d_c."""
+        close = self.robot.close_distance
+        dmin = np.minimum.reduce(sonar, axis=1)
+        f1 = np.where(dmin < close, -1.0 + dmin / close, 0.0)
+        return np.where(collision, -3.0, f1)
+
+    def _goal_angle(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Direction from (x, y) to the goal (C library atan2, as the scalar model)."""
+        gx, gy, _ = self._goal
+        return _math_map(math.atan2, gy - y, gx - x)
+
+    def _readings(
+        self,
+        sonar: np.ndarray,
+        refl: np.ndarray,
+        xo: np.ndarray,
+        yo: np.ndarray,
+        ho: np.ndarray,
+        x: np.ndarray,
+        y: np.ndarray,
+        h: np.ndarray,
+        f1: np.ndarray,
+        f2: np.ndarray,
+        collision: np.ndarray,
+        real: np.ndarray,
+        virtual: np.ndarray,
+        reached: np.ndarray,
+        truncated: np.ndarray,
+        angle: np.ndarray,
+    ) -> Readings:
+        gx, gy, _ = self._goal
+        f32 = np.float32
+        goal = np.empty((len(xo), 2), f32)
+        goal[:, 0] = _math_map(math.hypot, gx - xo, gy - yo)
+        goal[:, 1] = _wrap(angle - ho)
+        return Readings(
+            sonar=(sonar * (1.0 / self.robot.sonar_range)).astype(f32),
+            ir=refl.astype(f32),
+            bumper=real.astype(f32)[:, None],
+            odometry=_columns(xo, yo, ho, f32),
+            goal=goal,
+            reward=f1 + f2,
+            f1=f1,
+            f2=f2,
+            collision=collision,
+            real_collision=real,
+            virtual_collision=virtual,
+            reached_goal=reached,
+            truncated=truncated,
+            true_pose=_columns(x, y, h),
+        )
