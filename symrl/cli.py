@@ -172,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(e.g. update.gamma=0.9 shield.enabled=false); --help-keys lists every key with its "
         "default and meaning.",
     )
-    p.add_argument("recipe", nargs="?", help="recipe name (paper, paper_literal, ...) or a YAML file")
+    p.add_argument("recipe", nargs="?", help="recipe name (paper, paper_literal, ...) or YAML file")
     p.add_argument("--trials", type=int, default=None, help="number of trials (recipe default)")
     p.add_argument("--seed", type=int, default=None, help="random seed (recipe default)")
     p.add_argument("--map", default=None, help="built-in map name or map file (env.map)")
@@ -194,8 +194,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("recipe")
     p.add_argument("--sets", type=int, default=10)
     p.add_argument("--trials", type=int, default=20)
-    p.add_argument("--workers", type=int, default=None, help="worker processes (default: cores)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="worker processes, each training its share of the sets as one batch "
+                   "(default 1: all sets in one batch)")
     p.add_argument("--seed", type=int, default=100, help="first seed; set k uses seed + k")
+    p.add_argument("--map", default=None, help="built-in map name or map file (env.map)")
     p.add_argument("--out", default=None, help="results folder (default results/study-RECIPE)")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
     p.set_defaults(handler=_study)
@@ -203,7 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("ablate", help="the study for every recipe with the same seeds")
     p.add_argument("--sets", type=int, default=10)
     p.add_argument("--trials", type=int, default=20)
-    p.add_argument("--workers", type=int, default=None)
+    p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--seed", type=int, default=100)
     p.add_argument("--recipes", default=None, help="comma-separated subset of recipes")
     p.add_argument("--out", default="results/ablate")
@@ -228,7 +231,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--recipe", default="paper")
     p.add_argument("--sets", type=int, default=5)
     p.add_argument("--trials", type=int, default=20)
-    p.add_argument("--workers", type=int, default=None)
+    p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--seed", type=int, default=100)
     p.add_argument("--out", default="results/generalise")
     p.set_defaults(handler=_generalise)

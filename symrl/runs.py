@@ -68,7 +68,9 @@ def _fmt(value: Any) -> Any:
     return value
 
 
-def write_trials_csv(path: str | Path, rows: list[dict[str, Any]], columns: list[str] | None = None) -> None:
+def write_trials_csv(
+    path: str | Path, rows: list[dict[str, Any]], columns: list[str] | None = None
+) -> None:
     """One row per trial (or per set and trial), every scalar column; paths are left out."""
     if columns is None:
         seen: dict[str, None] = {}

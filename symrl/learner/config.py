@@ -13,6 +13,7 @@ The sections follow the data flow: ``env`` (world and robot) -> ``gate`` (region
 
 from __future__ import annotations
 
+import contextlib
 import copy
 from importlib import resources
 from pathlib import Path
@@ -268,10 +269,8 @@ def _parse_override(text: str) -> dict[str, Any]:
     except yaml.YAMLError:
         value = raw
     if isinstance(value, str):  # YAML 1.1 reads 1e-3 as a string
-        try:
+        with contextlib.suppress(ValueError):
             value = float(value)
-        except ValueError:
-            pass
     nested: Any = value
     for part in reversed(parts):
         nested = {part: nested}

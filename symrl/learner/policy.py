@@ -152,7 +152,9 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         codes = torch.exp(-(((self.code_centres - rho[:, None]) / width) ** 2))
         return torch.cat((sonar, codes), dim=-1)
 
-    def perceive(self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor) -> Perception:
+    def perceive(
+        self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
+    ) -> Perception:
         """Gate and winner search for a batch of observations; changes nothing."""
         region = self.mapper(odometry)
         expert = region if self.config.gate.partition else torch.zeros_like(region)

@@ -23,69 +23,19 @@ from typing import Any
 
 import numpy as np
 
+from symrl.runs import read_trials_csv
 from symrl.studies.repeatability import (
     OTHER_STARTS,
     PAPER_TABLE1,
-    SetResult,
     StudyResult,
     _start_summary,
-    code_version,
-    curves,
-    optimum,
-    read_trials_csv,
-    run_sets,
-    table1,
     write_study,
 )
+from symrl.studies.runner import LAST, curves, optimum, run_sets, summarise, table1
 
 __all__ = ["RECIPES", "summarise", "summary_markdown", "run_ablation", "ablate_command"]
 
 RECIPES = ("paper", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only")
-LAST = 5
-
-
-def _mean_std(values: Sequence[float]) -> dict[str, float]:
-    v = np.asarray(values, dtype=float)
-    if v.size == 0:
-        return {"mean": float("nan"), "std": float("nan")}
-    return {"mean": float(v.mean()), "std": float(v.std(ddof=1)) if v.size > 1 else 0.0}
-
-
-def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any]:
-    """The ablation summary of one recipe from its trial rows (see the module docstring)."""
-    if not rows:
-        raise ValueError("summarise: no trial rows")
-    by_set: dict[int, list[dict[str, Any]]] = {}
-    for r in rows:
-        by_set.setdefault(int(r["set"]), []).append(r)
-    never = 0
-    firsts, success, steps, reinf, neurons, coll_last, coll_all = ([] for _ in range(7))
-    for s in sorted(by_set):
-        trials = sorted(by_set[s], key=lambda r: int(r["trial"]))
-        first = next((int(r["trial"]) for r in trials if bool(r["reached_goal"])), None)
-        if first is None:
-            never += 1
-        else:
-            firsts.append(first)
-        tail = trials[-last:]
-        success += [float(bool(r["reached_goal"])) for r in tail]
-        steps.append(np.mean([float(r["steps"]) for r in tail]))
-        reinf.append(np.mean([float(r["total_reinforcement"]) for r in tail]))
-        neurons.append(float(trials[-1]["neurons"]))
-        coll_last.append(float(trials[-1]["collisions"]))
-        coll_all.append(sum(float(r["collisions"]) for r in trials))
-    return {
-        "sets": len(by_set),
-        "trials": max(int(r["trial"]) for r in rows),
-        "first_success": {**_mean_std(firsts), "never": never},
-        f"success_last{last}": float(np.mean(success)),
-        f"steps_last{last}": _mean_std(steps),
-        f"total_reinforcement_last{last}": _mean_std(reinf),
-        "neurons_last": _mean_std(neurons),
-        "collisions_last": _mean_std(coll_last),
-        "collisions_all_trials": _mean_std(coll_all),
-    }
-
 
 def _pm(d: dict[str, float], fmt: str = ".1f") -> str:
     if not np.isfinite(d["mean"]):
@@ -130,7 +80,7 @@ def run_ablation(
     sets: int = 10,
     trials: int = 20,
     seed: int = 100,
-    workers: int | None = None,
+    workers: int | None = 1,
     out: Path | str | None = "results/ablate",
     figures: bool = True,
     starts: Sequence[tuple[float, float, float]] = OTHER_STARTS,
@@ -140,35 +90,31 @@ def run_ablation(
         raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
     if not recipes:
         raise ValueError("run_ablation: no recipes given")
+    from symrl.provenance import provenance
+
     t0 = time.perf_counter()
-    jobs = [
-        {"recipe": r, "index": k, "seed": seed + k, "trials": trials, "overrides": [],
-         "starts": list(starts)}
-        for r in recipes
-        for k in range(sets)
-    ]
-    code = code_version()
-    results: list[SetResult] = run_sets(jobs, workers, desc="ablate")
-    wall = time.perf_counter() - t0
+    code = provenance()
     opt = optimum()
     summary: dict[str, Any] = {}
     studies: dict[str, StudyResult] = {}
-    for i, recipe in enumerate(recipes):
-        sets_r = results[i * sets : (i + 1) * sets]
+    for recipe in recipes:
+        r0 = time.perf_counter()
+        sets_r = run_sets(recipe, sets, trials, seed, (), starts, workers)
         rows = [r for s in sets_r for r in s.rows]
         table = table1(rows)
         table.update(paper=PAPER_TABLE1, optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1])
         table["other_starts"] = _start_summary(sets_r)
-        table["code"] = code
-        table["cpu_time_s"] = round(sum(s.wall_time for s in sets_r), 1)
-        study = StudyResult(
-            recipe, sets_r, table, Path(out) / recipe if out else None,
-            sum(s.wall_time for s in sets_r),
-        )
+        table["provenance"] = code
+        wall_r = time.perf_counter() - r0
+        table["wall_time_s"] = round(wall_r, 1)
+        from symrl.world import load_map
+
+        study = StudyResult(recipe, sets_r, table, Path(out) / recipe if out else None, wall_r,
+                            load_map("hailu2001"))  # fmt: skip
         studies[recipe] = study
         summary[recipe] = summarise(rows)
-        summary[recipe]["cpu_time_s"] = round(study.wall_time, 1)
-        summary[recipe]["code"] = code
+        summary[recipe]["wall_time_s"] = round(wall_r, 1)
+    wall = time.perf_counter() - t0
     summary["_optimum"] = opt
     summary["_seeds"] = [seed, seed + sets - 1]
     summary["_wall_time_s"] = round(wall, 1)

@@ -24,10 +24,10 @@ from typing import Any
 
 import numpy as np
 
-from symrl.studies.ablation import summarise
-from symrl.studies.repeatability import OTHER_STARTS, code_version, run_sets
+from symrl.studies.repeatability import OTHER_STARTS
+from symrl.studies.runner import evaluate_states, resolve_config, run_sets, summarise
 
-__all__ = ["STARTS", "OBSTACLE", "NOISE_LEVELS", "transfer_set", "run_generalisation",
+__all__ = ["STARTS", "OBSTACLE", "NOISE_LEVELS", "transfer", "run_generalisation",
            "generalise_command"]
 
 STARTS: tuple[tuple[float, float, float], ...] = OTHER_STARTS + (
@@ -54,39 +54,34 @@ NOISE_LEVELS: tuple[tuple[str, list[str]], ...] = (
 """(label, config overrides) of the noise sweep."""
 
 
-def _drive(evaluate, policy, start, seed, world=None) -> dict[str, Any]:
-    ev = evaluate(policy, start=tuple(start), seed=seed, noise=True, world=world)
-    return {
-        "start": list(start),
-        "reached_goal": bool(ev["reached_goal"]),
-        "steps": int(ev["steps"]),
-        "collisions": int(ev["collisions"]),
-        "total_reinforcement": float(ev["total_reinforcement"]),
-        "path": np.asarray(ev["path"], dtype=float).round(3).tolist(),
-    }
-
-
-def transfer_set(recipe: str, index: int, seed: int, trials: int) -> dict[str, Any]:
-    """Train ``recipe`` and the reflex alone; drive both from STARTS and past the new obstacle."""
-    import torch
-
-    from symrl.learner.config import load_config
-    from symrl.train import evaluate, train
+def transfer(recipe: str, sets: int, trials: int, seed: int, workers: int | None = 1
+             ) -> list[dict[str, Any]]:
+    """Train ``recipe`` and take the reflex alone (set k: seed + k); drive both from STARTS, from
+    the usual start, and past the new obstacle. One dict per set."""
     from symrl.world import load_map
 
-    torch.set_num_threads(1)
     world = load_map("hailu2001")
     blocked = world.with_obstacle(OBSTACLE)
-    out: dict[str, Any] = {"set": index, "seed": seed}
+    home = world_start(world)
+    out: list[dict[str, Any]] = [{"set": k, "seed": seed + k} for k in range(sets)]
     for name, n in ((recipe, trials), ("reflex_only", 1)):
-        cfg = load_config(name, [f"run.trials={n}", f"run.seed={seed}"])
-        policy = train(cfg, logdir=None, progress=False).policy
-        out[name if name == "reflex_only" else "learned"] = {
-            "starts": [_drive(evaluate, policy, s, seed + 1000 * (k + 1))
-                       for k, s in enumerate(STARTS)],
-            "home": _drive(evaluate, policy, world_start(world), seed + 999),
-            "obstacle": _drive(evaluate, policy, world_start(world), seed + 999, world=blocked),
-        }
+        config = resolve_config(name, [f"run.trials={n}"])
+        states = [s.controller for s in run_sets(config, sets, n, seed, workers=workers)]
+        pairs = [(k, j) for k in range(sets) for j in range(len(STARTS))]
+        starts = evaluate_states(
+            config, world, [states[k] for k, _ in pairs], [STARTS[j] for _, j in pairs],
+            [seed + k + 1000 * (j + 1) for k, j in pairs],
+        )  # fmt: skip
+        seeds = [seed + k + 999 for k in range(sets)]
+        homes = evaluate_states(config, world, states, [home] * sets, seeds)
+        walls = evaluate_states(config, blocked, states, [home] * sets, seeds)
+        who = "reflex_only" if name == "reflex_only" else "learned"
+        for k in range(sets):
+            out[k][who] = {
+                "starts": starts[k * len(STARTS) : (k + 1) * len(STARTS)],
+                "home": homes[k],
+                "obstacle": walls[k],
+            }
     return out
 
 
@@ -112,45 +107,39 @@ def run_generalisation(
     sets: int = 5,
     trials: int = 20,
     seed: int = 100,
-    workers: int | None = None,
+    workers: int | None = 1,
     out: Path | str | None = "results/generalise",
     noise_levels: Sequence[tuple[str, list[str]]] = NOISE_LEVELS,
 ) -> dict[str, Any]:
     """All three measurements; writes ``generalise.json``/``.md`` and figures into ``out``."""
     if sets < 1 or trials < 1:
         raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
+    from symrl.provenance import provenance
+
     t0 = time.perf_counter()
-    code = code_version()
-    transfer = run_sets(
-        [{"recipe": recipe, "index": k, "seed": seed + k, "trials": trials} for k in range(sets)],
-        workers, desc="generalise: transfer", fn=transfer_set,
-    )
-    jobs = [
-        {"recipe": recipe, "index": k, "seed": seed + k, "trials": trials,
-         "overrides": overrides, "starts": []}
-        for _, overrides in noise_levels
-        for k in range(sets)
-    ]
-    noisy = run_sets(jobs, workers, desc="generalise: noise")
+    code = provenance()
+    moved = transfer(recipe, sets, trials, seed, workers)
+    noisy = [run_sets(recipe, sets, trials, seed, overrides, (), workers)
+             for _, overrides in noise_levels]  # fmt: skip
     report: dict[str, Any] = {
         "recipe": recipe, "sets": sets, "trials": trials, "seeds": [seed, seed + sets - 1],
-        "code": code,
+        "provenance": code,
         "obstacle": OBSTACLE, "starts": [], "noise": [],
     }
     for who in ("learned", "reflex_only"):
-        report[f"home_{who}"] = _rate([t[who]["home"] for t in transfer])
-        report[f"obstacle_{who}"] = _rate([t[who]["obstacle"] for t in transfer])
+        report[f"home_{who}"] = _rate([t[who]["home"] for t in moved])
+        report[f"obstacle_{who}"] = _rate([t[who]["obstacle"] for t in moved])
     for k, start in enumerate(STARTS):
         report["starts"].append(
             {
                 "start": list(start),
                 "near_learned_route": k < NEAR,
-                "learned": _rate([t["learned"]["starts"][k] for t in transfer]),
-                "reflex_only": _rate([t["reflex_only"]["starts"][k] for t in transfer]),
+                "learned": _rate([t["learned"]["starts"][k] for t in moved]),
+                "reflex_only": _rate([t["reflex_only"]["starts"][k] for t in moved]),
             }
         )
     for i, (label, overrides) in enumerate(noise_levels):
-        rows = [r for s in noisy[i * sets : (i + 1) * sets] for r in s.rows]
+        rows = [r for s in noisy[i] for r in s.rows]
         report["noise"].append({"level": label, "overrides": overrides, **summarise(rows)})
     report["wall_time_s"] = round(time.perf_counter() - t0, 1)
     if out is not None:
@@ -158,7 +147,7 @@ def run_generalisation(
         out.mkdir(parents=True, exist_ok=True)
         (out / "generalise.json").write_text(json.dumps(report, indent=2) + "\n")
         (out / "generalise.md").write_text(markdown(report))
-        _figures(transfer, out)
+        _figures(moved, out)
     return report
 
 

@@ -52,6 +52,8 @@ class SetResult:
     """Greedy runs of the final controller from other start poses (with their paths)."""
     controller: dict[str, Any] = field(default_factory=dict)
     """The final controller's state dict (loads into a one-robot policy)."""
+    timings: dict[str, float] = field(default_factory=dict)
+    """Of the training batch this set ran in (shared by the sets of that batch)."""
 
 
 def resolve_config(recipe: str | RunConfig, overrides: Sequence[str] = ()) -> RunConfig:
@@ -134,7 +136,7 @@ def _run_batch(
                 paths[int(t["trial"])] = _xy(t["path"])
                 ghosts[int(t["trial"])] = _xy(t["ghosts"])
         out.append(SetResult(index, res.seed, rows, paths, ghosts,
-                             controller=res.policy.state_dict()))  # fmt: skip
+                             controller=res.policy.state_dict(), timings=res.timings))  # fmt: skip
     if starts:
         world = results[0].policy.world
         pairs = [(s, k) for s in out for k in range(len(starts))]

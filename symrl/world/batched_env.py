@@ -30,6 +30,12 @@ __all__ = ["BatchedWorldEnv"]
 _OBS_KEYS = ("sonar", "ir", "bumper", "odometry", "goal")
 
 
+def _strided(array: np.ndarray) -> np.ndarray:
+    """A copy if ``array`` has a zero stride (``x[:, None]``): torch's stack into the Collector's
+    buffers crashes (SIGFPE) on zero-stride inputs."""
+    return array.copy() if 0 in array.strides else array
+
+
 class BatchedWorldEnv(EnvBase):
     """B robots in one world, one TorchRL env with ``batch_size=[B]`` (CPU).
 
@@ -206,7 +212,7 @@ class BatchedWorldEnv(EnvBase):
     def _tensordict(self, out: dict[str, np.ndarray]) -> TensorDictBase:
         """The output TensorDict, built directly (no per-key spec encoding: the hot loop)."""
         return TensorDict._new_unsafe(
-            {key: torch.from_numpy(value) for key, value in out.items()},
+            {key: torch.from_numpy(_strided(value)) for key, value in out.items()},
             batch_size=self.batch_size,
             device=self.device,
         )
