@@ -115,15 +115,19 @@ class IRShield(nn.Module):
         unsafe = self.clearance(reflectance, action[..., None])[..., 0] < margin
         if not bool(unsafe.any()):
             return action, unsafe
-        grid = self.candidates.expand(*action.shape, -1)
-        room = self.clearance(reflectance, grid)  # (..., m)
+        # the candidate search runs only on the rows whose action is unsafe (the rare case)
+        rows = unsafe.nonzero(as_tuple=True)
+        refl, act = reflectance[rows], action[rows]
+        grid = self.candidates.expand(*act.shape, -1)
+        room = self.clearance(refl, grid)  # (k, m)
         safe = room >= margin
-        turn = torch.remainder(grid - action[..., None] + math.pi, 2 * math.pi) - math.pi
+        turn = torch.remainder(grid - act[..., None] + math.pi, 2 * math.pi) - math.pi
         cost = torch.where(safe, turn.abs(), torch.inf)
         nearest = torch.gather(grid, -1, cost.argmin(dim=-1, keepdim=True))[..., 0]
         widest = torch.gather(grid, -1, room.argmax(dim=-1, keepdim=True))[..., 0]
-        choice = torch.where(safe.any(dim=-1), nearest, widest)
-        return torch.where(unsafe, choice, action), unsafe
+        out = action.clone()
+        out[rows] = torch.where(safe.any(dim=-1), nearest, widest)
+        return out, unsafe
 
     def filter(self, reflectance: torch.Tensor, action: float) -> tuple[float, bool]:
         """One sample: ``(safe action, replaced?)``; the proposed angle is kept when safe."""
