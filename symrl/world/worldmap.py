@@ -29,6 +29,8 @@ from shapely.geometry import LineString, MultiLineString, Point, Polygon, box
 from shapely.ops import unary_union
 from shapely.validation import explain_validity
 
+from symrl.world.autoregions import auto_regions
+
 __all__ = [
     "MapError",
     "Pose",
@@ -225,7 +227,7 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
         raise MapError(
             f"{source}: unknown field(s) {sorted(unknown)}; allowed: {sorted(_TOP_KEYS)}"
         )
-    for key in ("boundary", "start", "goal", "regions"):
+    for key in ("boundary", "start", "goal"):
         if key not in data:
             raise MapError(f"{source}: missing required field {key!r}")
     name = data.get("name", Path(source).stem)
@@ -240,7 +242,10 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
     segments = _segments(data.get("segments") or [])
     start = _pose(data["start"])
     goal = _goal(data["goal"])
-    regions = _regions(data["regions"])
+    regions_raw = data.get("regions", "auto")
+    if regions_raw == "auto":  # no hand-written rules: find rooms and doors from the walls
+        regions_raw = auto_regions(boundary, obstacles, segments)
+    regions = _regions(regions_raw)
 
     world = WorldMap(name, boundary, obstacles, segments, start, goal, regions, source)
     for label, (px, py) in (("start", (start.x, start.y)), ("goal", (goal.x, goal.y))):
@@ -351,7 +356,10 @@ def _goal(value: Any) -> Goal:
 
 def _regions(value: Any) -> RegionSpec:
     if not isinstance(value, dict):
-        raise MapError(f"field 'regions' must be a mapping {{names, lines, rules}}, got {value!r}")
+        raise MapError(
+            "field 'regions' must be 'auto' or a mapping {names, lines, rules}, "
+            f"got {_show(value)}"
+        )
     for key in ("names", "lines", "rules"):
         if key not in value:
             raise MapError(f"field 'regions' is missing {key!r}")
