@@ -230,9 +230,14 @@ def _goal_distances(n: int, goal: int, links: list[tuple[int, int]]) -> list[flo
     return dist
 
 
+def _nearest_piece(pieces: list, x: float, y: float) -> int:
+    """The piece holding the point, or the nearest one (a point on a thin wall is in none)."""
+    here = shapely.Point(x, y)
+    return min(range(len(pieces)), key=lambda i: (pieces[i][1].distance(here), i))
+
+
 def _goal_piece(world: WorldMap, pieces: list) -> int:
-    here = _piece_of(pieces, np.array([world.goal.x]), np.array([world.goal.y]))
-    return int(here[0])
+    return _nearest_piece(pieces, world.goal.x, world.goal.y)
 
 
 def find_passages(world: WorldMap, config: SubgoalConfig | None = None) -> list[Passage]:
@@ -287,8 +292,7 @@ def routes(world: WorldMap, passages: list[Passage]) -> tuple[dict[str, set[int]
     ahead = {name: set() for name in world.regions.names}
     for i, (name, _) in enumerate(pieces):
         ahead[name] |= crossed_from(i)
-    start = _piece_of(pieces, np.array([world.start.x]), np.array([world.start.y]))
-    return ahead, crossed_from(int(start[0]))
+    return ahead, crossed_from(_nearest_piece(pieces, world.start.x, world.start.y))
 
 
 @dataclass

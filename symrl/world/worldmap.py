@@ -475,8 +475,8 @@ def _check_meaning(world: WorldMap, source: str) -> None:
         room = room.difference(unary_union(grown))
     here = Point(start.x, start.y)
     pieces = getattr(room, "geoms", [room])
-    piece = min(pieces, key=here.distance, default=None)
-    if piece is None or piece.distance(Point(goal.x, goal.y)) >= goal.radius:
+    piece = None if room.is_empty else min(pieces, key=here.distance)
+    if piece is None or not piece.distance(Point(goal.x, goal.y)) < goal.radius:
         raise MapError(
             f"{where} 'goal': the goal disc (centre ({goal.x}, {goal.y}), radius {goal.radius}) "
             f"cannot be reached from the start ({start.x}, {start.y}) by the robot's body "
