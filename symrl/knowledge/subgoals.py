@@ -8,6 +8,12 @@ into the concave corner, which is what the literal learner never un-learns
 and turns them into a small table of candidate sub-goals per region, so the learner only has to
 *choose* among a handful of symbolic options per region. Nothing here is specific to the
 ``hailu2001`` map and nothing knows of TorchRL; the table is plain tensors.
+
+Which passages a region gets comes from a graph of the map: its nodes are the connected pieces
+of each region's free area (a thin wall may cut a region in two), its edges the passages (a
+crossing blocked by a thin wall is none). A region's options are the passages that some route
+from it to the goal crosses toward the goal, so a door into a dead end or back behind the robot
+is never offered, whatever the goal's bearing.
 """
 
 from __future__ import annotations
@@ -16,12 +22,24 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
+import networkx as nx
 import numpy as np
+import shapely
 import torch
+from shapely.geometry import LineString, box
+from shapely.ops import unary_union
 
 from symrl.world.worldmap import WorldMap
 
-__all__ = ["SubgoalConfig", "Passage", "SubgoalTable", "find_passages", "build_subgoals"]
+__all__ = [
+    "SubgoalConfig",
+    "Passage",
+    "SubgoalTable",
+    "find_passages",
+    "region_pieces",
+    "routes",
+    "build_subgoals",
+]
 
 
 @dataclass(frozen=True)
@@ -44,13 +62,9 @@ class SubgoalConfig:
     """Offsets across the line toward the goal's side: 0 is on the line, d is d metres past it."""
 
     past: bool = True
-    """A region also gets the points past (``beyond`` > 0) the passage it is entered through:
-    steering there first keeps the robot off the passage's far post when it turns to the goal."""
-
-    through: float = 0.0
-    """A point short of this distance past its line gets a follow-up point this far past the line
-    (same position along it): once the robot reaches the first, it steers through the passage
-    instead of turning at once to the goal and into the post. 0: the follow-up is the goal."""
+    """A region also gets the points past (``beyond`` > 0) a passage it is entered through on a
+    route from the start to the goal: steering there first keeps the robot off the passage's far
+    post when it turns to the goal."""
 
     min_clearance: float = 0.0
     """Candidates closer than this to any wall are dropped (metres from the point to the nearest
@@ -95,6 +109,9 @@ class Passage:
     before: str
     after: str
     normal: float  # +1 if `after` lies on the side of increasing coordinate `axis`, else -1
+    pieces: tuple[int, int] = (-1, -1)
+    """Pieces (connected free areas of one region, see :func:`region_pieces`) on the ``before``
+    and ``after`` sides."""
 
     @property
     def width(self) -> float:
@@ -106,8 +123,54 @@ class Passage:
         return (c, along) if self.axis == 0 else (along, c)
 
 
-def _free_runs(world: WorldMap, axis: int, c: float, eps: float, res: float) -> list[tuple]:
-    """Runs along line ``axis = c`` where both sides are free, with the region on each side."""
+def region_pieces(world: WorldMap) -> list[tuple[str, shapely.Geometry]]:
+    """The connected pieces of each region's free area, cut by the thin walls: ``(region,
+    polygon)`` in the order of ``regions.names``, pieces of one region by their lowest point."""
+    xmin, xmax, ymin, ymax = world.bounds
+    free = world.free_polygon
+    cuts = [
+        LineString([(a, b), (c, d)]).buffer(1e-6, cap_style="flat")
+        for a, b, c, d in world.extra_segments
+    ]
+    if cuts:
+        free = free.difference(unary_union(cuts))
+    cells: dict[str, list] = {name: [] for name in world.regions.names}
+    taken = None
+    for rule in world.regions.rules:
+        lo_hi = [[xmin - 1.0, xmax + 1.0], [ymin - 1.0, ymax + 1.0]]
+        for c in rule.conditions:
+            bound = lo_hi[c.axis]
+            if c.greater:
+                bound[0] = max(bound[0], c.threshold)
+            else:
+                bound[1] = min(bound[1], c.threshold)
+        if any(lo >= hi for lo, hi in lo_hi):
+            continue
+        cell = box(lo_hi[0][0], lo_hi[1][0], lo_hi[0][1], lo_hi[1][1])
+        cells[rule.region].append(cell if taken is None else cell.difference(taken))
+        taken = cell if taken is None else taken.union(cell)
+    out = []
+    for name in world.regions.names:
+        area = free.intersection(unary_union(cells[name]))
+        parts = [g for g in getattr(area, "geoms", [area]) if g.area > 1e-9]
+        parts.sort(key=lambda g: (g.bounds[1], g.bounds[0]))
+        out.extend((name, g) for g in parts)
+    return out
+
+
+def _piece_of(pieces: list[tuple[str, shapely.Geometry]], x: np.ndarray, y: np.ndarray):
+    """Index of the piece holding each point (-1 for none)."""
+    out = np.full(np.shape(x), -1, dtype=np.int64)
+    for i, (_, geom) in enumerate(pieces):
+        out[shapely.intersects_xy(geom, x, y) & (out < 0)] = i
+    return out
+
+
+def _free_runs(
+    world: WorldMap, pieces: list, axis: int, c: float, eps: float, res: float
+) -> list[tuple]:
+    """Runs along line ``axis = c`` where the short crossing of the line is free of walls, with
+    the region and the piece on each side."""
     xmin, xmax, ymin, ymax = world.bounds
     lo, hi = (ymin, ymax) if axis == 0 else (xmin, xmax)
     t = np.arange(lo + res / 2, hi, res)
@@ -116,14 +179,24 @@ def _free_runs(world: WorldMap, axis: int, c: float, eps: float, res: float) -> 
         pts = (np.full_like(t, c + s), t) if axis == 0 else (t, np.full_like(t, c + s))
         free = world.in_free_area(*pts)
         names = [world.regions.region_of(float(px), float(py)) for px, py in zip(*pts, strict=True)]
-        sides.append((free, names))
+        sides.append((free, names, _piece_of(pieces, *pts)))
+    if len(world.extra_segments):
+        ends = []
+        for s in (-eps, eps):
+            across = np.full_like(t, c + s)
+            ends.append(np.stack([across, t] if axis == 0 else [t, across], 1))
+        crossings = shapely.linestrings(np.stack(ends, 1))
+        walls = shapely.multilinestrings(world.extra_segments.reshape(-1, 2, 2))
+        open_ = ~shapely.intersects(crossings, walls)
+    else:
+        open_ = np.ones_like(t, dtype=bool)
     runs: list[tuple] = []
     start = None
     for i in range(len(t) + 1):
         key = None
-        if i < len(t) and sides[0][0][i] and sides[1][0][i]:
-            key = (sides[0][1][i], sides[1][1][i])
-            if key[0] == key[1]:
+        if i < len(t) and sides[0][0][i] and sides[1][0][i] and open_[i]:
+            key = (sides[0][1][i], sides[1][1][i], int(sides[0][2][i]), int(sides[1][2][i]))
+            if key[0] == key[1] or min(key[2:]) < 0:
                 key = None
         if start is not None and (key != start[1]):
             runs.append((float(t[start[0]] - res / 2), float(t[i - 1] + res / 2), start[1]))
@@ -142,13 +215,11 @@ def _clearance(world: WorldMap, xy: tuple[float, float]) -> float:
     return float(np.hypot(*(a + t[:, None] * d - np.asarray(xy)).T).min())
 
 
-def _goal_distances(world: WorldMap, links: list[tuple[str, str]]) -> dict[str, float]:
-    """Passages between each region and the goal's region (breadth-first over the links)."""
-    names = world.regions.names
-    goal_region = world.regions.region_of(world.goal.x, world.goal.y)
-    dist = {n: math.inf for n in names}
-    dist[goal_region] = 0
-    queue = deque([goal_region])
+def _goal_distances(n: int, goal: int, links: list[tuple[int, int]]) -> list[float]:
+    """Passages between each piece and the goal's piece (breadth-first over the links)."""
+    dist = [math.inf] * n
+    dist[goal] = 0
+    queue = deque([goal])
     while queue:
         here = queue.popleft()
         for a, b in links:
@@ -159,22 +230,69 @@ def _goal_distances(world: WorldMap, links: list[tuple[str, str]]) -> dict[str, 
     return dist
 
 
+def _nearest_piece(pieces: list, x: float, y: float) -> int:
+    """The piece holding the point, or the nearest one (a point on a thin wall is in none)."""
+    here = shapely.Point(x, y)
+    return min(range(len(pieces)), key=lambda i: (pieces[i][1].distance(here), i))
+
+
+def _goal_piece(world: WorldMap, pieces: list) -> int:
+    return _nearest_piece(pieces, world.goal.x, world.goal.y)
+
+
 def find_passages(world: WorldMap, config: SubgoalConfig | None = None) -> list[Passage]:
-    """Every crossing of a region line through free space between two different regions."""
+    """Every crossing of a region line through free space between two different regions that no
+    thin wall blocks, oriented toward the goal (``after`` is the side fewer passages from it)."""
     config = config or SubgoalConfig()
     eps = max(2 * config.resolution, 1e-3)
+    pieces = region_pieces(world)
     raw = []
     for name, (axis_name, c) in world.regions.lines.items():
         axis = 0 if axis_name == "x" else 1
-        for lo, hi, (neg, pos) in _free_runs(world, axis, c, eps, config.resolution):
-            raw.append((name, axis, c, lo, hi, neg, pos))
-    dist = _goal_distances(world, [(r[5], r[6]) for r in raw])
+        for lo, hi, key in _free_runs(world, pieces, axis, c, eps, config.resolution):
+            raw.append((name, axis, c, lo, hi, *key))
+    dist = _goal_distances(len(pieces), _goal_piece(world, pieces), [r[7:9] for r in raw])
     out = []
-    for name, axis, c, lo, hi, neg, pos in raw:
-        toward_pos = dist[pos] <= dist[neg]
+    for name, axis, c, lo, hi, neg, pos, pneg, ppos in raw:
+        toward_pos = dist[ppos] <= dist[pneg]
         before, after = (neg, pos) if toward_pos else (pos, neg)
-        out.append(Passage(name, axis, c, lo, hi, before, after, 1.0 if toward_pos else -1.0))
+        sides = (pneg, ppos) if toward_pos else (ppos, pneg)
+        normal = 1.0 if toward_pos else -1.0
+        out.append(Passage(name, axis, c, lo, hi, before, after, normal, sides))
     return out
+
+
+def routes(world: WorldMap, passages: list[Passage]) -> tuple[dict[str, set[int]], set[int]]:
+    """Which passages lead to the goal: per region, the indices of the passages some route from
+    one of its pieces to the goal's piece crosses toward the goal (from ``before`` to ``after``);
+    and the passages some route from the start crosses that way."""
+    pieces = region_pieces(world)
+    graph = nx.MultiGraph()
+    graph.add_nodes_from(range(len(pieces)))
+    for k, p in enumerate(passages):
+        graph.add_edge(*p.pieces, key=k)
+    goal = _goal_piece(world, pieces)
+
+    def crossed_from(source: int) -> set[int]:
+        used: set[int] = set()
+        if source < 0 or source == goal:
+            return used
+        for path in nx.all_simple_edge_paths(graph, source, goal):
+            here, keys = source, []
+            for u, v, k in path:
+                nxt = v if u == here else u
+                if passages[k].pieces != (here, nxt):
+                    break  # crosses this passage away from the goal: not a route toward it
+                keys.append(k)
+                here = nxt
+            else:
+                used.update(keys)
+        return used
+
+    ahead = {name: set() for name in world.regions.names}
+    for i, (name, _) in enumerate(pieces):
+        ahead[name] |= crossed_from(i)
+    return ahead, crossed_from(_nearest_piece(pieces, world.start.x, world.start.y))
 
 
 @dataclass
@@ -190,8 +308,6 @@ class SubgoalTable:
     points: torch.Tensor
     valid: torch.Tensor
     labels: list[list[str]]
-    then: torch.Tensor | None = None
-    """(R, K, 2) where to steer once ``points`` is reached (the goal when None or equal)."""
 
     @property
     def counts(self) -> torch.Tensor:
@@ -204,33 +320,35 @@ class SubgoalTable:
         x, y = self.points[region, option].tolist()
         return float(x), float(y)
 
-    def then_point(self, region: int, option: int) -> tuple[float, float] | None:
-        """The follow-up point of an option, or None if it is the goal."""
-        if self.then is None or not bool(self.valid[region, option]):
-            return None
-        x, y = self.then[region, option].tolist()
-        return None if bool(torch.isnan(self.then[region, option]).any()) else (x, y)
+
+def _labels(passages: list[Passage]) -> list[str]:
+    """The name of each passage in labels: its line, and ``#k`` (k-th along it) when the line
+    crosses free space more than once, so that every label in a table is unique."""
+    out = []
+    for p in passages:
+        along = sorted(q.lo for q in passages if q.line == p.line)
+        out.append(p.line if len(along) == 1 else f"{p.line}#{along.index(p.lo) + 1}")
+    return out
 
 
 def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> SubgoalTable:
     """The sub-goal table of ``world``: per region, the goal plus points of the bottleneck
-    passages still ahead of it on a route to the goal (a passage is ahead when its ``before``
-    region is no farther from the goal than the region itself)."""
+    passages that some route from the region to the goal crosses (and, with ``past``, points just
+    past a passage the region is entered through on a route from the start)."""
     config = config or SubgoalConfig()
     passages = find_passages(world, config)
-    dist = _goal_distances(world, [(p.before, p.after) for p in passages])
+    ahead_of, from_start = routes(world, passages)
+    names = _labels(passages)
     goal = (world.goal.x, world.goal.y)
     per_region: list[list[tuple[tuple[float, float], str]]] = []
-    follow: list[dict[int, tuple[float, float]]] = []
     for region in world.regions.names:
         cands: list[tuple[tuple[float, float], str]] = []
-        nexts: dict[int, tuple[float, float]] = {}
         if config.include_goal:
             cands.append((goal, "goal"))
-        for p in passages:
+        for k, p in enumerate(passages):
             half = p.width / 2 - config.clearance
-            ahead = dist[p.before] <= dist[region]
-            just_crossed = config.past and p.after == region
+            ahead = k in ahead_of[region]
+            just_crossed = config.past and p.after == region and k in from_start
             if p.width > config.max_width or half < 0 or not (ahead or just_crossed):
                 continue
             centre = (p.lo + p.hi) / 2
@@ -247,22 +365,16 @@ def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> Subg
                         continue
                     if any(math.dist(xy, q) < config.merge for q, _ in cands):
                         continue
-                    if config.through > d:
-                        nexts[len(cands)] = p.point(centre + sign * f * half, config.through)
-                    cands.append((xy, f"{p.line}@{f:+.1f}/{d:.1f}"))
+                    cands.append((xy, f"{names[k]}@{f:+.1f}/{d:.1f}"))
         if not cands:
             raise ValueError(f"build_subgoals: region {region!r} has no candidate sub-goal")
         per_region.append(cands)
-        follow.append(nexts)
     k = max(len(c) for c in per_region)
     points = torch.zeros(len(per_region), k, 2)
     valid = torch.zeros(len(per_region), k, dtype=torch.bool)
-    then = torch.full((len(per_region), k, 2), float("nan"))
     for r, cands in enumerate(per_region):
         for j, (xy, _) in enumerate(cands):
             points[r, j] = torch.tensor(xy)
             valid[r, j] = True
-            if j in follow[r]:
-                then[r, j] = torch.tensor(follow[r][j])
     labels = [[name for _, name in cands] for cands in per_region]
-    return SubgoalTable(tuple(world.regions.names), points, valid, labels, then)
+    return SubgoalTable(tuple(world.regions.names), points, valid, labels)

@@ -115,21 +115,31 @@ def _on_circle(c: np.ndarray, r: float, a: float) -> np.ndarray:
 
 
 class _Checker:
-    """Is a point / segment / arc at least ``r`` from every wall and inside the free area?"""
+    """Is a point / segment / arc at least ``r`` from every wall and inside the free area?
+
+    Inside-ness is asked of shapely's prepared free-area polygon (``WorldMap.contains_xy``, in
+    C): the pure-Python point-in-polygon took 84% of a plan. A point kept ``r`` from every wall
+    is never on one, so the open polygon gives the same answers as the even-odd rule.
+    """
 
     def __init__(self, world: WorldMap, r: float) -> None:
         self.world = world
         self.walls = Walls(world.segments)
         self.r = r
 
+    def points_ok(self, pts: np.ndarray, tol: float = _EPS) -> np.ndarray:
+        """:meth:`point_ok` of many points ``(n, 2)`` at once."""
+        inside = self.world.contains_xy(pts[:, 0], pts[:, 1])
+        return inside & (self.walls.clearance(pts) >= self.r - tol)
+
     def point_ok(self, p: np.ndarray, tol: float = _EPS) -> bool:
-        if not bool(self.world.in_free_area(p[0], p[1])):
+        if not bool(self.world.contains_xy(p[0], p[1])):
             return False
         return float(self.walls.clearance(p[None, :])[0]) >= self.r - tol
 
     def segment_ok(self, a: np.ndarray, b: np.ndarray, tol: float = 1e-7) -> bool:
         mid = 0.5 * (a + b)
-        if not bool(self.world.in_free_area(mid[0], mid[1])):
+        if not bool(self.world.contains_xy(mid[0], mid[1])):
             return False
         return not self.walls.swept_disc_contact(a[0], a[1], b[0], b[1], self.r - tol)
 
@@ -137,15 +147,14 @@ class _Checker:
         n = max(2, int(math.ceil(self.r * abs(a1 - a0) / _ARC_CHECK)) + 1)
         ang = np.linspace(a0, a1, n)
         pts = c + self.r * np.stack([np.cos(ang), np.sin(ang)], axis=1)
-        if not bool(np.all(self.world.in_free_area(pts[:, 0], pts[:, 1]))):
-            return False
-        return bool(np.all(self.walls.clearance(pts) >= self.r - tol))
+        return bool(np.all(self.points_ok(pts, tol)))
 
 
 def _rim_targets(chk: _Checker, g: np.ndarray, rg: float, samples: int = 3600) -> list[np.ndarray]:
     """Points of the goal rim where it enters or leaves the grown walls (bisection on the angle)."""
     ang = np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
-    ok = [chk.point_ok(g + rg * np.array([math.cos(a), math.sin(a)])) for a in ang]
+    rim = g + rg * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    ok = chk.points_ok(rim).tolist()
     out = []
     for i in range(samples):
         j = (i + 1) % samples

@@ -23,6 +23,7 @@ __all__ = [
     "draw_path",
     "draw_robot",
     "draw_sonar",
+    "save_map_figure",
     "EnvRenderer",
 ]
 
@@ -180,6 +181,39 @@ def draw_sonar(
     x0, y0 = x + radius * c, y + radius * s
     x1, y1 = x + (radius + r) * c, y + (radius + r) * s
     ax.plot(np.stack([x0, x1]), np.stack([y0, y1]), color=color, lw=0.5, alpha=0.6, zorder=3)
+
+
+def save_map_figure(
+    world: WorldMap,
+    out: Any,
+    path: Sequence[Sequence[float]] | np.ndarray | None = None,
+    title: str | None = None,
+    subgoals: Sequence[Sequence[float]] | np.ndarray | None = None,
+) -> None:
+    """One PNG of a map for the docs: walls, region lines and names, goal, the robot at its start
+    and, when given, a path (e.g. the planner's optimum) and sub-goal points."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    xmin, xmax, ymin, ymax = world.bounds
+    width = 6.0
+    height = max(2.5, width * (ymax - ymin + 0.6) / (xmax - xmin + 0.6)) + 0.4
+    fig = Figure(figsize=(width, height), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    draw_world(ax, world)
+    if path is not None:
+        draw_path(ax, path, markers=False, label="shortest path")
+    if subgoals is not None and len(subgoals):
+        pts = np.asarray(subgoals, dtype=np.float64).reshape(-1, 2)
+        ax.plot(pts[:, 0], pts[:, 1], "x", color="tab:purple", ms=5, zorder=4, label="sub-goals")
+    s = world.start
+    draw_robot(ax, (s.x, s.y, s.heading))
+    if path is not None or subgoals is not None:
+        ax.legend(loc="best", fontsize=7)
+    ax.set_title(title or world.name, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out)
 
 
 class EnvRenderer:

@@ -116,6 +116,11 @@ def test_custom_map_with_two_doors():
     assert any(math.dist(p, (4.0, 2.4)) < 0.02 for p in west)  # the opening's centre
 
 
+def test_follow_up_points_are_gone():
+    assert not hasattr(SubgoalConfig(), "through")
+    assert not hasattr(build_subgoals(load_map("hailu2001")), "then_point")
+
+
 def test_config_rejects_bad_values():
     with pytest.raises(ValueError, match="resolution"):
         SubgoalConfig(resolution=0)
@@ -123,22 +128,158 @@ def test_config_rejects_bad_values():
         SubgoalConfig(along=())
 
 
-def test_through_gives_follow_up_points_past_the_line(world):
-    plain = build_subgoals(world)
-    assert all(
-        plain.then_point(r, k) is None
-        for r in range(len(plain.region_names))
-        for k in range(int(plain.counts[r]))
-    )
-    table = build_subgoals(world, SubgoalConfig(through=0.4))
-    room = table.region_names.index("room")
-    k = table.labels[room].index("l2@+0.0/0.0")  # the door centre on l2
-    assert table.then_point(room, k) == pytest.approx((3.9, -0.5))
-    assert table.then_point(room, 0) is None  # the goal has no follow-up
-
-
 def test_min_clearance_drops_points_near_the_posts(world):
     table = build_subgoals(world, SubgoalConfig(min_clearance=0.45))
     room = table.region_names.index("room")
     assert "l2@+0.8/0.0" not in table.labels[room]  # (3.5, -0.69): 0.31 m from the post
     assert "l2@+0.0/0.0" in table.labels[room]  # the door centre: 0.5 m
+
+
+# The tables on the paper's map, as built before sub-goals came from the region graph: the
+# learner's results depend on them, so they must not move by a bit.
+D, P, C, L = 3.9000000953674316, 4.150000095367432, -0.6919999718666077, (4.0, -2.0)
+PAPER_TABLE = {
+    "labels": [
+        ["goal", "l2@+0.0/0.4", "l3@+0.0/0.4", "l3@+0.8/0.4"],
+        ["goal", "l2@+0.0/0.4", "l3@+0.0/0.4", "l3@+0.8/0.4"],
+        ["goal", "l2@+0.0/0.4", "l3@+0.0/0.4", "l3@+0.8/0.4"],
+        ["goal", "l3@+0.0/0.4", "l3@+0.8/0.4"],
+    ],
+    "points": [
+        [L, (D, -0.5), (P, -0.5), (P, C)],
+        [L, (D, -0.5), (P, -0.5), (P, C)],
+        [L, (D, -0.5), (P, -0.5), (P, C)],
+        [L, (P, -0.5), (P, C), (0.0, 0.0)],
+    ],
+}
+DEFAULT_TABLE = {
+    "labels": [
+        ["goal", "l2@+0.0/0.0", "l2@+0.0/0.4", "l2@+0.8/0.0", "l2@+0.8/0.4"]
+        + ["l3@+0.0/0.4", "l3@+0.8/0.4"],
+        ["goal", "l2@+0.0/0.0", "l2@+0.0/0.4", "l2@+0.8/0.0", "l2@+0.8/0.4"]
+        + ["l3@+0.0/0.4", "l3@+0.8/0.4"],
+        ["goal", "l2@+0.0/0.4", "l2@+0.8/0.4", "l3@+0.0/0.4", "l3@+0.8/0.4"],
+        ["goal", "l3@+0.0/0.4", "l3@+0.8/0.4"],
+    ],
+    "points": [
+        [L, (3.5, -0.5), (D, -0.5), (3.5, C), (D, C), (P, -0.5), (P, C)],
+        [L, (3.5, -0.5), (D, -0.5), (3.5, C), (D, C), (P, -0.5), (P, C)],
+        [L, (D, -0.5), (D, C), (P, -0.5), (P, C), (0.0, 0.0), (0.0, 0.0)],
+        [L, (P, -0.5), (P, C)] + [(0.0, 0.0)] * 4,
+    ],
+}
+
+
+@pytest.mark.parametrize(
+    ("config", "expected"),
+    [
+        (SubgoalConfig(past=True, beyond=(0.4,), min_clearance=0.45), PAPER_TABLE),
+        (SubgoalConfig(), DEFAULT_TABLE),
+    ],
+    ids=["paper", "default"],
+)
+def test_paper_map_tables_are_pinned(world, config, expected):
+    table = build_subgoals(world, config)
+    assert table.region_names == ("room", "concave", "door", "corridor")
+    assert table.labels == expected["labels"]
+    assert torch.equal(table.points, torch.tensor(expected["points"], dtype=torch.float32))
+    counts = [len(labels) for labels in expected["labels"]]
+    assert table.valid.tolist() == [[k < n for k in range(table.valid.shape[1])] for n in counts]
+
+
+def _region_options(table, region: str) -> list[str]:
+    return table.labels[table.region_names.index(region)]
+
+
+def test_a_door_closed_by_a_thin_wall_is_no_passage():
+    doc = {
+        "name": "closed",
+        "boundary": [[0, 0], [8, 0], [8, 4], [0, 4]],
+        # a thin wall at x = 4 with two 1 m doors; the upper one is closed by one more segment
+        "segments": [
+            [[4.0, 0.0], [4.0, 0.5]],
+            [[4.0, 1.5], [4.0, 2.5]],
+            [[4.0, 2.5], [4.0, 3.5]],
+            [[4.0, 3.5], [4.0, 4.0]],
+        ],
+        "start": {"x": 1, "y": 2},
+        "goal": {"x": 7, "y": 2, "radius": 0.4},
+        "regions": {
+            "names": ["west", "east"],
+            "lines": {"wall": {"x": 4.0}},
+            "rules": [{"region": "west", "when": ["x < wall"]}, {"region": "east"}],
+        },
+    }
+    world = load_map(doc)
+    passages = find_passages(world)
+    assert len(passages) == 1  # only the lower door, y in [0.5, 1.5]
+    assert passages[0].lo == pytest.approx(0.5, abs=0.02)
+    assert passages[0].hi == pytest.approx(1.5, abs=0.02)
+
+
+def test_a_door_closed_inside_its_region_leaves_no_route():
+    # the paper's map with the door region cut across by a thin wall, and a second way round
+    # through a gap in the corridor's west wall further north: the door is no longer on a route
+    world = load_map(
+        {
+            "name": "cut",
+            "boundary": [[0, 0], [3.5, 0], [3.5, 1], [3.75, 1], [3.75, 0], [6, 0], [6, 4]]
+            + [[3.75, 4], [3.75, 3.5], [3.5, 3.5], [3.5, 4], [0, 4]],
+            "obstacles": [[[3.5, 2.0], [3.75, 2.0], [3.75, 2.5], [3.5, 2.5]]],
+            "segments": [[[3.6, 1.0], [3.6, 2.0]]],
+            "start": {"x": 1, "y": 1.5},
+            "goal": {"x": 5, "y": 1.5, "radius": 0.4},
+            "regions": {
+                "names": ["room", "door", "gap", "corridor"],
+                "lines": {"w": {"x": 3.5}, "e": {"x": 3.75}, "mid": {"y": 2.25}},
+                "rules": [
+                    {"region": "room", "when": ["x < w"]},
+                    {"region": "corridor", "when": ["x > e"]},
+                    {"region": "door", "when": ["y < mid"]},
+                    {"region": "gap"},
+                ],
+            },
+        }
+    )
+    table = build_subgoals(world, SubgoalConfig(past=False))
+    room = _region_options(table, "room")
+    assert any(label.startswith("w#2@") for label in room)  # the gap (upper crossing of w)
+    assert not any(label.startswith("w#1@") for label in room)  # the cut door
+
+
+def test_options_skip_dead_ends_and_labels_are_unique():
+    office = load_map("office")
+    table = build_subgoals(office)
+    # the west office's routes leave by the west door and enter the east office; the middle
+    # door, a dead end for this goal, is never an option
+    west = _region_options(table, "west_office")
+    assert any(label.startswith("hall#1@") for label in west)
+    assert any(label.startswith("hall#3@") for label in west)
+    assert not any(label.startswith("hall#2@") for label in west)
+    corridor = _region_options(table, "corridor")
+    assert not any(label.startswith("hall#2@") for label in corridor)
+    for labels in table.labels:
+        assert len(labels) == len(set(labels))
+
+
+def test_maze_options_avoid_the_dead_end_toward_the_goal():
+    maze = load_map("maze")
+    passages = find_passages(maze)
+    table = build_subgoals(maze, SubgoalConfig(past=False))
+    hall = table.region_names.index("west_hall")
+    points = [table.point(hall, k) for k in range(1, int(table.counts[hall]))]
+    # the way is north then east: no option in the middle lane (the dead end due east of the
+    # start, toward the goal's bearing) nor in the south lane
+    assert points and not any(1.5 <= x <= 7.5 and y < 4.0 for x, y in points)
+    assert any(y > 4.0 and x < 2.0 for x, y in points)
+    # the north wall is thin: its crossing opens only at the 1.5 m gap east of x = 8.5
+    north = [p for p in passages if p.line == "north"]
+    assert len(north) == 1 and north[0].lo == pytest.approx(8.5, abs=0.02)
+
+
+def test_two_doors_both_routes_are_options():
+    table = build_subgoals(load_map("two_doors"))
+    room = _region_options(table, "room")
+    assert any(label.startswith("wall_w#1@") for label in room)
+    assert any(label.startswith("wall_w#2@") for label in room)
+    assert len(room) == len(set(room))

@@ -2,6 +2,7 @@
 
 import copy
 import math
+import time
 from importlib import resources
 from pathlib import Path
 
@@ -46,6 +47,11 @@ def test_user_map_file_loads_and_drives(tmp_path, doc):
         segments=[[[3.0, 0.0], [3.0, 0.8]]],
         start={"x": 0.5, "y": 1.5, "heading": 0.0},
         goal={"x": 3.5, "y": 1.5, "radius": 0.3},
+        regions={
+            "names": ["west", "east"],
+            "lines": {"mid": {"x": 2.0}},
+            "rules": [{"region": "west", "when": ["x < mid"]}, {"region": "east"}],
+        },
     )
     path = tmp_path / "pillar.yaml"
     path.write_text(yaml.safe_dump(doc))
@@ -142,6 +148,112 @@ def test_malformed_map_is_rejected_naming_the_fault(doc, fault, path, value, mes
         load_map(_mutate(doc, path, value))
 
 
+def _door_post_y(y: float) -> list[list[float]]:
+    """The paper's boundary with the lower door post moved to ``y`` (the door spans y..0)."""
+    world = yaml.safe_load(MAP_FILE.read_text())["boundary"]
+    return [[x, y if (x, py) in ((3.5, -1.0), (3.75, -1.0)) else py] for x, py in world]
+
+
+MEANINGLESS_MAPS = [
+    (
+        "door closed by a thin wall",
+        "segments",
+        [[[3.5, -1.0], [3.5, 0.0]]],
+        r"'goal'.*cannot be reached from the start.*body",
+    ),
+    (
+        "door narrower than the body",
+        "boundary",
+        _door_post_y(-0.45),
+        r"'goal'.*cannot be reached from the start",
+    ),
+    ("start against a wall", "start", {"x": -1.4, "y": 0.0}, r"'start'.*0\.100 m.*radius"),
+    ("goal disc covers the start", "goal", {"x": 0.2, "y": 0.0, "radius": 0.4}, "covers the start"),
+    (
+        "obstacle outside the boundary",
+        "obstacles",
+        [[[10, 10], [11, 10], [11, 11]]],
+        r"'obstacles\[0\]'.*not inside the boundary",
+    ),
+    (
+        "obstacle across the boundary",
+        "obstacles",
+        [[[-2, 0], [-1, 0], [-1, 1]]],
+        r"'obstacles\[0\]'.*not inside the boundary",
+    ),
+    ("thin wall leaving the map", "segments", [[[0, 0], [0, 9]]], r"'segments\[0\]'.*leaves"),
+    ("region line outside the map", "regions.lines.l1", {"y": 9.0}, r"'regions.lines.l1'.*outside"),
+    (
+        "rule shadowed by an earlier rule",
+        "regions.rules",
+        [
+            {"region": "corridor", "when": ["x > l3"]},
+            {"region": "room", "when": ["x > l3", "y < l1"]},
+            {"region": "concave", "when": ["x < l3", "y < l1"]},
+            {"region": "room", "when": ["x < l2"]},
+            {"region": "door"},
+        ],
+        r"'regions.rules\[1\]'.*'room'.*never fire.*earlier rules",
+    ),
+    (
+        "rule matching no free point",
+        "regions.rules",
+        [
+            {"region": "corridor", "when": ["x > l3"]},
+            {"region": "room", "when": ["x < l2", "x > l3"]},
+            {"region": "concave", "when": ["x < l3", "y < l1"]},
+            {"region": "room", "when": ["x < l2"]},
+            {"region": "door"},
+        ],
+        r"'regions.rules\[1\]'.*never fire.*no free point",
+    ),
+    (
+        "default rule never reached",
+        "regions.rules",
+        [
+            {"region": "corridor", "when": ["x > l2"]},
+            {"region": "concave", "when": ["x < l3", "y < l1"]},
+            {"region": "room", "when": ["x < l2"]},
+            {"region": "door"},
+        ],
+        r"'regions.rules\[3\]'.*'door'.*never fire",
+    ),
+    ("absurd coordinate", "boundary.0", [1e5, -2.5], r"'boundary\[0\]\[0\]'.*100000.*absurd"),
+    ("absurd goal radius", "goal.radius", 2e4, r"'goal.radius'.*absurd"),
+]
+
+
+@pytest.mark.parametrize(
+    ("fault", "path", "value", "message"), MEANINGLESS_MAPS, ids=[b[0] for b in MEANINGLESS_MAPS]
+)
+def test_map_without_meaning_is_rejected_naming_the_fault(doc, fault, path, value, message):
+    with pytest.raises(MapError, match=message) as err:
+        load_map(_mutate(doc, path, value))
+    assert "\n" not in str(err.value)  # one line
+
+
+def test_closed_polygon_is_the_same_map(doc):
+    closed = _mutate(doc, "boundary", doc["boundary"] + [doc["boundary"][0]])
+    np.testing.assert_array_equal(load_map(closed).boundary, load_map(doc).boundary)
+
+
+def test_a_3000_point_boundary_validates_in_a_second():
+    n = 3000
+    t = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    r = 10 + 0.5 * np.sin(7 * t)
+    data = {
+        "name": "wobbly",
+        "boundary": np.round(np.stack([r * np.cos(t), r * np.sin(t)], 1), 6).tolist(),
+        "start": {"x": 0.0, "y": 0.0},
+        "goal": {"x": 3.0, "y": 0.0, "radius": 0.4},
+        "regions": {"names": ["all"], "lines": {}, "rules": [{"region": "all"}]},
+    }
+    tic = time.perf_counter()
+    world = load_map(data)
+    assert time.perf_counter() - tic <= 1.0
+    assert len(world.boundary) == n
+
+
 def test_malformed_files(tmp_path):
     bad_yaml = tmp_path / "bad.yaml"
     bad_yaml.write_text("boundary: [[0, 0], [1, 0]\nstart: {x: 0")
@@ -155,6 +267,19 @@ def test_malformed_files(tmp_path):
         load_map(tmp_path / "missing.yaml")
     with pytest.raises(MapError, match="not a file and not a built-in map"):
         load_map("no_such_map")
+    with pytest.raises(MapError, match="is a directory"):
+        load_map(tmp_path)
+    binary = tmp_path / "map.yaml"
+    binary.write_bytes(b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR")
+    with pytest.raises(MapError, match=r"map.yaml' is a binary file"):
+        load_map(binary)
+    latin1 = tmp_path / "latin1.yaml"
+    latin1.write_bytes("name: caf\u00e9\n".encode("latin-1"))
+    with pytest.raises(MapError, match=r"latin1.yaml' is not UTF-8.*0xe9"):
+        load_map(latin1)
+    with pytest.raises(MapError, match="not valid YAML") as err:
+        load_map(bad_yaml)
+    assert "\n" not in str(err.value)
 
 
 def test_map_error_is_a_value_error():

@@ -1,0 +1,227 @@
+"""Region rules found from the map itself (``regions: auto``, or a map without ``regions``).
+
+A hand-written map names its rooms, doors and corridors with lines and first-match rules (paper
+section 6.1). This module writes such rules from the walls alone, so any floor plan gets a
+partition the region mapper and the sub-goal builder can use:
+
+1. **Narrowings.** Every wall corner's x (and y) is a candidate vertical (horizontal) line. Where
+   such a line crosses a free stretch at most ``max_door`` wide but at least the robot's width, and
+   the free stretch through the same point ``probe`` metres to one side is ``widen`` times wider,
+   the stretch is a door-like narrowing: a door's face, a gap in a thin wall, a corridor's mouth.
+2. **Regions.** The free area cut along the narrowings falls into connected pieces; a piece of
+   less than ``door_area`` square metres is a door (``door1``, ...), any other a room (``room1``,
+   ...), numbered by their lowest, then leftmost point.
+3. **Rules.** The narrowing lines cut the plane into a grid of boxes; while a box's free area
+   holds pieces of two regions, the wall-corner line that leaves the fewest such boxes is added.
+   Each box then becomes one rule; the region with the most boxes is the default.
+
+Everything is ordered by coordinates, so the same map always gives the same rules.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import product
+from typing import Any
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Polygon, box
+from shapely.ops import unary_union
+
+__all__ = ["AutoRegionConfig", "auto_regions"]
+
+
+@dataclass(frozen=True)
+class AutoRegionConfig:
+    """What counts as a door-like narrowing (metres)."""
+
+    max_door: float = 1.5
+    """Widest free stretch that can be a door."""
+    min_door: float = 0.52
+    """Narrowest: the robot's width (twice the B21's radius); anything narrower is no way."""
+    probe: float = 0.3
+    """How far to each side of a line the free stretch is measured again."""
+    widen: float = 1.5
+    """A stretch is a narrowing if the one beside it is at least this many times wider."""
+    door_area: float = 1.0
+    """Pieces smaller than this (square metres) are doors, larger ones rooms."""
+
+
+def _free(boundary: np.ndarray, obstacles: list[np.ndarray], segments: np.ndarray):
+    """The free area with the thin walls cut out as hair-thin slits."""
+    free = Polygon(boundary)
+    solid = [Polygon(p) for p in obstacles]
+    solid += [
+        LineString([(a, b), (c, d)]).buffer(1e-6, cap_style="flat") for a, b, c, d in segments
+    ]
+    return free.difference(unary_union(solid)) if solid else free
+
+
+def _stretches(free, axis: int, c: float, lo: float, hi: float) -> list[tuple[float, float]]:
+    """Free intervals along the line ``axis = c`` (x = c when axis is 0)."""
+    line = LineString([(c, lo), (c, hi)] if axis == 0 else [(lo, c), (hi, c)])
+    cut = line.intersection(free)
+    out = []
+    for g in getattr(cut, "geoms", [cut]):
+        if g.is_empty or g.geom_type != "LineString":
+            continue
+        coords = np.asarray(g.coords)[:, 1 - axis]
+        out.append((float(coords.min()), float(coords.max())))
+    return sorted(out)
+
+
+def _width_at(free, axis: int, c: float, t: float, lo: float, hi: float) -> float:
+    for a, b in _stretches(free, axis, c, lo, hi):
+        if a <= t <= b:
+            return b - a
+    return 0.0
+
+
+def _narrowings(
+    free, bounds, coords, config: AutoRegionConfig
+) -> list[tuple[int, float, float, float]]:
+    """``(axis, c, a, b)``: the free stretch ``a..b`` of line ``axis = c`` is a narrowing.
+
+    Stretches are read on the line (a gap in a thin wall lying on it) and a millimetre to either
+    side (the mouth of a door through a thick wall, whose face the line runs along); the stretch
+    beside must be wider on both sides, so the mouth of a long narrow lane is no door."""
+    xmin, ymin, xmax, ymax = bounds
+    spans = ((ymin - 1, ymax + 1), (xmin - 1, xmax + 1))
+    found = set()
+    for axis in (0, 1):
+        lo, hi = spans[axis]
+        for c in coords[axis]:
+            for at in (c, c - 1e-3, c + 1e-3):
+                for a, b in _stretches(free, axis, at, lo, hi):
+                    width = b - a
+                    if not config.min_door <= width <= config.max_door:
+                        continue
+                    mid = 0.5 * (a + b)
+                    beside = [
+                        _width_at(free, axis, at + s, mid, lo, hi)
+                        for s in (-config.probe, config.probe)
+                    ]
+                    if min(beside) >= config.widen * width:
+                        found.add((axis, c, round(a, 6), round(b, 6)))
+    return sorted(found)
+
+
+def _pieces(free, cuts: list[tuple[int, float, float, float]]) -> list:
+    """Connected pieces of the free area cut along the narrowings, by lowest then leftmost."""
+    slits = [
+        LineString([(c, a), (c, b)] if axis == 0 else [(a, c), (b, c)]).buffer(
+            1e-6, cap_style="flat"
+        )
+        for axis, c, a, b in cuts
+    ]
+    cut = free.difference(unary_union(slits)) if slits else free
+    parts = [g for g in getattr(cut, "geoms", [cut]) if g.area > 1e-6]
+    return sorted(parts, key=lambda g: (round(g.bounds[1], 6), round(g.bounds[0], 6)))
+
+
+def _cells(lines: tuple[list[float], list[float]], bounds) -> list[tuple[tuple, Any]]:
+    """The grid boxes of the x-lines and y-lines: ``((x_lo, x_hi, y_lo, y_hi), box)``, with
+    infinite sides outside the lines."""
+    xmin, ymin, xmax, ymax = bounds
+    xs = [-np.inf, *sorted(lines[0]), np.inf]
+    ys = [-np.inf, *sorted(lines[1]), np.inf]
+    out = []
+    for (y0, y1), (x0, x1) in product(
+        zip(ys[:-1], ys[1:], strict=True), zip(xs[:-1], xs[1:], strict=True)
+    ):
+        geom = box(max(x0, xmin - 1), max(y0, ymin - 1), min(x1, xmax + 1), min(y1, ymax + 1))
+        out.append(((x0, x1, y0, y1), geom))
+    return out
+
+
+def _owners(cells, pieces) -> list[list[int]]:
+    return [[i for i, p in enumerate(pieces) if p.intersection(g).area > 1e-6] for _, g in cells]
+
+
+def _clashes(owners: list[list[int]], kinds: list[str]) -> int:
+    return sum(max(0, len({kinds[i] for i in o}) - 1) for o in owners)
+
+
+def auto_regions(
+    boundary: np.ndarray,
+    obstacles: list[np.ndarray] | tuple[np.ndarray, ...],
+    segments: np.ndarray,
+    config: AutoRegionConfig | None = None,
+) -> dict[str, Any]:
+    """A ``regions`` mapping (``names``, ``lines``, ``rules``) in the map-file format, found from
+    the walls. Feed it to ``parse_map`` like a hand-written one."""
+    config = config or AutoRegionConfig()
+    segments = np.asarray(segments, dtype=np.float64).reshape(-1, 4)
+    free = _free(boundary, list(obstacles), segments)
+    shapely.prepare(free)
+    xmin, ymin, xmax, ymax = Polygon(boundary).bounds
+    pts = np.concatenate([boundary, *obstacles, segments.reshape(-1, 2)])
+    coords = (
+        sorted({float(x) for x in pts[:, 0] if xmin < x < xmax}),
+        sorted({float(y) for y in pts[:, 1] if ymin < y < ymax}),
+    )
+    cuts = _narrowings(free, (xmin, ymin, xmax, ymax), coords, config)
+    pieces = _pieces(free, cuts)
+    kinds, counters = [], {"door": 0, "room": 0}
+    for p in pieces:
+        kind = "door" if p.area < config.door_area else "room"
+        counters[kind] += 1
+        kinds.append(f"{kind}{counters[kind]}")
+
+    lines: tuple[list[float], list[float]] = (
+        sorted({c for axis, c, _, _ in cuts if axis == 0}),
+        sorted({c for axis, c, _, _ in cuts if axis == 1}),
+    )
+    bounds = (xmin, ymin, xmax, ymax)
+    cells = _cells(lines, bounds)
+    owners = _owners(cells, pieces)
+    while _clashes(owners, kinds):
+        best = None
+        for axis in (0, 1):
+            for c in coords[axis]:
+                if c in lines[axis]:
+                    continue
+                trial = (lines[0] + [c], lines[1]) if axis == 0 else (lines[0], lines[1] + [c])
+                trial_cells = _cells(trial, bounds)
+                score = _clashes(_owners(trial_cells, pieces), kinds)
+                if best is None or score < best[0]:
+                    best = (score, axis, c)
+        if best is None or best[0] >= _clashes(owners, kinds):
+            break  # no corner line helps: leave the clash to the first matching rule
+        lines[best[1]].append(best[2])
+        cells = _cells(lines, bounds)
+        owners = _owners(cells, pieces)
+
+    names_x = {c: f"x{i + 1}" for i, c in enumerate(sorted(lines[0]))}
+    names_y = {c: f"y{i + 1}" for i, c in enumerate(sorted(lines[1]))}
+    rule_cells: list[tuple[str, list[str]]] = []
+    for ((x0, x1, y0, y1), geom), owner in zip(cells, owners, strict=True):
+        if not owner:
+            continue
+        # should a clash remain, the region with most of the box's free area names it
+        areas = {i: pieces[i].intersection(geom).area for i in owner}
+        region = kinds[max(owner, key=lambda i: (areas[i], -i))]
+        when = []
+        if np.isfinite(x0):
+            when.append(f"x > {names_x[x0]}")
+        if np.isfinite(x1):
+            when.append(f"x < {names_x[x1]}")
+        if np.isfinite(y0):
+            when.append(f"y > {names_y[y0]}")
+        if np.isfinite(y1):
+            when.append(f"y < {names_y[y1]}")
+        rule_cells.append((region, when))
+    kinds = [k for k in kinds if any(r == k for r, _ in rule_cells)]
+    counts = {k: sum(1 for r, _ in rule_cells if r == k) for k in kinds}
+    default = max(kinds, key=lambda k: (counts[k], -kinds.index(k)))
+    rules = [{"region": r, "when": w} for r, w in rule_cells if r != default]
+    rules.append({"region": default})
+    return {
+        "names": kinds,
+        "lines": {
+            **{n: {"x": c} for c, n in names_x.items()},
+            **{n: {"y": c} for c, n in names_y.items()},
+        },
+        "rules": rules,
+    }
