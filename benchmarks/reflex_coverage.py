@@ -69,12 +69,11 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=20, help="noisy trials from the start")
     parser.add_argument("--poses", type=int, default=150, help="random free start poses")
     parser.add_argument("--pose-seed", type=int, default=12345, help="seed of the pose sampler")
-    parser.add_argument("--front-gate", type=float, default=0.0, help="ReflexConfig.front_gate")
     parser.add_argument("--out", default=None, help="write all numbers as JSON here")
     args = parser.parse_args()
 
     t0 = time.perf_counter()
-    rc = ReflexConfig(front_gate=args.front_gate)
+    rc = ReflexConfig()
     noisy = [drive(seed=s, noise=True, reflex_config=rc) for s in range(args.seeds)]
     clean = drive(seed=0, noise=False, reflex_config=rc)
     print(f"from the start, noise on, seeds 0..{args.seeds - 1}: {describe(noisy)}")

@@ -96,13 +96,6 @@ class ReflexConfig:
     d_g: float = 0.3
     """Desirability of goal following (Eq. 5)."""
 
-    front_gate: float = 0.0
-    """Context-dependent desirability of goal following (Saffiotti): d_g is scaled by
-    ``1 - front_gate * NEAR_F``, so with the front sector near, avoidance dominates instead of
-    being cancelled by an opposite goal vote (facing a wall with the goal behind it, LEFT and
-    RIGHT tie and height defuzzification drives straight on). 0 (default): constant d_g, the
-    paper's Eq. 5. Needs a sector named ``F`` when > 0."""
-
     sonar_range: float = 5.0
     """Metres of the sonar reading 1.0; normalised sonars are multiplied by it."""
 
@@ -127,10 +120,6 @@ class ReflexConfig:
         if self.d_a + self.d_g <= 0:
             raise ValueError(
                 f"ReflexConfig.d_a + d_g must be positive, got d_a={self.d_a!r}, d_g={self.d_g!r}"
-            )
-        if not _finite(self.front_gate) or not 0 <= self.front_gate <= 1:
-            raise ValueError(
-                f"ReflexConfig.front_gate must be a number in [0, 1], got {self.front_gate!r}"
             )
         if not _finite(self.goal_span) or self.goal_span <= 0:
             raise ValueError(
@@ -157,8 +146,6 @@ class ReflexConfig:
                     f"ReflexConfig.sectors[{name!r}] must be ray indices in [0, {self.n_rays}), "
                     f"got {rays!r}"
                 )
-        if self.front_gate > 0 and "F" not in self.sectors:
-            raise ValueError("ReflexConfig.front_gate > 0 needs a sector named 'F'")
         if not isinstance(self.near, dict):
             raise ValueError(f"ReflexConfig.near must be a dict, got {self.near!r}")
         for name in self.sectors:
@@ -343,9 +330,6 @@ class FuzzyReflex(nn.Module):
     def _fused(self, sonar: torch.Tensor, goal_angle: torch.Tensor, c: _Compiled) -> torch.Tensor:
         cfg = self.config
         follow = self.follow(goal_angle).mul_(cfg.d_g)
-        if cfg.front_gate > 0:
-            mu_f = self._near(sonar, c)[..., self.sector_names.index("F")]
-            follow = follow * torch.rsub(mu_f * cfg.front_gate, 1.0).unsqueeze(-1)
         return self._avoid(sonar, c).mul_(cfg.d_a).add_(follow)
 
     def forward(self, sonar: torch.Tensor, goal_angle: torch.Tensor) -> torch.Tensor:
@@ -417,12 +401,7 @@ class FuzzyReflex(nn.Module):
         wrapped = math.atan2(torch.sin(goal_angle).item(), torch.cos(goal_angle).item())
         t = wrapped / p.goal_span
         follow = (min(max(t, 0.0), 1.0), min(max(1.0 - abs(t), 0.0), 1.0), min(max(-t, 0.0), 1.0))
-        if p.front_gate > 0:  # same operation order as the tensor path
-            gate = 1.0 - mu[p.front_index] * p.front_gate
-            follow = tuple(fo * d_g * gate for fo in follow)
-            f0, f1, f2 = (a + fo for a, fo in zip(avoid, follow, strict=True))
-        else:
-            f0, f1, f2 = (a + fo * d_g for a, fo in zip(avoid, follow, strict=True))
+        f0, f1, f2 = (a + fo * d_g for a, fo in zip(avoid, follow, strict=True))
         p0, p1, p2 = p.peaks
         return (f0 * p0 + f1 * p1 + f2 * p2) / max(f0 + f1 + f2, 1e-12)
 
@@ -531,8 +510,6 @@ class _Plain(NamedTuple):
     d_g: float
     sonar_range: float
     goal_span: float
-    front_gate: float
-    front_index: int
 
     @classmethod
     def build(cls, reflex: FuzzyReflex) -> _Plain:
@@ -554,6 +531,4 @@ class _Plain(NamedTuple):
             d_g=float(cfg.d_g),
             sonar_range=float(cfg.sonar_range),
             goal_span=float(cfg.goal_span),
-            front_gate=float(cfg.front_gate),
-            front_index=reflex.sector_names.index("F") if "F" in reflex.sector_names else -1,
         )

@@ -99,9 +99,10 @@ class IRShield(nn.Module):
     def _clearance(
         self, rho: torch.Tensor, bearings: torch.Tensor, angles: torch.Tensor
     ) -> torch.Tensor:
-        """:meth:`clearance` from centre distances ``rho`` (..., b) at ``bearings`` (b,)."""
-        cos = torch.cos(bearings - angles.to(torch.float64)[..., :, None])  # (..., m, b)
-        rho = rho[..., None, :]
+        """:meth:`clearance` from centre distances ``rho`` (..., b) at ``bearings`` (b,) or
+        (..., b)."""
+        cos = torch.cos(bearings[..., None, :] - angles.to(torch.float64)[..., :, None])
+        rho = rho[..., None, :]  # (..., 1, b) against cos (..., m, b)
         along = (rho * cos).clamp(0.0, self.step)  # closest point of the straight move
         sq = rho.square() - 2.0 * rho * along * cos + along.square()
         centre = torch.where(torch.isfinite(rho), sq.clamp_min(0.0).sqrt(), torch.inf)
@@ -118,8 +119,14 @@ class IRShield(nn.Module):
         # the candidate search runs only on the rows whose action is unsafe (the rare case)
         rows = unsafe.nonzero(as_tuple=True)
         refl, act = reflectance[rows], action[rows]
+        # only the sensors that see a wall constrain a move: search over those bearings alone
+        seen = refl > 0
+        width = max(int(seen.sum(-1).max()), 1)
+        sensors = torch.argsort((~seen).to(torch.int8), dim=-1, stable=True)[..., :width]
+        rho = (self.distances(refl.gather(-1, sensors)) + self.radius).repeat_interleave(3, -1)
+        bearings = self.bearings.view(-1, 3)[sensors].flatten(-2)  # (k, 3 * width)
         grid = self.candidates.expand(*act.shape, -1)
-        room = self.clearance(refl, grid)  # (k, m)
+        room = self._clearance(rho, bearings, grid)  # (k, m)
         safe = room >= margin
         turn = torch.remainder(grid - act[..., None] + math.pi, 2 * math.pi) - math.pi
         cost = torch.where(safe, turn.abs(), torch.inf)
