@@ -11,7 +11,7 @@ __version__ = "0.1.0"
 ENV_ID = "symrl/Hailu2001-v0"
 
 if ENV_ID not in gymnasium.registry:
-    # The env truncates itself at `max_actions` (200, SPEC section 4), so no TimeLimit wrapper.
+    # The env truncates itself at `max_actions` (200 by default), so no TimeLimit wrapper.
     gymnasium.register(id=ENV_ID, entry_point="symrl.world.env:Hailu2001Env")
 
 __all__ = ["ENV_ID", "__version__"]

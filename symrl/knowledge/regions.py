@@ -67,6 +67,9 @@ class RegionMapper(nn.Module):
         self.register_buffer("threshold", threshold)
         self.register_buffer("used", used)
         self.register_buffer("rule_region", rule_region)
+        # derived from the above (not saved): the comparison as one sign, the padding mask
+        self.register_buffer("sign", greater.to(torch.float64) * 2 - 1, persistent=False)
+        self.register_buffer("padding", ~used, persistent=False)
 
     @classmethod
     def from_map(cls, world: WorldMap | str | dict[str, Any] = "hailu2001") -> RegionMapper:
@@ -90,13 +93,17 @@ class RegionMapper(nn.Module):
         xy = poses[..., :2].to(torch.float64)
         if not bool(torch.isfinite(xy).all()):
             raise ValueError("RegionMapper: poses contain a non-finite x or y")
-        # (..., R, C): the coordinate each condition looks at.
+        return self.ids(xy)
+
+    def ids(self, xy: torch.Tensor) -> torch.Tensor:
+        """:meth:`forward` without the input checks, for finite float64 ``xy`` (..., 2): the
+        control loop's call (its poses come from the env, finite by construction)."""
+        # (..., R, C): the coordinate each condition looks at; a condition holds where
+        # sign * (value - threshold) > 0 (sign +1 for ">", -1 for "<"), padding always holds
         values = xy[..., self.axis]
-        thr = self.threshold.to(torch.float64)
-        holds = torch.where(self.greater, values > thr, values < thr) | ~self.used
-        matches = holds.all(dim=-1)  # (..., R)
+        holds = ((values - self.threshold) * self.sign > 0) | self.padding
         # First matching rule: argmax over a 0/1 integer tensor returns the first maximum.
-        first = matches.to(torch.uint8).argmax(dim=-1)
+        first = holds.all(dim=-1).to(torch.uint8).argmax(dim=-1)
         return self.rule_region[first]
 
     def extra_repr(self) -> str:

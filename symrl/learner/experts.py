@@ -65,6 +65,9 @@ class ExpertBank(nn.Module):
         self.register_buffer("taken", torch.zeros(shape, dtype=torch.float64))
         self.register_buffer("used", torch.zeros(shape, dtype=torch.bool))
         self.register_buffer("count", torch.zeros(batch, experts, dtype=torch.long))
+        # b * E: the first (controller, expert) row of controller b in the flattened storage
+        self._row_base = torch.arange(batch) * experts
+        self._arange = torch.arange(capacity)
 
     # -- sizes ----------------------------------------------------------------------------
     @property
@@ -82,6 +85,7 @@ class ExpertBank(nn.Module):
             keep = min(capacity, old.shape[2])
             new[:, :, :keep] = old[:, :, :keep]
             setattr(self, name, new)  # nn.Module keeps it registered as a buffer
+        self._arange = torch.arange(capacity)
 
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):  # type: ignore[override]
         """Resize storage to the saved size first, so a grown bank loads into a fresh one."""
@@ -91,20 +95,26 @@ class ExpertBank(nn.Module):
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
     # -- competition ----------------------------------------------------------------------
+    def flat_index(self, expert: torch.Tensor, neuron: torch.Tensor) -> torch.Tensor:
+        """Index of neuron ``neuron[b]`` of expert ``expert[b]`` of every controller b in the
+        flattened per-neuron tensors (``bank.utilities.view(-1)[index]``): one gather or
+        scatter instead of an advanced index over three dimensions."""
+        return (self._row_base + expert) * self.capacity + neuron
+
     def nearest(self, expert: torch.Tensor, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Winner (argmin distance = argmax activation) in each controller's ``expert`` for its
         input ``x`` (B, D), and the distance; (-1, inf) where that expert is empty."""
-        rows = torch.arange(self.batch)
-        counts = self.count[rows, expert]
+        row = self._row_base + expert
+        counts = self.count.view(-1)[row]
         n = int(counts.max())
         if n == 0:
             return torch.full_like(counts, -1), torch.full((self.batch,), torch.inf)
-        centres = self.centres[rows, expert, :n]  # (B, n, D)
-        d2 = (centres - x[:, None, :]).square().sum(-1)
-        d2 = d2.masked_fill(torch.arange(n) >= counts[:, None], torch.inf)
+        batch, experts, capacity, dim = self.centres.shape
+        centres = self.centres.view(batch * experts, capacity, dim)[row, :n]  # (B, n, D)
+        d2 = (centres - x[:, None, :]).square_().sum(-1)
+        d2.masked_fill_(self._arange[:n] >= counts[:, None], torch.inf)
         best = d2.min(dim=-1)
-        winner = torch.where(counts > 0, best.indices, -1)
-        return winner, best.values.sqrt()
+        return best.indices.masked_fill_(counts == 0, -1), best.values.sqrt_()
 
     def activations(self, row: int, expert: int, x: torch.Tensor, width: float) -> torch.Tensor:
         """phi_j(x) = exp(-||x - c_j||^2 / width^2) over one expert's neurons (for plots)."""

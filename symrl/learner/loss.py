@@ -112,58 +112,62 @@ class TeseoLoss(LossModule):
                 rows = entered.nonzero().flatten()
                 self.entry_return[rows, td.get(k.region)[rows]] = self.trial_return[rows]
             self.trial_return += r
-        zero = torch.zeros(batch, dtype=torch.float64)
         if not cfg.experts.learning:
+            zero = torch.zeros(batch, dtype=torch.float64)
             return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
                               neurons=policy.neurons().sum(-1), batch_size=[batch])  # fmt: skip
         bank = policy.experts
-        rows = torch.arange(batch)
         expert, x, proto = td.get(k.expert), td.get(k.x), td.get(k.proto)
-        winner = td.get(k.winner).clone()
+        winner = td.get(k.winner)
         grown = torch.zeros(batch, dtype=torch.long)
 
         # 1. the neuron the policy acted as at a novel state is born now
         novel = td.get(k.novel)
         if bool(novel.any()):
             new = novel.nonzero().flatten()
-            u0 = td.get(k.state_reward).reshape(batch)[new]
+            u0 = td.get(k.state_reward).view(-1)[new]
+            winner = winner.clone()
             winner[new] = bank.add(new, expert[new], x[new], proto[new], u0)
             grown += novel.long()
-        bank.taken[rows, expert, winner] = td.get(k.taken).to(torch.float64)
-        bank.used[rows, expert, winner] = True
+        index = bank.flat_index(expert, winner)  # after any growth: the capacity may change
+        bank.taken.view(-1)[index] = td.get(k.taken)
+        bank.used.view(-1)[index] = True
 
         # 2. the utility of the state reached
-        terminated = nxt.get(k.terminated).reshape(batch)
-        truncated = nxt.get(k.truncated).reshape(batch)
-        u_prev = bank.utilities[rows, expert, winner]
+        terminated = nxt.get(k.terminated).view(-1)
+        truncated = nxt.get(k.truncated).view(-1)
+        u_prev = bank.utilities.view(-1)[index]
         seen = policy.perceive(nxt.get(k.sonar), nxt.get(k.odometry), nxt.get(k.goal))
-        u_seen = bank.utilities[rows, seen.expert, seen.winner.clamp(min=0)]
+        u_seen = bank.utilities.view(-1)[bank.flat_index(seen.expert, seen.winner.clamp(min=0))]
         # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
         u_trunc = torch.where(seen.winner >= 0, u_seen, u_prev)
         u_next = torch.where(seen.novel, r, u_seen)
         u_next = torch.where(truncated, u_trunc, u_next)
-        u_next = torch.where(terminated, zero, u_next)
+        u_next = u_next.masked_fill(terminated, 0.0)
 
         # 3. TD error; error-driven growth or the TD / REINFORCE / centre steps
-        delta = r + cfg.update.gamma * u_next - u_prev
-        split = delta.abs() > cfg.update.error_threshold
+        update = cfg.update
+        delta = r + update.gamma * u_next - u_prev
+        split = delta.abs() > update.error_threshold
         if bool(split.any()):
             s = split.nonzero().flatten()
             bank.add(s, expert[s], x[s], proto[s], u_prev[s] + delta[s])
             grown += split.long()
+            index = bank.flat_index(expert, winner)  # the capacity may have doubled
         keep = ~split
-        if bool(keep.any()):
-            a = keep.nonzero().flatten()
-            e, i, d = expert[a], winner[a], delta[a]
-            bank.utilities[a, e, i] = u_prev[a] + cfg.update.eta * d
-            mu = bank.means[a, e, i]
-            bank.means[a, e, i] = mu + cfg.update.beta * d * (td.get(k.xi)[a] - mu)
-            up = d > 0
-            if bool(up.any()):
-                a, e, i = a[up], e[up], i[up]
-                centres = bank.centres[a, e, i]
-                bank.centres[a, e, i] = centres.lerp(x[a], cfg.update.kappa)
-        return TensorDict(td_error=delta, grown=grown, neurons=policy.neurons().sum(-1),
+        # TD(0) and REINFORCE on the rows that did not split (a split row keeps its values)
+        step = delta.masked_fill(split, 0.0)
+        bank.utilities.view(-1)[index] = u_prev + update.eta * step
+        mu = bank.means.view(-1)[index]
+        bank.means.view(-1)[index] = mu + update.beta * step * (td.get(k.xi) - mu)
+        shift = keep & (delta > 0)
+        if bool(shift.any()):
+            a = shift.nonzero().flatten()
+            batch_, experts, capacity, dim = bank.centres.shape
+            flat = bank.centres.view(-1, dim)
+            c = flat[index[a]]
+            flat[index[a]] = c.lerp(x[a], update.kappa)
+        return TensorDict(td_error=delta, grown=grown, neurons=bank.count.sum(-1),
                           batch_size=[batch])  # fmt: skip
 
     @torch.no_grad()

@@ -139,6 +139,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self._normals = torch.empty(batch, 0)
         self._uniforms = torch.empty(batch, 0)
         self._drawn = 0
+        # constant outputs for the parts a recipe leaves out (never written in place)
+        self._zeros = torch.zeros(batch, dtype=torch.float64)
+        self._zeros_long = torch.zeros(batch, dtype=torch.long)
+        self._no_option = torch.full((batch,), -1, dtype=torch.long)
+        self._no_entry = torch.zeros(batch, dtype=torch.bool)
 
     @property
     def batch(self) -> int:
@@ -156,14 +161,14 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
     ) -> Perception:
         """Gate and winner search for a batch of observations; changes nothing."""
-        region = self.mapper(odometry)
-        expert = region if self.config.gate.partition else torch.zeros_like(region)
+        region = self.mapper.ids(odometry[:, :2].to(torch.float64))
+        expert = region if self.config.gate.partition else self._zeros_long
         x = self.encode(sonar, goal[:, 0])
         if not self.config.experts.learning:
             none = torch.full_like(region, -1)
             return Perception(region, expert, x, none, torch.ones_like(region, dtype=torch.bool))
         winner, distance = self.experts.nearest(expert, x)
-        novel = (winner < 0) | (distance > self.config.experts.novelty_radius)
+        novel = distance > self.config.experts.novelty_radius  # inf for an empty expert
         return Perception(region, expert, x, winner, novel)
 
     # -- random streams -------------------------------------------------------------------
@@ -184,67 +189,66 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     # -- acting ---------------------------------------------------------------------------
     @torch.no_grad()
     def forward(self, td: TensorDictBase) -> TensorDictBase:
-        cfg = self.config
-        xc = cfg.experts
+        xc = self.config.experts
         greedy = is_greedy()
         sonar, odometry, goal = td.get("sonar"), td.get("odometry"), td.get("goal")
         per = self.perceive(sonar, odometry, goal)
-        batch = per.region.shape[0]
-        option = torch.full_like(per.region, -1)
-        entered = torch.zeros(batch, dtype=torch.bool)
-        target = goal[:, 1].to(torch.float64)
+        zero = self._zeros
+        option, entered = self._no_option, self._no_entry
         if self.options is not None:
             target, option, entered = self.options.steer(per.region, odometry, greedy)
+        else:
+            target = goal[:, 1].to(torch.float64)
         if xc.reflex or not xc.learning:
             reflex_action = self.reflex(sonar.to(torch.float64), target)
         else:
-            reflex_action = torch.zeros(batch, dtype=torch.float64)
-        zero = torch.zeros(batch, dtype=torch.float64)
+            reflex_action = zero
         xi = sigma = zero
         if not xc.learning:
-            base, proto, alpha = zero, zero, reflex_action
+            base = proto = zero
+            alpha = reflex_action
         else:
-            if greedy:
-                z = uniform = zero
-            else:
-                z, uniform = self._draws()
+            z, uniform = (zero, zero) if greedy else self._draws()
             if xc.residual:
                 base, proto = reflex_action, zero
             elif xc.reflex:
                 base, proto = zero, reflex_action
             else:
                 base, proto = zero, uniform * (2 * _PI) - _PI
-            rows = torch.arange(batch)
-            i = per.winner.clamp(min=0)
-            known = ~per.novel
             bank = self.experts
-            p = torch.where(known, bank.actions[rows, per.expert, i], proto)
-            mu = torch.where(known, bank.means[rows, per.expert, i], zero)
+            index = bank.flat_index(per.expert, per.winner.clamp(min=0))
+            known = ~per.novel
+            p = torch.where(known, bank.actions.view(-1)[index], proto)
+            mu = torch.where(known, bank.means.view(-1)[index], zero)
             if greedy:
                 xi = mu
             else:
                 # a novel state's neuron is born with u = r(state): the reward of arriving here
-                u_new = td.get("state_reward").reshape(batch).to(torch.float64)
-                u = torch.where(known, bank.utilities[rows, per.expert, i], u_new)
-                sigma = self.temperature / (1.0 + torch.exp(u.clamp(max=60.0)))
+                u_new = td.get("state_reward").view(-1).to(torch.float64)
+                u = torch.where(known, bank.utilities.view(-1)[index], u_new)
+                sigma = self.temperature / (1.0 + u.clamp(max=60.0).exp())
                 xi = mu + sigma * z
-            alpha = (base + p + xi).clamp(-_PI, _PI)
-        shielded = torch.zeros(batch, dtype=torch.bool)
+            alpha = (base + p + xi).clamp_(-_PI, _PI)
+        shielded = self._no_entry
         if self.shield is not None:
             alpha, shielded = self.shield(td.get("ir"), alpha)
-        td.set("action", alpha.to(torch.float32).unsqueeze(-1))
-        td.set("region", per.region)
-        td.set("expert", per.expert)
-        td.set("winner", torch.where(per.novel, -1, per.winner))
-        td.set("novel", per.novel)
-        td.set("x", per.x)
-        td.set("proto", proto if xc.learning else zero)
-        td.set("xi", xi)
-        td.set("sigma", sigma)
-        td.set("taken", alpha - base)
-        td.set("shielded", shielded)
-        td.set("option", option)
-        td.set("option_entry", entered)
+        td.update(
+            {
+                "action": alpha.to(torch.float32).unsqueeze(-1),
+                "region": per.region,
+                "expert": per.expert,
+                "winner": per.winner.masked_fill(per.novel, -1),
+                "novel": per.novel,
+                "x": per.x,
+                "proto": proto,
+                "xi": xi,
+                "sigma": sigma,
+                "taken": alpha - base,
+                "shielded": shielded,
+                "option": option,
+                "option_entry": entered,
+            }
+        )
         return td
 
     @torch.no_grad()

@@ -1,6 +1,6 @@
 """`symrl ablate`: the repeatability study for every recipe, with the same seeds, side by side.
 
-Which part of the prior knowledge matters? Every recipe (SPEC §7) runs the same sets (seed + k)
+Which part of the prior knowledge matters? Every recipe runs the same sets (seed + k)
 and trials; all (recipe, set) runs share one worker pool. The folder gets one sub-folder per
 recipe (as `symrl study` writes it), ``summary.md`` / ``summary.json`` and ``comparison.png``.
 

@@ -301,7 +301,7 @@ def summary_markdown(results: list[dict[str, Any]]) -> str:
 
 def baseline_command(args: argparse.Namespace) -> int:
     """`symrl baseline ppo`: one PPO run per seed (in parallel); write and print the summary."""
-    from symrl.studies.repeatability import run_sets
+    from symrl.studies.runner import run_jobs
 
     try:
         seeds = [int(s) for s in str(args.seeds).split(",") if s.strip()]
@@ -316,7 +316,7 @@ def baseline_command(args: argparse.Namespace) -> int:
         {"seed": s, "episodes": args.episodes, "log_path": str(out / f"episodes-seed{s}.csv")}
         for s in seeds
     ]
-    results = run_sets(jobs, workers=None, desc="ppo", fn=run_ppo)
+    results = run_jobs(run_ppo, jobs, workers=None, desc="ppo")
     with open(out / "episodes.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(results[0]["rows"][0]))
         writer.writeheader()

@@ -56,7 +56,7 @@ def _section_plan(results: Path, figures: Path) -> list[str]:
         f"- Method: {plan['method']}; length error bound {plan['length_error_bound_m']:g} m.",
         f"- Shortest path keeping {plan['clearance_m']:.3f} m (body 0.26 + IR 0.056) from every "
         f"wall: **{plan['length_m']:.3f} m = {plan['actions']} actions** of 0.20 m "
-        "(ALGORITHM.md: 25 actions, 4.91 m).",
+        "(docs/ALGORITHM.md: 25 actions, 4.91 m).",
         "- Lower bound with the body radius only (a sweep between poses may pass closer than an "
         f"end pose): {lb['length_m']:.3f} m = {lb['actions']} actions; a walk of {walk['moves']} "
         f"0.20 m moves along the path has {walk['sweep_contacts']} sweep contacts and "

@@ -23,6 +23,7 @@ __all__ = [
     "SetResult",
     "resolve_config",
     "run_sets",
+    "run_jobs",
     "evaluate_states",
     "last_trial_rows",
     "table1",
@@ -180,6 +181,40 @@ def run_sets(
     with ProcessPoolExecutor(len(jobs), mp_context=ctx) as pool:
         futures = [pool.submit(_run_batch, *job, False) for job in jobs]
         return [s for fut in futures for s in fut.result()]
+
+
+def _init_worker() -> None:
+    import torch
+
+    torch.set_num_threads(1)
+
+
+def run_jobs(fn: Any, jobs: Sequence[dict[str, Any]], workers: int | None = 1,
+             desc: str = "jobs") -> list[Any]:
+    """``fn(**job)`` for every job, in ``workers`` spawned processes (1: here), in job order
+    (for runs that are not batches of robots, e.g. the PPO baseline)."""
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    from tqdm.auto import tqdm
+
+    workers = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
+    results: list[Any] = [None] * len(jobs)
+    bar = tqdm(total=len(jobs), desc=desc, unit="run")
+    if workers == 1:
+        for i, job in enumerate(jobs):
+            results[i] = fn(**job)
+            bar.update()
+    else:
+        import multiprocessing
+
+        ctx = multiprocessing.get_context("spawn")  # no forked torch / OpenMP state
+        with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker) as pool:
+            futures = {pool.submit(fn, **job): i for i, job in enumerate(jobs)}
+            for fut in as_completed(futures):
+                results[futures[fut]] = fut.result()
+                bar.update()
+    bar.close()
+    return results
 
 
 # --- statistics over sets ------------------------------------------------------------------

@@ -1,7 +1,7 @@
-"""The B21 robot model (paper section 3.1 and 4; SPEC section 2): body, action, sensors, noise.
+"""The B21 robot model (paper sections 3.1 and 4): body, action, sensors, noise.
 
 Every number that shapes the simulated robot lives in :class:`RobotConfig`, with the paper's
-value (or the SPEC default where the paper is silent) as its default.
+value (or a documented choice where the paper is silent, docs/ALGORITHM.md) as its default.
 """
 
 from __future__ import annotations
