@@ -86,7 +86,8 @@ def _evaluate(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
 
     from symrl.evaluate import evaluate
-    from symrl.runs import load_checkpoint, trajectory_figure
+    from symrl.figures import trajectory_figure
+    from symrl.runs import load_checkpoint
 
     policy, config = load_checkpoint(args.checkpoint)
     world = None

@@ -23,7 +23,7 @@ from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
 from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.world.worldmap import WorldMap
 
-__all__ = ["drive", "drive_command", "save_path_figure"]
+__all__ = ["drive", "drive_command"]
 
 
 def drive(
@@ -93,29 +93,6 @@ def drive(
     }
 
 
-def save_path_figure(
-    result: dict[str, Any], world: WorldMap, out: Path, title: str | None = None
-) -> Path:
-    """Draw the map and the trial's true path (and its odometry) into a PNG."""
-    from matplotlib.figure import Figure
-
-    from symrl.world.render import draw_path, draw_robot, draw_world
-
-    fig = Figure(figsize=(6.0, 5.5), dpi=120)
-    ax = fig.add_subplot()
-    draw_world(ax, world)
-    draw_path(ax, result["odometry_path"], color="0.55", markers=False, label="odometry", ls=":")
-    draw_path(ax, result["path"], label="true path")
-    draw_robot(ax, result["start"])
-    ax.legend(loc="upper left", fontsize=8)
-    if title:
-        ax.set_title(title, fontsize=9)
-    fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out)
-    return out
-
-
 def summary(result: dict[str, Any]) -> str:
     """One line of the trial's numbers, as printed by ``symrl drive``."""
     return (
@@ -142,7 +119,9 @@ def drive_command(args: argparse.Namespace) -> int:
         f"{math.degrees(h):.0f} deg), seed {args.seed}, "
         f"noise {'on' if noise else 'off'}\n" + summary(result).replace("  total", "\ntotal")
     )
-    png = save_path_figure(result, world, out / "path.png", title=title)
+    from symrl.figures import drive_figure
+
+    png = drive_figure(result, world, out / "path.png", title=title)
     (out / "trial.json").write_text(json.dumps(result, indent=1))
     print(summary(result))
     print(f"saved {png} and {out / 'trial.json'}")

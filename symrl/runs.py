@@ -33,7 +33,6 @@ __all__ = [
     "read_trials_csv",
     "save_checkpoint",
     "load_checkpoint",
-    "trajectory_figure",
     "CheckpointError",
 ]
 
@@ -191,39 +190,6 @@ def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
 
 
 # ---------------------------------------------------------------------------------------------
-# Figures
-
-
-def trajectory_figure(world: Any, record: dict[str, Any], title: str | None = None):
-    """The map, the trial's true path, its start and its ghosts (where the acting neuron
-    changed)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from symrl.world.render import draw_path, draw_world
-
-    fig, ax = plt.subplots(figsize=(5.5, 5))
-    draw_world(ax, world)
-    path = np.asarray(record["path"])
-    draw_path(ax, record["path"], label="path")
-    ax.plot(path[0, 0], path[0, 1], marker="o", color="black", ls="none", label="start")
-    if record.get("ghosts"):
-        g = np.asarray(record["ghosts"])
-        ax.scatter(g[:, 0], g[:, 1], s=22, facecolors="none", edgecolors="tab:purple",
-                   label="ghosts (acting neuron changed)", zorder=4)  # fmt: skip
-    ax.set_title(
-        title
-        or f"trial {record.get('trial', '')}: {record['steps']} actions, "
-        f"total {record['total_reinforcement']:.2f}"
-    )
-    ax.legend(loc="upper left", fontsize=8)
-    fig.tight_layout()
-    return fig
-
-
-# ---------------------------------------------------------------------------------------------
 # The run folder
 
 
@@ -277,6 +243,8 @@ class RunWriter:
         log("learn/mean_abs_td_error", record["mean_abs_td_error"], step=n)
         log("learn/replaced_actions", record["replaced"], step=n)
         if last or n == 1 or n % self.config.run.image_every == 0:
+            from symrl.figures import trajectory_figure
+
             fig = trajectory_figure(self.world, record)
             self.logger.experiment.add_figure("trial/trajectory", fig, global_step=n, close=True)
 
@@ -287,6 +255,8 @@ class RunWriter:
         self._csv.close()
         save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed)
         if self.trials:
+            from symrl.figures import trajectory_figure
+
             fig = trajectory_figure(self.world, self.trials[-1])
             fig.savefig(self.dir / "trajectory.png", dpi=120)
             plt.close(fig)

@@ -127,7 +127,7 @@ def run_ablation(
         (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         (out / "summary.md").write_text(summary_markdown(summary))
         if figures:
-            from symrl.studies.figures import plot_comparison
+            from symrl.figures import plot_comparison
 
             qs = ("steps", "total_reinforcement", "neurons", "collisions")
             every = [r for r in summary if not r.startswith("_")]

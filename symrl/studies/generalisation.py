@@ -201,7 +201,7 @@ def markdown(report: dict[str, Any]) -> str:
 
 
 def _figures(transfer: list[dict[str, Any]], out: Path) -> None:
-    from symrl.studies.figures import plot_paths
+    from symrl.figures import plot_paths
     from symrl.world import load_map
 
     world = load_map("hailu2001")

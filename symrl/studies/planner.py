@@ -407,7 +407,7 @@ def replay_in_env(world_name: str, poses: np.ndarray, heading: float) -> dict | 
 
 def plan_command(args: argparse.Namespace) -> int:
     """`symrl plan`: print the optimum, save ``plan.json`` and ``plan.png`` in ``--out``."""
-    from symrl.studies.figures import plot_plan
+    from symrl.figures import plot_plan
 
     t0 = time.perf_counter()
     world = load_map(args.map)

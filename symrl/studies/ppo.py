@@ -256,32 +256,6 @@ def run_ppo(
     }
 
 
-def _plot(results: list[dict[str, Any]], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
-    for i, res in enumerate(results):
-        reached = np.array([r["reached_goal"] for r in res["rows"]], dtype=float)
-        ret = np.array([r["total_reinforcement"] for r in res["rows"]])
-        w = min(20, len(reached))
-        ep = np.arange(w, len(reached) + 1)
-        axes[0].plot(ep, np.convolve(reached, np.ones(w), "valid") / w, color=f"C{i}",
-                     label=f"seed {res['seed']}")
-        axes[1].plot(np.arange(1, len(ret) + 1), ret, ".", ms=2, color=f"C{i}")
-    axes[0].axhline(0.8, ls="--", color="0.5", lw=1)
-    axes[0].set(xlabel="episode (trial)", ylabel="success rate, last 20", ylim=(-0.05, 1.05))
-    axes[1].axhline(-6.24, ls="--", color="0.5", lw=1)
-    axes[1].set(xlabel="episode (trial)", ylabel="total reinforcement")
-    axes[0].legend(fontsize=7)
-    fig.suptitle("PPO (TorchRL) on symrl/Hailu2001-v0")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
 def summary_markdown(results: list[dict[str, Any]]) -> str:
     """One row per seed."""
     lines = [
@@ -327,7 +301,9 @@ def baseline_command(args: argparse.Namespace) -> int:
     (out / "summary.json").write_text(json.dumps({"runs": summary, "wall_time_s": wall}, indent=2))
     md = summary_markdown(results)
     (out / "summary.md").write_text(md)
-    _plot(results, out / "ppo.png")
+    from symrl.figures import plot_baseline
+
+    plot_baseline(results, out / "ppo.png", "PPO (TorchRL) on symrl/Hailu2001-v0")
     print(md)
     print(f"wrote {out}/ (episodes.csv, summary.json, summary.md, ppo.png); wall time {wall} s")
     return 0

@@ -187,7 +187,7 @@ def write_study(study: StudyResult, figures: bool = True) -> None:
 
 def write_figures(study: StudyResult) -> None:
     """Figs 5-9 of the paper for this study."""
-    from symrl.studies import figures as F
+    from symrl import figures as F
 
     out = study.out
     assert out is not None

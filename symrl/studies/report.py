@@ -84,7 +84,7 @@ def _section_study(results: Path, figures: Path) -> list[str]:
         return out + ["*Not run yet.*", ""]
     out += [
         (folder / "table1.md").read_text(),
-        f"CPU time {table.get('cpu_time_s', table.get('wall_time_s'))} s (sum over sets, 2 "
+        f"CPU time {table.get('wall_time_s')} s (wall, 2 "
         f"shared cores); seeds {table['seeds'][0]}-{table['seeds'][1]}.",
         "",
         _study_check(results, table),
@@ -130,7 +130,7 @@ def _section_ablate(results: Path, figures: Path) -> list[str]:
     if summary is None:
         return out + ["*Not run yet.*", ""]
     cpu = ", ".join(
-        f"{r} {s['cpu_time_s']:.0f} s" for r, s in summary.items() if not r.startswith("_")
+        f"{r} {s['wall_time_s']:.0f} s" for r, s in summary.items() if not r.startswith("_")
     )
     out += [
         summary_markdown(summary),
@@ -183,7 +183,7 @@ def _section_ppo(results: Path, figures: Path) -> list[str]:
 
 def _ppo_first20(folder: Path) -> str:
     """Successes in the first 20 episodes (our learner's budget), collisions early and late."""
-    from symrl.studies.repeatability import read_trials_csv
+    from symrl.runs import read_trials_csv
 
     rows = read_trials_csv(folder / "episodes.csv")
     out = []
@@ -201,8 +201,9 @@ def _ppo_first20(folder: Path) -> str:
 
 def _ppo_partial(folder: Path, figures: Path) -> str:
     """Summary (and learning-curve figure) of an unfinished PPO run from its per-episode logs."""
-    from symrl.studies.ppo import _plot, first_reliable
-    from symrl.studies.repeatability import read_trials_csv
+    from symrl.figures import plot_baseline
+    from symrl.runs import read_trials_csv
+    from symrl.studies.ppo import first_reliable
 
     logs = sorted(folder.glob("episodes-seed*.csv"))
     if not logs:
@@ -227,7 +228,8 @@ def _ppo_partial(folder: Path, figures: Path) -> str:
         )
     if any(r["rows"] for r in runs):
         figures.mkdir(parents=True, exist_ok=True)
-        _plot([r for r in runs if r["rows"]], figures / "ppo.png")
+        plot_baseline([r for r in runs if r["rows"]], figures / "ppo.png",
+                      "PPO (TorchRL) on symrl/Hailu2001-v0")
         lines += ["", "![ppo.png](docs/figures/ppo.png)"]
     return "\n".join(lines) + "\n"
 

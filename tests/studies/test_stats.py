@@ -8,7 +8,9 @@ import pytest
 
 from symrl.studies.ablation import summarise, summary_markdown
 from symrl.studies.ppo import first_reliable
-from symrl.studies.repeatability import read_trials_csv, table1, table1_markdown, write_trials_csv
+from symrl.runs import read_trials_csv, write_trials_csv
+from symrl.studies.repeatability import table1_markdown
+from symrl.studies.runner import table1
 
 
 def _row(s, t, steps, total, neurons, reached=True, collisions=0):
@@ -39,21 +41,24 @@ def test_summary_on_a_hand_made_table():
             for t, s in enumerate(steps0)]
     rows += [_row(1, t + 1, 200, -90.0, 50, reached=False, collisions=2) for t in range(6)]
     s = summarise(rows)
-    assert s["first_success"] == {"mean": 3.0, "std": 0.0, "never": 1}
+    assert s["first_success"] == {"mean": 3.0, "std": 0.0, "ci95": [3.0, 3.0], "never": 1}
     assert s["success_last5"] == pytest.approx(0.4)  # 4 of set 0's last 5, none of set 1's
     assert s["steps_last5"]["mean"] == pytest.approx((63.2 + 200) / 2)
     assert s["steps_last5"]["std"] == pytest.approx((200 - 63.2) / math.sqrt(2))
     assert s["neurons_last"]["mean"] == 55.0
-    assert s["collisions_all_trials"] == {"mean": 9.0, "std": pytest.approx(3 * math.sqrt(2))}
+    coll = s["collisions_all_trials"]
+    assert coll["mean"] == 9.0 and coll["std"] == pytest.approx(3 * math.sqrt(2))
+    # the bootstrap interval of the mean of (6, 12) lies within the two sets' values
+    assert 6.0 <= coll["ci95"][0] <= 9.0 <= coll["ci95"][1] <= 12.0
     md = summary_markdown({"demo": s})
     assert "| demo | 2 × 6 | 3.0 ± 0.0 (1) | 40% |" in md
 
 
 def test_trials_csv_round_trip(tmp_path):
     rows = [_row(0, 1, 30, -9.5, 12), _row(0, 2, 28, -8.0, 14, reached=False)]
-    write_trials_csv(rows, tmp_path / "t.csv")
+    write_trials_csv(tmp_path / "t.csv", rows)
     back = read_trials_csv(tmp_path / "t.csv")
-    assert back[1]["reached_goal"] == 0.0 and back[0]["total_reinforcement"] == -9.5
+    assert back[1]["reached_goal"] is False and back[0]["total_reinforcement"] == -9.5
     assert table1(back)["steps"]["mean"] == 28.0
 
 

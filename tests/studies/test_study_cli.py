@@ -5,7 +5,8 @@ from __future__ import annotations
 import json
 
 from symrl.cli import main
-from symrl.studies.repeatability import read_trials_csv, run_study
+from symrl.runs import read_trials_csv
+from symrl.studies.repeatability import run_study
 
 
 def _strip(rows):

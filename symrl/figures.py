@@ -1,0 +1,232 @@
+"""Every figure symrl writes: trial paths, the reflex's drive, the optimum, learning curves,
+recipe comparisons, baselines.
+
+The map itself is drawn by ``symrl.world.render`` (the world's own drawing primitives on an
+Axes); these functions compose figures on top of it. Every ``plot_*`` writes one PNG and closes
+its figure, so long studies do not accumulate open figures. Trial axes have integer ticks; paths
+start with a marker; curves that coincide stay visible (each recipe its own marker, line style
+and a small horizontal offset).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
+
+if TYPE_CHECKING:
+    from symrl.studies.planner import Plan
+    from symrl.world import WorldMap
+
+__all__ = [
+    "draw_map",
+    "trajectory_figure",
+    "drive_figure",
+    "plot_plan",
+    "plot_paths",
+    "plot_curves",
+    "plot_comparison",
+    "plot_baseline",
+]
+
+_MARKERS = "osD^vP*Xh<>"
+_STYLES = ("-", "--", "-.", ":")
+
+
+def draw_map(ax: plt.Axes, world: WorldMap) -> None:
+    """The world (walls, regions, goal), drawn by the world's own render module."""
+    from symrl.world.render import draw_world
+
+    draw_world(ax, world)
+
+
+def _draw_xy(ax: plt.Axes, xy: Any, color: str, label: str | None = None) -> None:
+    from symrl.world.render import draw_path
+
+    draw_path(ax, xy, color=color, label=label)
+
+
+def _start(ax: plt.Axes, xy: Any, label: str | None = "start") -> None:
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    if len(xy):
+        ax.plot(xy[0, 0], xy[0, 1], "o", ms=6, mfc="white", mec="black", zorder=5, label=label)
+
+
+def _ghosts(ax: plt.Axes, ghosts: Any, label: str | None) -> None:
+    g = np.asarray(ghosts, dtype=float).reshape(-1, 2)
+    if len(g):
+        ax.plot(g[:, 0], g[:, 1], "x", ms=4, color="k", alpha=0.6, label=label, zorder=4)
+
+
+def trajectory_figure(world: WorldMap, record: dict[str, Any], title: str | None = None):
+    """One trial on the map: its true path, start and ghosts (where the acting neuron changed);
+    returns the figure (TensorBoard takes figures)."""
+    fig, ax = plt.subplots(figsize=(5.5, 5))
+    draw_map(ax, world)
+    _draw_xy(ax, record["path"], color="tab:blue", label="path")
+    _start(ax, record["path"])
+    _ghosts(ax, record.get("ghosts", []), "ghosts (acting neuron changed)")
+    ax.set_title(
+        title
+        or f"trial {record.get('trial', '')}: {record['steps']} actions, "
+        f"total {record['total_reinforcement']:.2f}"
+    )
+    ax.legend(loc="upper left", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def drive_figure(result: dict[str, Any], world: WorldMap, out: Path, title: str | None = None):
+    """The reflex's trial (``symrl drive``): true path, odometry path and the robot at the start."""
+    from symrl.world.render import draw_path, draw_robot
+
+    fig, ax = plt.subplots(figsize=(6.0, 5.5), dpi=120)
+    draw_map(ax, world)
+    draw_path(ax, result["odometry_path"], color="0.55", markers=False, label="odometry", ls=":")
+    draw_path(ax, result["path"], label="true path")
+    draw_robot(ax, result["start"])
+    _start(ax, result["path"])
+    ax.legend(loc="upper left", fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def plot_plan(world: WorldMap, plan: Plan, walk: np.ndarray, path: Path | str) -> None:
+    """The shortest path (with its clearance band) and the 0.20 m walk that follows it."""
+    fig, ax = plt.subplots(figsize=(6, 6))
+    draw_map(ax, world)
+    pts = plan.points
+    ax.plot(pts[:, 0], pts[:, 1], color="tab:red", lw=2, label=f"shortest path {plan.length:.2f} m")
+    ax.plot(walk[:, 0], walk[:, 1], "o", ms=3, color="tab:blue",
+            label=f"{len(walk) - 1} moves of {plan.step:.2f} m")
+    for x, y in walk[:: max(1, len(walk) // 8)]:
+        ax.add_patch(plt.Circle((x, y), plan.clearance, fill=False, ec="0.6", lw=0.5))
+    ax.set_title(f"Optimum: {plan.actions} actions (clearance {plan.clearance:.3f} m)")
+    ax.legend(loc="upper left", fontsize=8)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+
+
+def plot_paths(
+    world: WorldMap,
+    panels: Sequence[tuple[str, Iterable[Any], Iterable[Any]]],
+    path: Path | str,
+    columns: int = 3,
+) -> None:
+    """One map per panel: (title, paths, ghost point sets); paths as lines from a start marker,
+    ghosts as crosses. Panels without any path are left out."""
+    panels = [p for p in panels if any(len(np.asarray(xy).reshape(-1, 2)) for xy in p[1])]
+    n = max(len(panels), 1)
+    cols = min(columns, n)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.5 * cols, 4.6 * rows), squeeze=False)
+    for ax in axes.flat[len(panels):]:
+        ax.set_visible(False)
+    for ax, (title, paths, ghosts) in zip(axes.flat, panels, strict=False):
+        draw_map(ax, world)
+        paths = list(paths)
+        for i, xy in enumerate(paths):
+            _draw_xy(ax, xy, color=f"C{(i + 3) % 10}")
+            _start(ax, xy, label="start" if i == 0 else None)
+        for j, g in enumerate(ghosts):
+            _ghosts(ax, g, "ghosts" if j == 0 else None)
+        ax.set_title(title, fontsize=9)
+        ax.legend(loc="upper left", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def plot_curves(
+    curves: dict[str, np.ndarray],
+    path: Path | str,
+    reference: dict[str, float] | None = None,
+    title: str = "",
+) -> None:
+    """Learning curves (one panel per quantity): mean over sets with min-max bars (Figs 7-9).
+
+    ``curves[name]`` is (sets, trials); ``reference[name]`` draws a dashed line (paper / optimum).
+    """
+    names = list(curves)
+    fig, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.4), squeeze=False)
+    for ax, name in zip(axes[0], names, strict=False):
+        v = np.asarray(curves[name], dtype=float)
+        trials = np.arange(1, v.shape[1] + 1)
+        mean = np.nanmean(v, axis=0)
+        lo, hi = np.nanmin(v, axis=0), np.nanmax(v, axis=0)
+        ax.errorbar(trials, mean, yerr=[mean - lo, hi - mean], fmt="o-", ms=3, capsize=2)
+        refs = [(k, v) for k, v in (reference or {}).items() if k.startswith(name + ":")]
+        for i, (label, value) in enumerate(refs):  # labels alternate ends so they never overlap
+            ax.axhline(value, ls="--", lw=1, color="0.4")
+            ax.annotate(label.split(":", 1)[1], (trials[-1] if i % 2 == 0 else trials[0], value),
+                        fontsize=7, ha="right" if i % 2 == 0 else "left", va="bottom", color="0.3")
+        ax.set_xlabel("trial")
+        ax.set_ylabel(name.replace("_", " "))
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def plot_comparison(
+    curves: dict[str, dict[str, np.ndarray]], path: Path | str, quantities: Sequence[str]
+) -> None:
+    """All recipes on one figure: per quantity, each recipe's mean over sets (shaded min-max)."""
+    n = len(quantities)
+    fig, axes = plt.subplots(1, n, figsize=(4.4 * n, 3.6), squeeze=False)
+    n_recipes = len(curves)
+    for ax, q in zip(axes[0], quantities, strict=False):
+        for i, (recipe, per_q) in enumerate(curves.items()):
+            v = np.asarray(per_q[q], dtype=float)
+            # a small offset per recipe: recipes whose curves coincide stay visible
+            trials = np.arange(1, v.shape[1] + 1) + 0.08 * (i - (n_recipes - 1) / 2)
+            ax.plot(trials, np.nanmean(v, axis=0), marker=_MARKERS[i % len(_MARKERS)], ms=3,
+                    ls=_STYLES[i % len(_STYLES)], color=f"C{i}", label=recipe)  # fmt: skip
+            ax.fill_between(trials, np.nanmin(v, axis=0), np.nanmax(v, axis=0),
+                            color=f"C{i}", alpha=0.10)
+        ax.set_xlabel("trial")
+        ax.set_ylabel(q.replace("_", " "))
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def plot_baseline(results: list[dict[str, Any]], path: Path | str, title: str) -> None:
+    """A baseline's runs: success rate over the last 20 episodes, and every episode's total."""
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
+    for i, res in enumerate(results):
+        reached = np.array([r["reached_goal"] for r in res["rows"]], dtype=float)
+        ret = np.array([r["total_reinforcement"] for r in res["rows"]])
+        w = min(20, len(reached))
+        ep = np.arange(w, len(reached) + 1)
+        axes[0].plot(ep, np.convolve(reached, np.ones(w), "valid") / w, color=f"C{i}",
+                     label=f"seed {res['seed']}")
+        axes[1].plot(np.arange(1, len(ret) + 1), ret, ".", ms=2, color=f"C{i}")
+    axes[0].axhline(0.8, ls="--", color="0.5", lw=1)
+    axes[0].set(xlabel="episode (trial)", ylabel="success rate, last 20", ylim=(-0.05, 1.05))
+    axes[1].axhline(-6.24, ls="--", color="0.5", lw=1, label="paper, last trial")
+    axes[1].set(xlabel="episode (trial)", ylabel="total reinforcement")
+    for ax in axes:
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    axes[0].legend(fontsize=7)
+    axes[1].legend(fontsize=7)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
