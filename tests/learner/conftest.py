@@ -1,16 +1,8 @@
-"""Fixtures of the learner tests."""
+"""Shared helpers of the learner tests: policies on the paper's map, hand-made observations."""
 
 from __future__ import annotations
 
-import pytest
+import sys
+from pathlib import Path
 
-from symrl.learner.config import LearnerConfig
-from symrl.learner.policy import MixtureOfExpertsPolicy
-
-
-@pytest.fixture
-def make_policy():
-    def _make(**overrides) -> MixtureOfExpertsPolicy:
-        return MixtureOfExpertsPolicy(LearnerConfig(**overrides), world="hailu2001", seed=0)
-
-    return _make
+sys.path.insert(0, str(Path(__file__).parent))

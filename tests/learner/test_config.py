@@ -1,142 +1,213 @@
-"""Recipes load, overrides apply, and bad input is rejected with the key and the value named."""
+"""Recipes load, overrides merge, and bad input is one line naming the key and the value."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
+import torch
 import yaml
 
-from symrl.knowledge.reflex import ReflexConfig
+from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
 from symrl.learner.config import (
     ConfigError,
     RunConfig,
     builtin_recipes,
     config_from_dict,
     config_to_dict,
+    describe_keys,
     load_config,
 )
+from symrl.world.robot import RobotConfig
 
 RECIPES = ["paper", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only"]
 
 
-def test_every_recipe_is_shipped_and_loads():
-    assert set(RECIPES) <= set(builtin_recipes())
-    for name in RECIPES:
-        assert load_config(name).recipe == name
+@pytest.mark.parametrize("name", RECIPES)
+def test_every_recipe_is_shipped_and_loads(name):
+    assert name in builtin_recipes()
+    config = load_config(name)
+    assert isinstance(config, RunConfig) and config.recipe == name
 
 
-def test_paper_literal_is_the_algorithm_defaults():
-    c = load_config("paper_literal")
-    assert config_to_dict(c)["learner"] == config_to_dict(RunConfig())["learner"]
-    lc = c.learner
-    assert (lc.width, lc.novelty_radius, lc.gamma, lc.eta, lc.beta, lc.kappa) == (
+def test_paper_literal_is_the_defaults():
+    literal = load_config("paper_literal")
+    assert config_to_dict(literal) == config_to_dict(RunConfig())
+    u, x = literal.update, literal.experts
+    assert (x.width, x.novelty_radius, u.gamma, u.eta, u.beta, u.kappa) == (
         0.1, 0.1, 0.95, 0.3, 0.2, 0.1,
     )  # fmt: skip
-    assert (lc.error_threshold, lc.temperature0, lc.cooling, lc.temperature_min) == (
+    assert (u.error_threshold, u.temperature0, u.cooling, u.temperature_min) == (
         2.0, 0.3, 0.85, 0.05,
     )  # fmt: skip
-    assert c.run.trials == 20 and c.env.noise
+    assert not literal.options.enabled and not literal.shield.enabled
+    assert not literal.experts.residual and literal.reflex == ReflexConfig()
 
 
-def test_paper_keeps_the_architecture_and_the_budget():
-    # `paper` started equal to paper_literal; its improvements are learner and reflex switches.
+def test_paper_sets_its_switches_and_keeps_the_budget():
     paper, literal = load_config("paper"), load_config("paper_literal")
     assert paper.env == literal.env and paper.run == literal.run
-    assert paper.learner.partition and paper.learner.reflex and paper.learner.learning
-    assert literal.reflex == ReflexConfig()  # the ALGORITHM.md section 4 reflex
-    # paper: softer avoidance behind the shield, the rules and other sectors unchanged
+    assert paper.gate.partition and paper.experts.reflex and paper.experts.learning
+    assert paper.experts.residual
+    assert (paper.update.temperature0, paper.update.temperature_min) == (0.1, 0.0)
+    o = paper.options
+    assert o.enabled and o.critic == "mean" and o.try_untried and o.subgoal_past
+    assert not o.subgoal_on_line and o.subgoal_min_clearance == 0.45
+    assert paper.shield.enabled and paper.shield.margin == 0.06
+    # softer avoidance behind the shield; the rules and the other sectors unchanged
     assert paper.reflex.d_a == 0.5 and paper.reflex.rules == literal.reflex.rules
     assert paper.reflex.near["FL"] == paper.reflex.near["FR"] == (0.10, 0.35)
     assert paper.reflex.near["F"] == literal.reflex.near["F"]
 
 
-def test_reflex_section_merges_entries_and_names_bad_values():
-    c = load_config("paper_literal", ["reflex.near.F=[0.2, 0.6]", "reflex.d_g=0.25"])
-    assert c.reflex.near["F"] == (0.2, 0.6) and c.reflex.near["L"] == ReflexConfig().near["L"]
-    assert c.reflex.d_g == 0.25
-    with pytest.raises(ConfigError, match=r"reflex: ReflexConfig.near\['F'\] must be"):
-        load_config("paper_literal", ["reflex.near.F=[0.6, 0.2]"])
-    with pytest.raises(ConfigError, match=r"reflex.near.F=\[0.1\]: expected a list of 2"):
-        load_config("paper_literal", ["reflex.near.F=[0.1]"])
-    with pytest.raises(ConfigError, match="no such sector"):
-        load_config("paper_literal", ["reflex.near.XX=[0.1, 0.2]"])
-    with pytest.raises(ConfigError, match=r"reflex.bogus=1: unknown key"):
-        load_config("paper_literal", ["reflex.bogus=1"])
-
-
-def test_the_policy_drives_with_the_recipe_reflex():
-    from symrl.train import make_policy
-
-    policy = make_policy(load_config("paper"))
-    assert policy.reflex.config == load_config("paper").reflex
-    assert make_policy(load_config("paper_literal")).reflex.config == ReflexConfig()
+def test_paper_reflex_ignores_a_wall_alongside_that_the_literal_reflex_swerves_from():
+    sonar = torch.ones(24, dtype=torch.float64)
+    sonar[[20, 21, 22]] = 0.4 / 5.0  # a wall 0.4 m away, front-right
+    literal = FuzzyReflex(ReflexConfig()).angle(sonar, 0.0)
+    paper = FuzzyReflex(load_config("paper").reflex)
+    assert literal > math.radians(10)  # FR near -> LEFT: a turn away from a harmless wall
+    assert paper.angle(sonar, 0.0) == pytest.approx(0.0)  # the goal straight ahead wins
+    sonar[[20, 21, 22]] = 0.15 / 5.0  # closer than 0.35 m: the paper reflex avoids it too
+    assert paper.angle(sonar, 0.0) > math.radians(10)
 
 
 def test_ablation_switches():
-    assert not load_config("no_partition").learner.partition
-    assert not load_config("no_reflex").learner.reflex
-    plain = load_config("plain").learner
-    assert not plain.partition and not plain.reflex
-    assert not load_config("reflex_only").learner.learning
+    assert not load_config("no_partition").gate.partition
+    assert not load_config("no_reflex").experts.reflex
+    plain = load_config("plain")
+    assert not plain.gate.partition and not plain.experts.reflex
+    assert not load_config("reflex_only").experts.learning
 
 
-def test_overrides_are_typed():
-    c = load_config("paper_literal", ["learner.gamma=0.9", "env.noise=false", "learner.eta=1e-3",
-                                      "run.trials=3", "learner.utility_init=zero"])  # fmt: skip
-    assert c.learner.gamma == 0.9 and c.env.noise is False and c.learner.eta == 1e-3
-    assert c.run.trials == 3 and c.learner.utility_init == "zero"
-    assert isinstance(load_config("paper", ["learner.gamma=1"]).learner.gamma, float)
+def test_overrides_are_typed_and_merge():
+    c = load_config(
+        "paper_literal",
+        ["update.gamma=0.9", "env.noise=false", "update.eta=1e-3", "run.trials=3",
+         "options.critic=best", "env.robot.radius=0.3"],
+    )  # fmt: skip
+    assert c.update.gamma == 0.9 and c.env.noise is False and c.update.eta == 1e-3
+    assert c.run.trials == 3 and c.options.critic == "best"
+    assert isinstance(c.env.robot, RobotConfig) and c.env.robot.radius == 0.3
+    assert c.env.robot.step == RobotConfig().step  # the other robot fields are kept
+    assert isinstance(load_config("paper", ["update.gamma=1"]).update.gamma, float)
+
+
+def test_reflex_mappings_merge_entry_by_entry():
+    c = load_config("paper_literal", ["reflex.near.FL=[0.1, 0.3]", "reflex.d_g=0.25"])
+    default = ReflexConfig().near
+    assert c.reflex.near["FL"] == (0.1, 0.3)
+    assert {k: v for k, v in c.reflex.near.items() if k != "FL"} == {
+        k: v for k, v in default.items() if k != "FL"
+    }
+    assert c.reflex.d_g == 0.25
+    # over a recipe that sets FL and FR itself, FR is kept
+    paper = load_config("paper", ["reflex.near.FL=[0.1, 0.3]"])
+    assert paper.reflex.near["FR"] == (0.10, 0.35) and paper.reflex.near["FL"] == (0.1, 0.3)
+
+
+def _error(overrides: list[str], recipe: str = "paper_literal") -> str:
+    with pytest.raises(ConfigError) as err:
+        load_config(recipe, overrides)
+    assert isinstance(err.value, ValueError)  # the CLI prints ValueErrors as one clean line
+    message = str(err.value)
+    assert "\n" not in message
+    return message
 
 
 @pytest.mark.parametrize(
     "override, words",
     [
-        ("learner.gama=0.9", ["learner.gama", "unknown"]),
-        ("learnr.gamma=0.9", ["learnr", "unknown"]),
-        ("learner.gamma=abc", ["learner.gamma", "abc"]),
-        ("learner.partition=3", ["learner.partition", "3"]),
+        ("bogus=1", ["bogus", "unknown key"]),  # top level
+        ("update.gama=0.9", ["update.gama", "0.9", "unknown key"]),  # nested
+        ("env.robot.radus=1", ["env.robot.radus", "unknown key"]),  # two levels down
+        ("reflex.bogus=1", ["reflex.bogus", "unknown key"]),
+        ("run.seed=true", ["run.seed", "true"]),  # a bool is not an int
+        ("env.max_actions=1e9", ["env.max_actions", "1000000000"]),  # a float is not an int
         ("run.trials=2.5", ["run.trials", "2.5"]),
-        ("learner.utility_init=foo", ["learner.utility_init", "foo"]),
-        ("learner.gamma=2", ["learner.gamma", "2"]),
-        ("learner=3", ["learner", "mapping"]),
+        ("update.gamma=abc", ["update.gamma", "abc"]),
+        ("gate.partition=3", ["gate.partition", "3"]),
+        ("options.critic=max", ["options.critic", "max"]),
+        ("update.gamma=2", ["update.gamma", "2", "less than or equal to 1"]),  # out of range
+        ("experts.width=0", ["experts.width", "0", "greater than 0"]),
+        ("shield.margin=-0.1", ["shield.margin", "-0.1"]),
+        ("options.epsilon=1.5", ["options.epsilon", "1.5"]),
+        ("update.eta=nan", ["update.eta", "nan", "finite"]),
+        ("update.beta=.inf", ["update.beta", "inf", "finite"]),
+        ("env.robot.radius=-1", ["env.robot", "radius", "-1"]),
+        ("update=3", ["update", "3"]),
         ("gamma", ["gamma", "key=value"]),
     ],
 )
-def test_bad_override_names_key_and_value(override, words):
-    with pytest.raises(ConfigError) as err:
-        load_config("paper_literal", [override])
+def test_bad_override_is_one_line_naming_key_and_value(override, words):
+    message = _error([override]).lower()
     for word in words:
-        assert word in str(err.value)
-    assert isinstance(err.value, ValueError)  # the CLI prints ValueErrors cleanly
+        assert word.lower() in message, (word, message)
 
 
-def test_bad_recipe_file(tmp_path):
-    bad = tmp_path / "bad.yaml"
-    bad.write_text("learner:\n  novelty_radus: 0.2\n")
-    with pytest.raises(ConfigError, match="learner.novelty_radus"):
-        load_config(bad)
+def test_cross_field_rules():
+    message = _error(["experts.residual=true", "experts.reflex=false"])
+    assert "experts.residual" in message and "experts.reflex" in message
+    # the paper recipe has residual experts: turning the reflex off alone is refused too
+    assert "experts.residual" in _error(["experts.reflex=false"], recipe="paper")
+    message = _error(["experts.capacity=10", "experts.max_neurons=5"])
+    assert "experts.max_neurons=5" in message and "experts.capacity=10" in message
+
+
+def test_bad_recipe_files(tmp_path):
+    unknown = tmp_path / "unknown.yaml"
+    unknown.write_text("experts:\n  novelty_radus: 0.2\n")
+    with pytest.raises(ConfigError, match="experts.novelty_radus"):
+        load_config(unknown)
     typed = tmp_path / "typed.yaml"
     typed.write_text("env:\n  noise: maybe\n")
     with pytest.raises(ConfigError, match="env.noise='maybe'"):
         load_config(typed)
+    empty = tmp_path / "empty.yaml"
+    empty.write_text("")
+    with pytest.raises(ConfigError, match="empty.yaml.*non-empty mapping"):
+        load_config(empty)
+    twice = tmp_path / "twice.yaml"
+    twice.write_text("update:\n  gamma: 0.9\n  gamma: 0.8\n")
+    with pytest.raises(ConfigError, match="twice.yaml.*duplicate key 'gamma'") as err:
+        load_config(twice)
+    assert "\n" not in str(err.value)
+    listed = tmp_path / "listed.yaml"
+    listed.write_text("- 1\n- 2\n")
+    with pytest.raises(ConfigError, match="listed.yaml"):
+        load_config(listed)
     good = tmp_path / "mine.yaml"
-    good.write_text("learner:\n  novelty_radius: 0.3\n")
+    good.write_text("experts:\n  novelty_radius: 0.3\n")
     c = load_config(good)
-    assert c.recipe == "mine" and c.learner.novelty_radius == 0.3
+    assert c.recipe == "mine" and c.experts.novelty_radius == 0.3
 
 
-def test_unknown_recipe_lists_the_known_ones():
-    with pytest.raises(ConfigError, match="nope.*paper_literal"):
+def test_missing_and_unknown_recipes():
+    with pytest.raises(ConfigError, match="nope.*unknown.*paper_literal"):
         load_config("nope")
-    with pytest.raises(ConfigError, match="no such file"):
+    with pytest.raises(ConfigError, match="missing/file.yaml.*no such file"):
         load_config("missing/file.yaml")
 
 
-def test_round_trip_through_dict():
-    c = load_config("no_reflex", ["learner.gamma=0.8"])
-    assert config_from_dict(config_to_dict(c), recipe="no_reflex") == c
+@pytest.mark.parametrize("name", RECIPES)
+def test_round_trip_through_a_dict(name):
+    c = load_config(name, ["update.gamma=0.8", "reflex.near.F=[0.2, 0.6]"])
+    assert config_from_dict(config_to_dict(c)) == c
 
 
-def test_round_trip_through_yaml_keeps_the_reflex_and_lists():
-    c = load_config("paper", ["learner.option_avoidance=[0.7, 0.5]"])
+def test_round_trip_through_yaml():
+    c = load_config("paper", ["env.robot.radius=0.3"])
     text = yaml.safe_dump(config_to_dict(c))  # tuples must have become lists
-    assert config_from_dict(yaml.safe_load(text), recipe="paper") == c
+    assert config_from_dict(yaml.safe_load(text)) == c
+
+
+def test_config_from_dict_rejects_a_non_mapping():
+    with pytest.raises(ConfigError, match="mapping"):
+        config_from_dict([1, 2])  # type: ignore[arg-type]
+
+
+def test_describe_keys_lists_every_section():
+    text = describe_keys()
+    for key in ("update.gamma = 0.95", "experts.novelty_radius", "env.robot.radius",
+                "options.critic", "shield.margin", "reflex.d_a", "run.seed"):  # fmt: skip
+        assert key in text, key
+    assert "Discount of the TD error" in text  # each key's docstring

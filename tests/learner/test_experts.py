@@ -1,107 +1,171 @@
-"""Growing RBF expert: winner search, distance-driven growth, storage growth, state round trip."""
+"""ExpertBank: winner search per controller, growth, storage doubling, end-of-trial writes,
+state round trip, and independence of the controllers of a batch."""
 
 from __future__ import annotations
+
+import math
 
 import pytest
 import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from symrl.learner.experts import GrowingRBFExpert
+from symrl.learner.experts import ExpertBank
+
+D = 4
 
 
-def test_winner_is_the_nearest_centre():
-    g = torch.Generator().manual_seed(0)
-    e = GrowingRBFExpert(dim=32, capacity=8)
-    centres = torch.rand(50, 32, generator=g)
-    for c in centres:
-        e.add(c, 0.0, 0.0)
-    for _ in range(20):
-        x = torch.rand(32, generator=g)
-        d = (centres - x).norm(dim=1)
-        i, dist = e.nearest(x)
-        assert i == int(d.argmin())
-        assert dist == pytest.approx(float(d.min()), abs=1e-5)
-    near = centres[7] + 0.01
-    assert int(torch.argmax(e.activations(near))) == 7  # argmax activation = argmin distance
+def _add(bank: ExpertBank, row: int, expert: int, centre, action=0.0, utility=0.0) -> int:
+    index = bank.add(
+        torch.tensor([row]), torch.tensor([expert]), torch.tensor([centre], dtype=torch.float32),
+        torch.tensor([action]), torch.tensor([utility]),
+    )  # fmt: skip
+    return int(index[0])
 
 
-def test_empty_expert_has_no_winner():
-    e = GrowingRBFExpert()
-    i, dist = e.nearest(torch.zeros(32))
-    assert i == -1 and dist == float("inf") and e.is_novel(dist)
+def test_nearest_at_known_centres_and_empty_experts():
+    bank = ExpertBank(batch=2, experts=3, dim=D, capacity=4)
+    _add(bank, 0, 1, [0.0, 0.0, 0.0, 0.0])
+    _add(bank, 0, 1, [1.0, 0.0, 0.0, 0.0])
+    _add(bank, 0, 1, [0.0, 2.0, 0.0, 0.0])
+    _add(bank, 1, 0, [5.0, 5.0, 5.0, 5.0])
+    x = torch.tensor([[0.9, 0.1, 0.0, 0.0], [5.0, 5.0, 5.0, 5.5]])
+    winner, dist = bank.nearest(torch.tensor([1, 0]), x)
+    assert winner.tolist() == [1, 0]
+    assert dist.tolist() == pytest.approx([math.hypot(0.1, 0.1), 0.5], abs=1e-6)
+    # controller 1's expert 1 and controller 0's expert 0 are empty
+    winner, dist = bank.nearest(torch.tensor([0, 1]), x)
+    assert winner.tolist() == [-1, -1] and dist.tolist() == [math.inf, math.inf]
+    # one empty, one not
+    winner, dist = bank.nearest(torch.tensor([1, 1]), x)
+    assert winner.tolist() == [1, -1] and math.isinf(float(dist[1]))
+    # an input right on a centre
+    on = torch.tensor([[0.0, 2.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
+    winner, dist = bank.nearest(torch.tensor([1, 2]), on)
+    assert winner.tolist() == [2, -1] and float(dist[0]) == 0.0
 
 
-def test_distance_driven_growth_threshold():
-    e = GrowingRBFExpert(novelty_radius=0.1)
-    e.add(torch.zeros(32), 0.0, 0.0)
-    near = torch.zeros(32)
-    near[0] = 0.09
-    far = torch.zeros(32)
-    far[0] = 0.11
-    assert not e.is_novel(e.nearest(near)[1])
-    assert e.is_novel(e.nearest(far)[1])
+def test_add_returns_indices_and_writes_fresh_rows():
+    bank = ExpertBank(batch=3, experts=2, dim=D, capacity=8)
+    _add(bank, 2, 1, [1.0] * D)
+    index = bank.add(
+        torch.tensor([0, 2]), torch.tensor([1, 1]), torch.tensor([[0.5] * D, [0.25] * D]),
+        torch.tensor([0.3, -0.3]), torch.tensor([-1.0, -2.0]),
+    )  # fmt: skip
+    assert index.tolist() == [0, 1]
+    assert bank.neurons().tolist() == [[0, 1], [0, 0], [0, 2]]
+    assert bank.actions[2, 1, 1] == pytest.approx(-0.3) and bank.utilities[0, 1, 0] == -1.0
+    assert torch.equal(bank.centres[2, 1, 1], torch.full((D,), 0.25))
+    assert bank.means[2, 1, 1] == 0.0 and not bool(bank.used[2, 1, 1])
+    assert bank.actions.dtype == bank.utilities.dtype == torch.float64
+    empty = bank.add(torch.tensor([], dtype=torch.long), torch.tensor([], dtype=torch.long),
+                     torch.zeros(0, D), torch.zeros(0), torch.zeros(0))  # fmt: skip
+    assert empty.numel() == 0 and bank.neurons().sum() == 3
 
 
-def test_storage_doubles_and_state_dict_round_trips_sizes():
-    e = GrowingRBFExpert(capacity=2, name="room")
+def test_storage_doubles_and_keeps_the_contents():
+    bank = ExpertBank(batch=2, experts=2, dim=D, capacity=2)
     for k in range(5):
-        e.add(torch.full((32,), float(k)), action=0.1 * k, utility=-k, mean=0.01 * k)
-    assert len(e) == 5 and e.capacity == 8
-    fresh = GrowingRBFExpert(capacity=2, name="room")
-    fresh.load_state_dict(e.state_dict())
-    assert len(fresh) == 5
-    assert torch.equal(fresh.centres[:5], e.centres[:5])
-    assert fresh.rows.utilities[4] == -4.0 and fresh.rows.actions[3] == pytest.approx(0.3)
-    x = torch.full((32,), 3.2)
-    assert fresh.nearest(x) == e.nearest(x)
+        assert _add(bank, 1, 0, [float(k)] * D, action=0.1 * k, utility=-k) == k
+    _add(bank, 0, 1, [9.0] * D, action=0.9)
+    assert bank.capacity == 8  # 2 -> 4 -> 8
+    assert bank.centres.shape == (2, 2, 8, D) and bank.used.shape == (2, 2, 8)
+    assert bank.neurons().tolist() == [[0, 1], [5, 0]]
+    assert bank.actions[1, 0, :5].tolist() == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.4])
+    assert bank.utilities[1, 0, :5].tolist() == [0.0, -1.0, -2.0, -3.0, -4.0]
+    assert bank.actions[0, 1, 0] == pytest.approx(0.9)
+    winner, _ = bank.nearest(torch.tensor([0, 0]), torch.tensor([[0.0] * D, [3.1] * D]))
+    assert winner.tolist() == [-1, 3]
+    assert dict(bank.named_buffers())["centres"] is bank.centres  # still a registered buffer
 
 
 def test_max_neurons_is_a_clear_error():
-    e = GrowingRBFExpert(capacity=2, max_neurons=3, name="door")
-    for _ in range(3):
-        e.add(torch.zeros(32), 0.0, 0.0)
-    with pytest.raises(RuntimeError, match="door.*max_neurons=3"):
-        e.add(torch.zeros(32), 0.0, 0.0)
-
-
-def test_shift_centre_keeps_the_search_exact():
-    e = GrowingRBFExpert()
-    e.add(torch.zeros(32), 0.0, 0.0)
-    e.add(torch.ones(32), 0.0, 0.0)
-    e.shift_centre(0, torch.full((32,), 0.8), 1.0)  # neuron 0 moves next to neuron 1
-    i, dist = e.nearest(torch.full((32,), 0.79))
-    assert i == 0 and dist == pytest.approx(0.01 * 32**0.5, rel=1e-4)
-
-
-def test_replace_actions_only_touches_used_neurons():
-    e = GrowingRBFExpert()
+    bank = ExpertBank(batch=1, experts=2, dim=D, capacity=2, max_neurons=3, names=("room", "door"))
     for k in range(3):
-        e.add(torch.full((32,), float(k)), action=1.0, utility=0.0, mean=0.5)
-    e.rows.taken[1] = -0.7
-    e.rows.used[1] = True
-    assert e.replace_actions() == 1
-    assert e.rows.actions.tolist()[:3] == pytest.approx([1.0, -0.7, 1.0])
-    assert e.rows.means.tolist()[:3] == pytest.approx([0.5, 0.0, 0.5])
-    e.clear_trial()
-    assert not e.used.any()
+        _add(bank, 0, 1, [float(k)] * D)
+    assert bank.capacity == 3  # doubling stops at the limit
+    with pytest.raises(RuntimeError, match=r"'door'.*max_neurons=3"):
+        _add(bank, 0, 1, [5.0] * D)
+    assert bank.neurons().tolist() == [[0, 3]]
 
 
-@settings(max_examples=40, deadline=None)
+def test_replace_actions_only_on_used_neurons_of_the_rows_given():
+    bank = ExpertBank(batch=2, experts=2, dim=D, capacity=4)
+    for row in (0, 1):
+        for k in range(3):
+            _add(bank, row, 0, [float(k)] * D, action=1.0)
+    bank.means.fill_(0.5)
+    bank.taken.fill_(-0.7)
+    bank.used[0, 0, 1] = bank.used[1, 0, 2] = True
+    replaced = bank.replace_actions(torch.tensor([0]))
+    assert replaced.tolist() == [1]
+    assert bank.actions[0, 0, :3].tolist() == pytest.approx([1.0, -0.7, 1.0])
+    assert bank.means[0, 0, :3].tolist() == pytest.approx([0.5, 0.0, 0.5])
+    assert bank.actions[1, 0, :3].tolist() == [1.0, 1.0, 1.0]  # controller 1 not asked
+    assert bank.means[1, 0, 2] == 0.5
+    bank.clear_trial(torch.tensor([0]))
+    assert not bank.used[0].any() and bool(bank.used[1, 0, 2])
+    bank.clear_trial(torch.tensor([1]))
+    assert not bank.used.any()
+
+
+def test_state_dict_of_a_grown_bank_loads_into_a_fresh_one():
+    bank = ExpertBank(batch=2, experts=2, dim=D, capacity=2, names=("a", "b"))
+    for k in range(5):
+        _add(bank, 0, 1, [0.5 * k] * D, action=0.1 * k, utility=-float(k))
+    bank.means[0, 1, 3] = 0.25
+    fresh = ExpertBank(batch=2, experts=2, dim=D, capacity=2, names=("a", "b"))
+    fresh.load_state_dict(bank.state_dict())
+    assert fresh.capacity == bank.capacity == 8
+    for name, value in bank.state_dict().items():
+        assert torch.equal(fresh.state_dict()[name], value), name
+    x = torch.full((2, D), 1.1)
+    assert [t.tolist() for t in fresh.nearest(torch.tensor([1, 1]), x)] == [
+        t.tolist() for t in bank.nearest(torch.tensor([1, 1]), x)
+    ]
+    _add(fresh, 0, 1, [9.0] * D)  # and it keeps growing
+    assert fresh.neurons().tolist() == [[0, 6], [0, 0]]
+
+
+def test_bad_sizes_are_refused():
+    with pytest.raises(ValueError, match="batch=0"):
+        ExpertBank(batch=0, experts=1, dim=D)
+
+
+_centres = st.lists(
+    st.lists(st.floats(-2, 2, allow_nan=False, width=32), min_size=D, max_size=D),
+    min_size=0, max_size=12,
+)  # fmt: skip
+
+
+@settings(max_examples=25, deadline=None)
 @given(
-    n=st.integers(1, 300),
-    seed=st.integers(0, 10_000),
-    scale=st.floats(0.01, 3.0),
+    own=_centres,
+    others=st.lists(_centres, min_size=1, max_size=4),
+    query=st.lists(st.floats(-2, 2, allow_nan=False, width=32), min_size=D, max_size=D),
+    position=st.integers(0, 4),
+    capacity=st.integers(1, 6),
 )
-def test_winner_search_matches_brute_force(n, seed, scale):
-    g = torch.Generator().manual_seed(seed)
-    centres = torch.rand(n, 32, generator=g) * scale
-    e = GrowingRBFExpert(capacity=4)
-    for c in centres:
-        e.add(c, 0.0, 0.0)
-    x = torch.rand(32, generator=g) * scale
-    d = (centres - x).norm(dim=1)
-    i, dist = e.nearest(x)
-    # the fused search may pick a different index only on a numerical tie
-    assert float(d[i]) == pytest.approx(float(d.min()), abs=1e-4 * (1 + scale))
-    assert dist == pytest.approx(float(d[i]), abs=1e-5)
+def test_a_controllers_winner_does_not_depend_on_the_others(own, others, query, position, capacity):
+    """The winner (and distance) of controller b depend only on its own neurons, whatever the
+    other controllers hold and however large the batch is."""
+
+    def search(contents: list[list[list[float]]], b: int) -> tuple[int, float]:
+        bank = ExpertBank(batch=len(contents), experts=2, dim=D, capacity=capacity)
+        for row, centres in enumerate(contents):
+            for c in centres:
+                _add(bank, row, 1, c)
+                _add(bank, row, 0, [v + 1.0 for v in c])  # the other expert is not searched
+        x = torch.tensor([query] * len(contents))
+        winner, dist = bank.nearest(torch.ones(len(contents), dtype=torch.long), x)
+        return int(winner[b]), float(dist[b])
+
+    alone = search([own], 0)
+    position = min(position, len(others))
+    batch = [*others[:position], own, *others[position:]]
+    assert search(batch, position) == alone
+    if own:  # the brute-force winner
+        d = (torch.tensor(own) - torch.tensor(query)).square().sum(-1)
+        assert float(d[alone[0]]) == float(d.min())
+    else:
+        assert alone == (-1, math.inf)

@@ -1,4 +1,5 @@
-"""The TESEO update against an autograd formulation of the same losses, growth, end of trial."""
+"""The TESEO update on hand-built transitions: against autograd, growth, the bootstrap target,
+renamed keys, batches, and the end of a trial (replacement, cooling, option critics)."""
 
 from __future__ import annotations
 
@@ -6,25 +7,26 @@ import math
 
 import pytest
 import torch
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
-from learner_helpers import obs, obs_td, transition
+from learner_helpers import POSES, observation, place, policy, transition
 
 from symrl.learner.loss import TeseoLoss
 
+A, B = observation(sonar=0.3), observation(sonar=0.6)  # two room states 1.5 apart
+FAR = observation(sonar=0.95, goal=(2.0, 0.4))  # novel: no neuron within the radius
 
-def _two_neurons(make_policy, u_prev=-1.0, u_next=-2.0, mu=0.1, **cfg):
-    """A policy with neuron 0 at state A (the previous winner) and neuron 1 at state B."""
-    p = make_policy(**cfg)
-    a, b = obs(sonar=0.3), obs(sonar=0.6)
-    for o, u in ((a, u_prev), (b, u_next)):
-        x = p.encode(o.sonar, o.goal[0])
-        p.experts[0].add(x, action=0.0, utility=u, mean=mu)
-    return p, a, b
+
+def _two_neurons(*overrides: str, u_prev=-1.0, u_next=-0.5, mu=0.1):
+    """A paper_literal policy with neuron 0 at A (the previous winner) and neuron 1 at B."""
+    p = policy("paper_literal", *overrides)
+    assert place(p, A, action=0.2, utility=u_prev, mean=mu) == 0
+    assert place(p, B, action=-0.2, utility=u_next) == 1
+    return p
 
 
 def _oracle(u_prev, u_next, mu, sigma, xi, r, gamma, eta, beta):
-    """One SGD step on 1/2 delta^2 (target detached, lr eta) and on
+    """One SGD step on 1/2 delta^2 (target detached, lr eta) and one on
     -delta * log N(xi; mu, sigma^2) (delta detached, lr beta * sigma^2)."""
     u = torch.tensor(u_prev, dtype=torch.float64, requires_grad=True)
     m = torch.tensor(mu, dtype=torch.float64, requires_grad=True)
@@ -32,139 +34,350 @@ def _oracle(u_prev, u_next, mu, sigma, xi, r, gamma, eta, beta):
     delta = target - u
     (0.5 * delta**2).backward()
     d = delta.detach()
-    (-d * torch.distributions.Normal(m, sigma).log_prob(torch.tensor(xi))).backward()
+    normal = torch.distributions.Normal(m, torch.tensor(sigma, dtype=torch.float64))
+    (-d * normal.log_prob(torch.tensor(xi, dtype=torch.float64))).backward()
     with torch.no_grad():
         return float(u - eta * u.grad), float(m - beta * sigma**2 * m.grad), float(d)
 
 
+def _room(p) -> int:
+    return p.region_names.index("room")
+
+
 @pytest.mark.parametrize("r", [-0.4, -2.2])  # delta > 0 (centre shift) and delta < 0
-def test_update_matches_autograd_oracle(make_policy, r):
-    p, a, b = _two_neurons(make_policy, u_prev=-1.0, u_next=-0.5, mu=0.1)
+def test_update_matches_autograd(r):
+    p = _two_neurons()
     loss = TeseoLoss(p)
-    c_before = p.experts[0].centres[0].clone()
-    td = transition(p, a, b, reward=r)
-    assert int(td["winner"][0]) == 0
-    xi, sigma = float(td["xi"][0]), float(td["sigma"][0])
-    cfg = p.config
-    u_new, mu_new, delta = _oracle(-1.0, -0.5, 0.1, sigma, xi, r, cfg.gamma, cfg.eta, cfg.beta)
-    out = loss(td)
-    rows = p.experts[0].rows
-    assert float(out["td_error"]) == pytest.approx(delta, abs=1e-6)
-    assert rows.utilities[0] == pytest.approx(u_new, abs=1e-6)
-    assert rows.means[0] == pytest.approx(mu_new, abs=1e-6)
-    x = td["x"][0]
+    e = _room(p)
+    x = p.perceive(A["sonar"], A["odometry"], A["goal"]).x[0] + 0.05  # off the centre
+    c_before = p.experts.centres[0, e, 0].clone()
+    xi, sigma = 0.35, 0.2
+    u = p.config.update
+    u_new, mu_new, delta = _oracle(-1.0, -0.5, 0.1, sigma, xi, r, u.gamma, u.eta, u.beta)
+    out = loss(transition(p, A, B, r, x=x, xi=xi, taken=0.6))
+    bank = p.experts
+    assert float(out["td_error"][0]) == pytest.approx(delta, abs=1e-6)
+    assert float(bank.utilities[0, e, 0]) == pytest.approx(u_new, abs=1e-6)
+    assert float(bank.means[0, e, 0]) == pytest.approx(mu_new, abs=1e-6)
     if delta > 0:  # c += kappa (x - c): a gradient step on 1/2 ||x - c||^2 with lr kappa
         c = c_before.clone().requires_grad_(True)
         (0.5 * (x - c).square().sum()).backward()
-        expected = c_before - cfg.kappa * c.grad
-        assert torch.allclose(p.experts[0].centres[0], expected, atol=1e-6)
+        expected = c_before - u.kappa * c.grad
+        assert torch.allclose(bank.centres[0, e, 0], expected, atol=1e-6)
+        assert not torch.equal(bank.centres[0, e, 0], c_before)
     else:
-        assert torch.equal(p.experts[0].centres[0], c_before)
-    assert int(out["new_neurons"]) == 0 and len(p.experts[0]) == 2
+        assert torch.equal(bank.centres[0, e, 0], c_before)
+    # nothing else moves: the next state's neuron, the actions, the count
+    assert float(bank.utilities[0, e, 1]) == -0.5 and float(bank.actions[0, e, 0]) == 0.2
+    assert int(out["grown"][0]) == 0 and int(out["neurons"][0]) == 2
+    # the action taken is remembered for action replacement
+    assert float(bank.taken[0, e, 0]) == pytest.approx(0.6) and bool(bank.used[0, e, 0])
+    assert not bool(bank.used[0, e, 1])
 
 
-def test_next_winner_is_held_for_the_next_action(make_policy):
-    p, a, b = _two_neurons(make_policy)
-    loss = TeseoLoss(p)
-    loss(transition(p, a, b, reward=-0.3))
-    td = p(obs_td(b))
-    assert int(td["winner"]) == 1 and p._held is None
-
-
-def test_terminated_bootstraps_zero_truncated_does_not(make_policy):
-    p, a, b = _two_neurons(make_policy, u_prev=-1.0, u_next=-0.5)
-    out = TeseoLoss(p)(transition(p, a, b, reward=-0.3, terminated=True))
-    assert float(out["td_error"]) == pytest.approx(-0.3 + 1.0)
-    p, a, b = _two_neurons(make_policy, u_prev=-1.0, u_next=-0.5)
-    out = TeseoLoss(p)(transition(p, a, b, reward=-0.3, truncated=True))
-    assert float(out["td_error"]) == pytest.approx(-0.3 + 0.95 * -0.5 + 1.0)
-    # a truncated trial grows nothing at its final state
-    p, a, _ = _two_neurons(make_policy)
-    out = TeseoLoss(p)(transition(p, a, obs(sonar=0.95), reward=-0.3, truncated=True))
-    assert len(p.experts[0]) == 2 and int(out["new_neurons"]) == 0
-
-
-def test_distance_driven_growth_at_the_next_state(make_policy):
-    p, a, _ = _two_neurons(make_policy)
-    new = obs(sonar=0.95, goal=(4.0, 0.4))
-    out = TeseoLoss(p)(transition(p, a, new, reward=-0.7))
-    e = p.experts[0]
-    assert len(e) == 3 and int(out["new_neurons"]) == 1
-    assert e.rows.utilities[2] == pytest.approx(-0.7)  # u = r(state), the reward received
-    assert e.rows.actions[2] == pytest.approx(float(p.reflex(new.sonar, torch.tensor(0.4))))
-
-
-def test_error_driven_growth_instead_of_adaptation(make_policy):
-    p, a, b = _two_neurons(make_policy, u_prev=-1.0, u_next=-0.5)
-    td = transition(p, a, b, reward=-3.5)  # delta = -3.5 - 0.475 + 1 = -2.975
-    out = TeseoLoss(p)(td)
-    e = p.experts[0]
-    delta = float(out["td_error"])
-    assert abs(delta) > p.config.error_threshold and int(out["new_neurons"]) == 1
-    assert len(e) == 3
-    assert torch.equal(e.centres[2], td["x"][0])
-    assert e.rows.utilities[2] == pytest.approx(-1.0 + delta, abs=1e-6)
-    assert e.rows.utilities[0] == -1.0 and e.rows.means[0] == pytest.approx(0.1)
-
-
-def _used_policy(make_policy):
-    p, a, b = _two_neurons(make_policy)
-    p(obs_td(a))  # neuron 0 acts: remembers the action taken
-    return p, float(p.experts[0].rows.taken[0])
-
-
-def test_action_replacement_only_after_a_better_successful_trial(make_policy):
-    p, taken = _used_policy(make_policy)
-    loss = TeseoLoss(p)
-    rows = p.experts[0].rows
-    loss.end_trial({"reached_goal": False, "total_reinforcement": -5.0})
-    assert rows.actions[0] == 0.0 and rows.means[0] == pytest.approx(0.1)  # failed: nothing
-    p(obs_td(obs(sonar=0.3)))
-    info = loss.end_trial({"reached_goal": True, "total_reinforcement": -10.0})
-    assert info["replaced"] == 1 and info["improved"]
-    assert rows.actions[0] == pytest.approx(float(rows.taken[0])) and rows.means[0] == 0.0
-    assert rows.actions[1] == 0.0  # not used this trial
-    before = float(rows.actions[0])
-    rows.means[0] = 0.3
-    p(obs_td(obs(sonar=0.3)))
-    info = loss.end_trial({"reached_goal": True, "total_reinforcement": -12.0})  # worse
-    assert info["replaced"] == 0 and not info["improved"]
-    assert rows.actions[0] == before and rows.means[0] == pytest.approx(0.3)
-    assert float(p.best_total) == -10.0
-
-
-def test_cooling_down_to_the_floor(make_policy):
-    p = make_policy(temperature0=0.3, cooling=0.5, temperature_min=0.05)
-    loss = TeseoLoss(p)
-    temps = []
-    for _ in range(6):
-        loss.end_trial({"reached_goal": False, "total_reinforcement": -50.0})
-        temps.append(float(p.temperature))
-    assert temps[:2] == pytest.approx([0.15, 0.075])
-    assert temps[2:] == pytest.approx([0.05] * 4)
-    assert math.isclose(min(temps), 0.05)
-
-
-# make_policy is a factory (each example builds its own policy), so sharing it is safe.
-@settings(
-    max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
+@settings(max_examples=30, deadline=None)
 @given(
     u_prev=st.floats(-15.0, 0.0),
     u_next=st.floats(-15.0, 0.0),
     mu=st.floats(-0.5, 0.5),
     r=st.floats(-4.0, 0.0),
+    xi=st.floats(-1.0, 1.0),
+    sigma=st.floats(0.01, 1.0),
 )
-def test_update_matches_autograd_oracle_everywhere(make_policy, u_prev, u_next, mu, r):
-    p, a, b = _two_neurons(make_policy, u_prev=u_prev, u_next=u_next, mu=mu)
-    td = transition(p, a, b, reward=r)
-    xi, sigma = float(td["xi"][0]), float(td["sigma"][0])
-    cfg = p.config
-    u_new, mu_new, delta = _oracle(u_prev, u_next, mu, sigma, xi, r, cfg.gamma, cfg.eta, cfg.beta)
-    TeseoLoss(p)(td)
-    rows = p.experts[0].rows
-    if abs(delta) > cfg.error_threshold:  # error-driven growth instead of adaptation
-        assert len(p.experts[0]) == 3 and rows.utilities[0] == pytest.approx(u_prev, abs=1e-5)
+def test_update_matches_autograd_everywhere(u_prev, u_next, mu, r, xi, sigma):
+    p = _two_neurons(u_prev=u_prev, u_next=u_next, mu=mu)
+    u = p.config.update
+    u_new, mu_new, delta = _oracle(u_prev, u_next, mu, sigma, xi, r, u.gamma, u.eta, u.beta)
+    out = TeseoLoss(p)(transition(p, A, B, r, xi=xi))
+    bank, e = p.experts, _room(p)
+    assert float(out["td_error"][0]) == pytest.approx(delta, abs=1e-5)
+    if abs(delta) > u.error_threshold:  # error-driven growth instead of adaptation
+        assert int(bank.count[0, e]) == 3 and int(out["grown"][0]) == 1
+        assert float(bank.utilities[0, e, 0]) == u_prev and float(bank.means[0, e, 0]) == mu
+        assert float(bank.utilities[0, e, 2]) == pytest.approx(u_prev + delta, abs=1e-5)
     else:
-        assert rows.utilities[0] == pytest.approx(u_new, abs=1e-4)
-        assert rows.means[0] == pytest.approx(mu_new, abs=1e-4)
+        assert int(bank.count[0, e]) == 2
+        assert float(bank.utilities[0, e, 0]) == pytest.approx(u_new, abs=1e-5)
+        assert float(bank.means[0, e, 0]) == pytest.approx(mu_new, abs=1e-5)
+
+
+def test_error_driven_growth_instead_of_adaptation():
+    p = _two_neurons()
+    x = p.perceive(A["sonar"], A["odometry"], A["goal"]).x[0] + 0.05
+    out = TeseoLoss(p)(transition(p, A, B, -3.5, x=x, proto=0.7, xi=0.3))
+    delta = -3.5 + 0.95 * -0.5 + 1.0
+    bank, e = p.experts, _room(p)
+    assert float(out["td_error"][0]) == pytest.approx(delta)
+    assert abs(delta) > p.config.update.error_threshold and int(out["grown"][0]) == 1
+    assert int(bank.count[0, e]) == 3
+    assert torch.equal(bank.centres[0, e, 2], x)  # a neuron at the previous input
+    assert float(bank.utilities[0, e, 2]) == pytest.approx(-1.0 + delta)
+    assert float(bank.actions[0, e, 2]) == pytest.approx(0.7) and float(bank.means[0, e, 2]) == 0
+    # the winner is left as it was
+    assert float(bank.utilities[0, e, 0]) == -1.0 and float(bank.means[0, e, 0]) == 0.1
+    assert not torch.equal(bank.centres[0, e, 0], x)
+
+
+def test_error_threshold_is_configurable():
+    p = _two_neurons("update.error_threshold=5.0")
+    TeseoLoss(p)(transition(p, A, B, -3.5))
+    assert int(p.experts.count[0, _room(p)]) == 2  # |delta| = 2.975 < 5: adaptation
+
+
+def test_terminated_next_state_is_worth_zero():
+    p = _two_neurons()
+    out = TeseoLoss(p)(transition(p, A, B, -0.3, terminated=True))
+    assert float(out["td_error"][0]) == pytest.approx(-0.3 + 1.0)
+    p = _two_neurons()  # terminated wins over truncated (the goal reached at the last action)
+    out = TeseoLoss(p)(transition(p, A, B, -0.3, terminated=True, truncated=True))
+    assert float(out["td_error"][0]) == pytest.approx(-0.3 + 1.0)
+
+
+def test_novel_next_state_is_worth_its_reward():
+    p = _two_neurons()
+    out = TeseoLoss(p)(transition(p, A, FAR, -0.7))
+    # u' = r: the utility the neuron grown there will get
+    assert float(out["td_error"][0]) == pytest.approx(-0.7 + 0.95 * -0.7 + 1.0)
+    assert int(p.experts.count[0, _room(p)]) == 2  # the policy grows it when it acts there
+
+
+def test_next_state_in_another_region_bootstraps_from_that_expert():
+    p = _two_neurons()
+    door = observation(sonar=0.6, pose=POSES["door"])
+    d = p.region_names.index("door")
+    place(p, door, utility=-3.0)
+    out = TeseoLoss(p)(transition(p, A, door, -0.3))
+    assert float(out["td_error"][0]) == pytest.approx(-0.3 + 0.95 * -3.0 + 1.0)
+    assert int(p.experts.count[0, d]) == 1
+
+
+def test_truncated_step_bootstraps_from_the_nearest_neuron():
+    p = _two_neurons()
+    out = TeseoLoss(p)(transition(p, A, B, -0.3, truncated=True))
+    assert float(out["td_error"][0]) == pytest.approx(-0.3 + 0.95 * -0.5 + 1.0)
+    # far from every neuron: still the nearest one (B's), not the reward, and nothing grows
+    p = _two_neurons()
+    out = TeseoLoss(p)(transition(p, A, FAR, -0.3, truncated=True))
+    assert float(out["td_error"][0]) == pytest.approx(-0.3 + 0.95 * -0.5 + 1.0)
+    assert int(out["grown"][0]) == 0 and int(p.experts.count[0, _room(p)]) == 2
+    # an empty expert there: the previous winner's own utility
+    p = _two_neurons()
+    empty = observation(sonar=0.6, pose=POSES["door"])
+    out = TeseoLoss(p)(transition(p, A, empty, -0.3, truncated=True))
+    assert float(out["td_error"][0]) == pytest.approx(-0.3 + 0.95 * -1.0 + 1.0)
+
+
+def test_novel_state_neuron_is_grown_at_the_start_of_the_update():
+    p = _two_neurons()
+    now = observation(sonar=0.9, state_reward=-0.7)
+    x = p.perceive(now["sonar"], now["odometry"], now["goal"]).x[0]
+    out = TeseoLoss(p)(transition(p, now, B, -0.4, novel=True, proto=0.45, xi=0.1, taken=0.55))
+    bank, e = p.experts, _room(p)
+    assert int(out["grown"][0]) == 1 and int(bank.count[0, e]) == 3
+    delta = -0.4 + 0.95 * -0.5 - (-0.7)  # u of the new neuron = state_reward
+    assert float(out["td_error"][0]) == pytest.approx(delta, abs=1e-6)
+    assert torch.equal(bank.centres[0, e, 2], x)  # delta > 0 moves it toward x = its centre
+    assert float(bank.actions[0, e, 2]) == pytest.approx(0.45)  # p = proto
+    assert float(bank.utilities[0, e, 2]) == pytest.approx(-0.7 + 0.3 * delta, abs=1e-6)
+    assert float(bank.means[0, e, 2]) == pytest.approx(0.2 * delta * 0.1, abs=1e-6)
+    assert float(bank.taken[0, e, 2]) == pytest.approx(0.55) and bool(bank.used[0, e, 2])
+
+
+def test_first_transition_into_an_empty_bank():
+    p = policy("paper_literal")
+    now = observation(sonar=0.3, state_reward=-0.2)
+    out = TeseoLoss(p)(transition(p, now, B, -0.3, novel=True, proto=0.1))
+    # the new neuron is the only one: the next state (novel) is worth its reward
+    assert int(p.experts.count.sum()) == 1
+    assert float(out["td_error"][0]) == pytest.approx(-0.3 + 0.95 * -0.3 + 0.2, abs=1e-6)
+
+
+def test_set_keys_renames_what_the_update_reads():
+    p = _two_neurons()
+    loss = TeseoLoss(p)
+    loss.set_keys(xi="noise", reward="r2")
+    assert "noise" in loss.in_keys and ("next", "r2") in loss.in_keys
+    assert "xi" not in loss.in_keys and ("next", "reward") not in loss.in_keys
+    td = transition(p, A, B, -0.4, xi=0.35)
+    td.rename_key_("xi", "noise")
+    td.rename_key_(("next", "reward"), ("next", "r2"))
+    loss(td)
+    u = p.config.update
+    u_new, mu_new, _ = _oracle(-1.0, -0.5, 0.1, 0.2, 0.35, -0.4, u.gamma, u.eta, u.beta)
+    e = _room(p)
+    assert float(p.experts.means[0, e, 0]) == pytest.approx(mu_new, abs=1e-6)
+    assert float(p.experts.utilities[0, e, 0]) == pytest.approx(u_new, abs=1e-6)
+    with pytest.raises(ValueError, match="not an accepted"):
+        loss.set_keys(bogus="x")
+
+
+@pytest.mark.parametrize("key", ["xi", ("next", "reward"), "taken"])
+def test_a_missing_key_is_a_key_error_naming_it(key):
+    p = _two_neurons()
+    td = transition(p, A, B, -0.4)
+    del td[key]
+    with pytest.raises(KeyError, match=key if isinstance(key, str) else key[1]):
+        TeseoLoss(p)(td)
+
+
+def test_a_batch_updates_each_robot_as_alone():
+    def robot(seed_u: float, reward: float, b: int, p=None):
+        if p is None:
+            p = policy("paper_literal", seeds=(0, 1))
+        place(p, A, action=0.2, utility=seed_u, mean=0.1, row=b)
+        place(p, B, utility=-0.5, row=b)
+        return p
+
+    p = robot(-1.0, 0.0, 0)
+    robot(-2.0, 0.0, 1, p)
+    t0 = transition(p, A, B, -0.4, xi=0.3)
+    t1 = transition(p, A, B, -3.9, xi=-0.2, row=1)  # robot 1: error-driven growth
+    batch = torch.cat([t0, t1], 0)
+    out = TeseoLoss(p)(batch)
+    alone = []
+    for u0, t in ((-1.0, t0), (-2.0, t1)):
+        q = policy("paper_literal")
+        place(q, A, action=0.2, utility=u0, mean=0.1)
+        place(q, B, utility=-0.5)
+        alone.append((q, TeseoLoss(q)(t.clone())))
+    assert out["grown"].tolist() == [0, 1]
+    for b, (q, o) in enumerate(alone):
+        assert float(out["td_error"][b]) == float(o["td_error"][0])
+        n = int(q.experts.count.sum())
+        for name in ("centres", "actions", "utilities", "means", "taken", "used"):
+            got = getattr(p.experts, name)[b, :, :n]
+            assert torch.equal(got, getattr(q.experts, name)[0, :, :n]), name
+
+
+def test_no_learning_changes_nothing():
+    p = policy("reflex_only")
+    out = TeseoLoss(p)(transition(p, A, B, -0.4, novel=True))
+    assert int(p.experts.count.sum()) == 0
+    assert out["td_error"].tolist() == [0.0] and out["grown"].tolist() == [0]
+
+
+# -- end of trial ---------------------------------------------------------------------------
+
+
+def _step(loss, taken: float) -> None:
+    """Neuron 0 acts (taken) on a transition A -> B with a small TD error."""
+    loss(transition(loss.policy, A, B, -0.5, taken=taken))
+
+
+def test_action_replacement_only_after_a_better_successful_trial():
+    p = _two_neurons()
+    loss = TeseoLoss(p)
+    bank, e, row = p.experts, _room(p), torch.tensor([0])
+    _step(loss, taken=-0.7)
+    out = loss.end_trial(row, torch.tensor([-5.0]), torch.tensor([False]))  # failed: nothing
+    assert out["replaced"].tolist() == [0] and not bool(out["improved"][0])
+    assert float(bank.actions[0, e, 0]) == 0.2 and float(p.best_total[0]) == -math.inf
+    assert not bank.used.any()  # the trial's bookkeeping is cleared
+    _step(loss, taken=-0.7)
+    mean_before = float(bank.means[0, e, 0])
+    assert mean_before != 0.0
+    out = loss.end_trial(row, torch.tensor([-10.0]), torch.tensor([True]))
+    assert out["replaced"].tolist() == [1] and bool(out["improved"][0])
+    assert float(bank.actions[0, e, 0]) == pytest.approx(-0.7) and float(bank.means[0, e, 0]) == 0
+    assert float(bank.actions[0, e, 1]) == -0.2  # not used in this trial
+    assert float(p.best_total[0]) == -10.0 and float(out["best_total"][0]) == -10.0
+    _step(loss, taken=0.9)
+    bank.means[0, e, 0] = 0.3
+    out = loss.end_trial(row, torch.tensor([-12.0]), torch.tensor([True]))  # worse
+    assert out["replaced"].tolist() == [0] and not bool(out["improved"][0])
+    assert float(bank.actions[0, e, 0]) == pytest.approx(-0.7)
+    assert float(bank.means[0, e, 0]) == 0.3 and float(p.best_total[0]) == -10.0
+    _step(loss, taken=0.9)
+    out = loss.end_trial(row, torch.tensor([-8.0]), torch.tensor([True]))  # better again
+    assert out["replaced"].tolist() == [1] and float(bank.actions[0, e, 0]) == pytest.approx(0.9)
+
+
+def test_no_replacement_when_switched_off_but_the_best_total_is_kept():
+    p = _two_neurons("update.replace_actions=false")
+    loss = TeseoLoss(p)
+    _step(loss, taken=-0.7)
+    out = loss.end_trial(torch.tensor([0]), torch.tensor([-10.0]), torch.tensor([True]))
+    assert out["replaced"].tolist() == [0] and bool(out["improved"][0])
+    assert float(p.experts.actions[0, _room(p), 0]) == 0.2 and float(p.best_total[0]) == -10.0
+
+
+def test_end_trial_touches_only_the_robots_given():
+    p = policy("paper_literal", seeds=(0, 1))
+    for b in (0, 1):
+        place(p, A, action=0.2, utility=-1.0, row=b)
+        place(p, B, utility=-0.5, row=b)
+    loss = TeseoLoss(p)
+    loss(torch.cat([transition(p, A, B, -0.5, taken=-0.7, row=b) for b in (0, 1)], 0))
+    out = loss.end_trial(torch.tensor([1]), torch.tensor([-4.0]), torch.tensor([True]))
+    e = _room(p)
+    assert out["replaced"].tolist() == [1]
+    assert float(p.experts.actions[1, e, 0]) == pytest.approx(-0.7)
+    assert float(p.experts.actions[0, e, 0]) == 0.2 and bool(p.experts.used[0, e, 0])
+    assert p.temperature.tolist() == pytest.approx([0.3, 0.3 * 0.85])
+    assert p.best_total.tolist() == [-math.inf, -4.0] and p.trials_done.tolist() == [0, 1]
+
+
+def test_cooling_down_to_the_floor():
+    p = policy("paper_literal", "update.temperature0=0.3", "update.cooling=0.5",
+               "update.temperature_min=0.05")  # fmt: skip
+    loss = TeseoLoss(p)
+    temps = []
+    for k in range(6):  # failed and successful trials cool alike
+        loss.end_trial(torch.tensor([0]), torch.tensor([-50.0]), torch.tensor([k % 2 == 0]))
+        temps.append(float(p.temperature[0]))
+    assert temps == pytest.approx([0.15, 0.075, 0.05, 0.05, 0.05, 0.05])
+    paper = policy("paper", seeds=(3,))
+    loss = TeseoLoss(paper)
+    for _ in range(40):
+        loss.end_trial(torch.tensor([0]), torch.tensor([-50.0]), torch.tensor([False]))
+    assert float(paper.temperature[0]) == pytest.approx(0.1 * 0.85**40)  # floor 0
+
+
+def _option_policy(*overrides: str):
+    """Options on, greedy choices (untried ones are not tried first): the first option of a
+    region until another one has a better critic."""
+    return policy("paper", "options.try_untried=false", "options.epsilon=0", *overrides)
+
+
+def _act(p, loss, obs, nxt, reward):
+    """The policy acts on ``obs``; the update learns from the transition to ``nxt``."""
+    td = p(obs.clone())
+    td["next"] = transition(p, obs, nxt, reward)["next"]
+    loss(td)
+    return td
+
+
+@pytest.mark.parametrize("critic, expected", [("mean", [-3.0, -2.0, -3.0]),
+                                              ("best", [-3.0, -1.0, -1.0])])  # fmt: skip
+def test_option_critic_steps_toward_the_return_to_go(critic, expected):
+    p = _option_policy(f"options.critic={critic}")
+    loss = TeseoLoss(p)
+    room = _room(p)
+    rows = torch.tensor([0])
+    got = []
+    for rewards in ([-1.0, -2.0], [-1.0], [-3.0, -2.0]):
+        p.begin_trial(rows)
+        for k, r in enumerate(rewards):
+            td = _act(p, loss, A, B, r)
+            assert bool(td["option_entry"][0]) == (k == 0)
+        option = int(td["option"][0])
+        loss.end_trial(rows, torch.tensor([sum(rewards)]), torch.tensor([True]))
+        got.append(float(p.options.q[0, room, option]))
+    assert option == 0 and got == pytest.approx(expected)
+    assert int(p.options.n[0, room, 0]) == 3 and int(p.options.n[0, room].sum()) == 3
+    assert float(p.options.epsilon[0]) == 0.0 and int(p.options.trials[0]) == 3
+
+
+def test_option_return_to_go_starts_at_each_regions_first_entry():
+    p = _option_policy()
+    loss = TeseoLoss(p)
+    door_obs = observation(sonar=0.6, pose=POSES["door"])
+    room, door = _room(p), p.region_names.index("door")
+    _act(p, loss, A, B, -1.0)
+    _act(p, loss, door_obs, door_obs, -2.0)
+    _act(p, loss, door_obs, door_obs, -0.5)
+    loss.end_trial(torch.tensor([0]), torch.tensor([-3.5]), torch.tensor([False]))
+    assert float(p.options.q[0, room, 0]) == pytest.approx(-3.5)
+    assert float(p.options.q[0, door, 0]) == pytest.approx(-2.5)
+    assert int(p.options.n[0].sum()) == 2  # the regions not entered learn nothing
+    assert float(loss.trial_return[0]) == 0.0 and not loss.entry_return.any()

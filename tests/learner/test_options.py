@@ -1,168 +1,174 @@
-"""The option learner: choice once per region and trial, averaged critic, epsilon schedule."""
+"""SubgoalOptions on a hand-made table: the choice at a region's first entry, the averaging
+(or best) critic, epsilon, reaching a sub-goal, and independence of the robots of a batch."""
 
 from __future__ import annotations
+
+import math
 
 import pytest
 import torch
 
 from symrl.knowledge.subgoals import SubgoalTable
-from symrl.learner.options import OptionConfig, OptionLearner
+from symrl.learner.config import OptionsConfig, load_config
+from symrl.learner.options import SubgoalOptions
+from symrl.world.worldmap import load_map
 
+WORLD = load_map("hailu2001")  # goal (4, -2)
 GOAL = (4.0, -2.0)
 
 
 def _table() -> SubgoalTable:
     """Two regions: region 0 has the goal and two sub-goals, region 1 only the goal."""
-    points = torch.tensor([[[4.0, -2.0], [3.5, -0.5], [3.9, -0.5]], [[4.0, -2.0], [0, 0], [0, 0]]])
+    points = torch.tensor(
+        [[[4.0, -2.0], [3.5, -0.5], [3.9, -0.5]], [[4.0, -2.0], [0.0, 0.0], [0.0, 0.0]]]
+    )
     valid = torch.tensor([[True, True, True], [True, False, False]])
     return SubgoalTable(("a", "b"), points, valid, [["goal", "s1", "s2"], ["goal"]])
 
 
-def _trial(learner: OptionLearner, rewards_by_option: dict[int, float]) -> int:
-    learner.target(0, 0.0, 0.0)
-    option = learner.choice[0]
-    learner.record(rewards_by_option[option])
-    learner.target(1, 3.8, -0.5)
-    learner.record(-1.0)
-    learner.end_trial()
-    return option
+def _options(batch: int = 1, seeds=None, **cfg) -> SubgoalOptions:
+    config = OptionsConfig(enabled=True, **cfg)
+    return SubgoalOptions(WORLD, batch, config, seeds or list(range(batch)), table=_table())
+
+
+def _odometry(*poses) -> torch.Tensor:
+    return torch.tensor(poses, dtype=torch.float32)
+
+
+def _trial(opt: SubgoalOptions, returns: dict[int, float], row: int = 0) -> int:
+    """One trial of robot 0 in region 0 then region 1; region 0's return-to-go depends on
+    the option chosen there."""
+    rows = torch.tensor([row])
+    opt.begin_trial(rows)
+    _, option, entered = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=False)
+    assert bool(entered[0])
+    chosen = int(option[0])
+    opt.steer(torch.tensor([1]), _odometry((3.8, -0.5, 0.0)), greedy=False)
+    opt.learn(rows, torch.tensor([[returns[chosen], -1.0]], dtype=torch.float64))
+    return chosen
 
 
 def test_untried_options_first_then_greedy_on_the_mean():
-    learner = OptionLearner(_table(), GOAL, OptionConfig(epsilon=0.0))
-    chosen = [_trial(learner, {0: -10.0, 1: -5.0, 2: -7.0}) for _ in range(5)]
+    opt = _options(epsilon=0.0)
+    chosen = [_trial(opt, {0: -10.0, 1: -5.0, 2: -7.0}) for _ in range(5)]
     assert chosen[:3] == [0, 1, 2]  # each untried option once, in table order
     assert chosen[3:] == [1, 1]
-    # critic = mean return-to-go from the region's first entry (its own step + the rest)
-    assert float(learner.q[0, 1]) == pytest.approx(-6.0)
-    assert int(learner.n[0, 1]) == 3
-    assert float(learner.q[1, 0]) == pytest.approx(-1.0)
-    assert learner.greedy() == [1, 0]
+    assert float(opt.q[0, 0, 1]) == pytest.approx(-5.0) and int(opt.n[0, 0, 1]) == 3
+    assert float(opt.q[0, 1, 0]) == pytest.approx(-1.0) and int(opt.n[0, 1, 0]) == 5
+    assert opt.greedy(0) == [1, 0]
+    assert int(opt.trials[0]) == 5
 
 
-def test_critic_averages_instead_of_keeping_the_best_trial():
-    learner = OptionLearner(_table(), GOAL, OptionConfig(epsilon=0.0))
+@pytest.mark.parametrize("critic, winner", [("mean", 2), ("best", 1)])
+def test_mean_critic_is_robust_to_a_lucky_trial_best_critic_is_not(critic, winner):
+    opt = _options(epsilon=0.0, critic=critic)
     # option 1 has one lucky trial (-2) and then bad ones; option 2 is steadily -5
-    outcomes = iter([-9.0, -2.0, -5.0, -12.0, -12.0, -12.0])
+    outcomes = iter([-9.0, -2.0, -12.0, -12.0, -12.0, -12.0])
     for _ in range(6):
-        learner.target(0, 0.0, 0.0)
-        learner.record(next(outcomes) if learner.choice[0] != 2 else -5.0)
-        learner.end_trial()
-    assert learner.greedy()[0] == 2
+        rows = torch.tensor([0])
+        opt.begin_trial(rows)
+        _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=False)
+        ret = -5.0 if int(option[0]) == 2 else next(outcomes)
+        opt.learn(rows, torch.tensor([[ret, 0.0]], dtype=torch.float64))
+    assert opt.greedy(0)[0] == winner
+    if critic == "best":
+        assert float(opt.q[0, 0, 1]) == pytest.approx(-2.0)
 
 
-def test_option_is_kept_for_the_whole_trial_and_reach_switches_to_the_goal():
-    learner = OptionLearner(_table(), GOAL, OptionConfig(epsilon=0.0, reach=0.25))
-    learner.n[0] = 1  # pretend everything was tried: s1 best
-    learner.q[0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
-    assert learner.target(0, 0.0, 0.0) == pytest.approx((3.5, -0.5))
-    assert learner.target(1, 3.6, -0.5) == GOAL  # region b: only the goal
-    assert learner.target(0, 3.4, -0.5) == GOAL  # re-entered a, within reach of s1
-    assert learner.target(0, 3.0, -0.5) == GOAL  # reached: stays on the goal this visit
-    assert learner.choice == {0: 1, 1: 0}
+def test_option_is_kept_for_the_trial_and_reaching_it_aims_at_the_goal():
+    opt = _options(epsilon=0.0, reach=0.25)
+    opt.n[0, 0] = 1  # everything tried: s1 best
+    opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+
+    def aim(region: int, x: float, y: float) -> float:
+        angle, option, _ = opt.steer(torch.tensor([region]), _odometry((x, y, 0.0)), False)
+        assert int(option[0]) == (1 if region == 0 else 0)
+        return float(angle[0])
+
+    assert aim(0, 0.0, 0.0) == pytest.approx(math.atan2(-0.5, 3.5))  # at s1
+    assert aim(1, 3.6, -0.5) == pytest.approx(math.atan2(-1.5, 0.4))  # region b: the goal
+    assert aim(0, 3.0, 0.5) == pytest.approx(math.atan2(-1.0, 0.5))  # back in a: s1 again
+    assert aim(0, 3.4, -0.5) == pytest.approx(math.atan2(-1.5, 0.6))  # within reach: the goal
+    assert aim(0, 3.0, -0.5) == pytest.approx(math.atan2(-1.5, 1.0))  # stays on the goal
+    assert opt.choice[0].tolist() == [1, 0]
 
 
-def test_epsilon_decays_and_greedy_after_cuts_exploration():
-    cfg = OptionConfig(epsilon=1.0, epsilon_decay=0.5, greedy_after=3, try_untried=False)
-    learner = OptionLearner(_table(), GOAL, cfg, torch.Generator().manual_seed(1))
-    learner.n[0] = 1
-    learner.q[0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
-    early = []
+def test_angle_is_relative_to_the_heading_and_wrapped():
+    opt = _options(epsilon=0.0)
+    angle, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, math.pi / 2)), False)
+    assert abs(float(angle[0])) == pytest.approx(math.pi)  # the goal straight behind
+    angle, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, -3.0)), False)
+    assert -math.pi <= float(angle[0]) <= math.pi
+    assert float(angle[0]) == pytest.approx(-math.pi / 2 + 3.0)
+
+
+def test_epsilon_decays_and_greedy_after_stops_exploring():
+    opt = _options(epsilon=1.0, epsilon_decay=0.5, greedy_after=3, try_untried=False)
+    opt.n[0, 0] = 1
+    opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
     for _ in range(3):
-        early.append(learner.choose(0))
-        learner.record(-1.0)
-        learner.end_trial()
-    assert learner.epsilon == pytest.approx(0.125)
-    late = []
-    for _ in range(10):
-        late.append(learner.choose(0))
-        learner.end_trial()
+        _trial(opt, {0: -9.0, 1: -1.0, 2: -3.0})
+    assert float(opt.epsilon[0]) == pytest.approx(0.125)
+    late = [_trial(opt, {0: -9.0, 1: -1.0, 2: -3.0}) for _ in range(10)]
     assert set(late) == {1}
 
 
-def test_epsilon_explores_and_is_deterministic_under_a_seed():
-    def run(seed: int) -> list[int]:
-        cfg = OptionConfig(epsilon=1.0, epsilon_decay=1.0, greedy_after=0, try_untried=False)
-        learner = OptionLearner(_table(), GOAL, cfg, torch.Generator().manual_seed(seed))
+def test_epsilon_explores_and_follows_the_robots_seed():
+    def run(seed: int, batch_seeds=None) -> list[int]:
+        seeds = batch_seeds or [seed]
+        opt = _options(len(seeds), seeds, epsilon=1.0, epsilon_decay=1.0, greedy_after=0,
+                       try_untried=False)  # fmt: skip
+        row = seeds.index(seed)
         out = []
         for _ in range(30):
-            out.append(learner.choose(0))
-            learner.end_trial()
+            rows = torch.arange(len(seeds))
+            opt.begin_trial(rows)
+            _, option, _ = opt.steer(torch.zeros(len(seeds), dtype=torch.long),
+                                     _odometry(*[(0.0, 0.0, 0.0)] * len(seeds)), False)  # fmt: skip
+            out.append(int(option[row]))
         return out
 
-    assert run(3) == run(3)
-    assert set(run(3)) == {0, 1, 2}
+    assert run(3) == run(3) and set(run(3)) == {0, 1, 2}
+    assert run(3) != run(4)
+    assert run(3, [9, 3, 4]) == run(3)  # robot k of a batch draws as its seed alone
 
 
-def test_gamma_discounts_the_return_to_go():
-    learner = OptionLearner(_table(), GOAL, OptionConfig(epsilon=0.0, gamma=0.5))
-    learner.target(0, 0.0, 0.0)
-    for r in (-1.0, -1.0, -1.0):
-        learner.record(r)
-    learner.end_trial()
-    assert float(learner.q[0, 0]) == pytest.approx(-1.75)
+def test_greedy_choice_draws_nothing_and_is_the_best_tried():
+    opt = _options(epsilon=1.0, try_untried=True)
+    opt.n[0, 0] = torch.tensor([1, 1, 0])
+    opt.q[0, 0] = torch.tensor([-9.0, -3.0, 0.0], dtype=torch.float64)
+    state = opt.generators[0].get_state()
+    _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
+    assert int(option[0]) == 1  # the untried option 2 is not taken greedily
+    assert torch.equal(opt.generators[0].get_state(), state)
+    opt.begin_trial(torch.tensor([0]))
+    fresh = _options(epsilon=0.0)
+    _, option, _ = fresh.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
+    assert int(option[0]) == 0  # nothing tried: the first option
 
 
-@pytest.mark.parametrize(
-    "kwargs",
-    [
-        {"epsilon": 1.5},
-        {"epsilon_decay": -0.1},
-        {"greedy_after": -1},
-        {"gamma": 0.0},
-        {"prior": "best"},
-        {"reach": -1.0},
-        {"critic": "max"},
-    ],  # fmt: skip
-)
-def test_config_rejects_bad_values(kwargs):
-    with pytest.raises(ValueError, match=next(iter(kwargs))):
-        OptionConfig(**kwargs)
+def test_learn_only_touches_the_rows_and_regions_chosen():
+    opt = _options(batch=2, epsilon=0.0)
+    opt.steer(torch.tensor([0, 1]), _odometry((0.0, 0.0, 0.0), (3.8, -0.5, 0.0)), False)
+    opt.learn(torch.tensor([1]), torch.tensor([[-7.0, -2.0]], dtype=torch.float64))
+    assert int(opt.n[0].sum()) == 0 and float(opt.epsilon[0]) == 0.0
+    assert opt.n[1].tolist() == [[0, 0, 0], [1, 0, 0]]
+    assert float(opt.q[1, 1, 0]) == -2.0 and opt.trials.tolist() == [0, 1]
 
 
-def test_best_critic_keeps_the_lucky_trial():
-    """The literal reading (compare single trials) keeps a lucky -2 over a steady -5."""
-    learner = OptionLearner(_table(), GOAL, OptionConfig(epsilon=0.0, critic="best"))
-    outcomes = iter([-9.0, -2.0, -5.0, -12.0, -12.0, -12.0])
-    for _ in range(6):
-        learner.target(0, 0.0, 0.0)
-        learner.record(next(outcomes) if learner.choice[0] != 2 else -5.0)
-        learner.end_trial()
-    assert learner.greedy()[0] == 1
-    assert float(learner.q[0, 1]) == pytest.approx(-2.0)
+def test_paper_table_shapes_follow_the_switches():
+    from symrl.learner.policy import MixtureOfExpertsPolicy
 
+    def labels(*overrides: str) -> list[list[str]]:
+        p = MixtureOfExpertsPolicy(load_config("paper", list(overrides)))
+        return p.options.labels
 
-def test_greedy_flag_and_shared_buffers():
-    q = torch.zeros(2, 3, dtype=torch.float64)
-    n = torch.zeros(2, 3, dtype=torch.long)
-    learner = OptionLearner(_table(), GOAL, OptionConfig(epsilon=1.0), q=q, n=n)
-    n[0] = 1
-    q[0] = torch.tensor([-9.0, -3.0, -1.0], dtype=torch.float64)
-    assert learner.target(0, 0.0, 0.0, greedy=True) == pytest.approx((3.9, -0.5))
-    learner.record(-4.0)
-    learner.end_trial()
-    assert int(n[0, 2]) == 2 and float(q[0, 2]) == pytest.approx(-2.5)  # updated in place
-    with pytest.raises(ValueError, match="shape"):
-        OptionLearner(_table(), GOAL, q=torch.zeros(3, 3, dtype=torch.float64))
-
-
-def test_follow_up_point_before_the_goal():
-    table = _table()
-    table.then = torch.full((2, 3, 2), float("nan"))
-    table.then[0, 1] = torch.tensor([3.9, -0.5])
-    learner = OptionLearner(table, GOAL, OptionConfig(epsilon=0.0, reach=0.25))
-    learner.n[0] = 1
-    learner.q[0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
-    assert learner.target(0, 0.0, 0.0) == pytest.approx((3.5, -0.5))
-    assert learner.target(0, 3.4, -0.5) == pytest.approx((3.9, -0.5))  # reached: go through
-    assert learner.target(0, 3.5, -0.5) == pytest.approx((3.9, -0.5))
-    assert learner.target(0, 3.8, -0.5) == GOAL  # follow-up reached
-
-
-def test_collision_penalty_only_in_the_option_critic():
-    learner = OptionLearner(_table(), GOAL, OptionConfig(epsilon=0.0, collision_penalty=5.0))
-    learner.target(0, 0.0, 0.0)
-    learner.record(-3.5, collision=True)
-    learner.record(-0.5)
-    learner.end_trial()
-    assert float(learner.q[0, 0]) == pytest.approx(-9.0)
+    names = list(load_map("hailu2001").regions.names)
+    room, corridor = names.index("room"), names.index("corridor")
+    full = labels("options.subgoal_on_line=true", "options.subgoal_min_clearance=0")
+    assert "l2@+0.0/0.0" in full[room] and "l2@+0.8/0.4" in full[room]
+    paper = labels()
+    assert all(label == "goal" or label.endswith("/0.4") for label in paper[room])
+    assert "l2@+0.8/0.4" not in paper[room]  # (3.9, -0.69): 0.34 m from the door post
+    assert "l3@+0.8/0.4" in paper[room]  # (4.15, -0.69): 0.51 m
+    assert len(paper[corridor]) > 1 and labels("options.subgoal_past=false")[corridor] == ["goal"]

@@ -1,150 +1,273 @@
-"""The policy: input coding, routing by region, growth from the reflex, exploration, greedy mode."""
+"""The policy acts: input coding, region gate, novel states, exploration, greedy mode, residual
+experts, the shield, options, and per-robot controller states."""
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import torch
-from learner_helpers import obs, obs_td
+from learner_helpers import POSES, observation, place, policy, stack
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from symrl.learner.policy import MixtureOfExpertsPolicy
+from symrl.world.batched_env import BatchedWorldEnv
 
-# One pose per region of the hailu2001 map (room, concave, door, corridor).
-POSES = {
-    "room": (0.0, 0.0, 0.0),
-    "concave": (1.0, -2.0, 0.0),
-    "door": (3.6, -0.5, 0.0),
-    "corridor": (4.5, 0.5, 0.0),
-}
+GREEDY = ExplorationType.DETERMINISTIC
 
 
-def test_input_is_sonars_and_goal_codes(make_policy):
-    p = make_policy()
-    o = obs(sonar=0.25, goal=(p.start_distance * 0.5, 0.0))
-    x = p.encode(o.sonar, o.goal[0])
-    assert x.shape == (32,)
-    assert torch.allclose(x[:24], torch.full((24,), 0.25))
+def _reflex(p, obs, target=None) -> float:
+    goal = obs["goal"][:, 1] if target is None else torch.tensor([target])
+    return float(p.reflex(obs["sonar"].double(), goal.double())[0])
+
+
+def test_input_is_sonars_and_goal_codes():
+    p = policy()
+    obs = observation(sonar=0.25, goal=(p.start_distance * 0.5, 0.0))
+    x = p.perceive(obs["sonar"], obs["odometry"], obs["goal"]).x[0]
+    assert x.shape == (32,) and p.input_dim == 32
+    assert torch.equal(x[:24], torch.full((24,), 0.25))
     mu = torch.arange(8) / 7
     assert torch.allclose(x[24:], torch.exp(-((mu - 0.5) ** 2)))
-    far = p.encode(o.sonar, torch.tensor(p.start_distance * 3))  # rho clipped to 1
+    far = p.encode(obs["sonar"], torch.tensor([p.start_distance * 3]))[0]  # rho clipped to 1
     assert torch.allclose(far[24:], torch.exp(-((mu - 1.0) ** 2)))
 
 
-def test_routing_by_region(make_policy):
-    p = make_policy()
+def test_region_gate_picks_the_expert():
+    p = policy(seeds=range(4))
     assert p.expert_names == ("room", "concave", "door", "corridor")
-    for name, pose in POSES.items():
-        td = p(obs_td(obs(pose=pose)))
-        assert int(td["expert"]) == p.expert_names.index(name)
-        assert len(p.experts[p.expert_names.index(name)]) == 1
-    assert p.neurons() == {"room": 1, "concave": 1, "door": 1, "corridor": 1}
+    obs = stack(*(observation(pose=pose) for pose in POSES.values()))
+    per = p.perceive(obs["sonar"], obs["odometry"], obs["goal"])
+    assert per.region.tolist() == per.expert.tolist() == [0, 1, 2, 3]
+    assert per.winner.tolist() == [-1] * 4 and per.novel.all()
+    one = policy("no_partition", seeds=range(4))
+    assert one.expert_names == ("all",)
+    per = one.perceive(obs["sonar"], obs["odometry"], obs["goal"])
+    assert per.region.tolist() == [0, 1, 2, 3] and per.expert.tolist() == [0, 0, 0, 0]
 
 
-def test_no_partition_uses_one_expert(make_policy):
-    p = make_policy(partition=False)
-    assert p.expert_names == ("all",)
-    for name, pose in POSES.items():
-        td = p(obs_td(obs(pose=pose, sonar=0.1 * (1 + list(POSES).index(name)))))
-        assert int(td["expert"]) == 0 and int(td["region"]) == p.region_names.index(name)
-    assert p.neurons() == {"all": 4}
+def test_acting_writes_the_decision_and_grows_nothing():
+    p = policy()
+    td = p(observation())
+    for key in p.out_keys:
+        assert key in td, key
+    assert td["action"].shape == (1, 1) and td["action"].dtype == torch.float32
+    assert bool(td["novel"][0]) and int(td["winner"][0]) == -1
+    assert int(p.neurons().sum()) == 0  # the update grows, the policy only acts
 
 
-def test_scalar_gate_agrees_with_region_mapper(make_policy):
-    p = make_policy()
-    g = torch.Generator().manual_seed(1)
-    poses = torch.rand(500, 2, generator=g) * torch.tensor([7.5, 7.0]) - torch.tensor([1.8, 4.2])
-    batched = p.mapper(poses)
-    assert [p.region_of(tuple(q.tolist()) + (0.0,)) for q in poses] == batched.tolist()
+def test_novel_state_acts_as_its_new_neuron_would():
+    obs = observation(sonar=0.5, goal=(4.0, 0.6), state_reward=-0.4)
+    # paper_literal: p = the reflex's action, u = state_reward
+    p = policy()
+    td = p(obs.clone())
+    reflex = _reflex(p, obs)
+    assert float(td["proto"][0]) == pytest.approx(reflex)
+    assert float(td["sigma"][0]) == pytest.approx(0.3 / (1 + math.exp(-0.4)))
+    assert float(td["action"][0, 0]) == pytest.approx(reflex + float(td["xi"][0]), abs=1e-6)
+    assert float(td["taken"][0]) == pytest.approx(float(td["action"][0, 0]), abs=1e-6)
+    # residual experts: p = 0 on top of the reflex
+    r = policy("paper", "options.enabled=false", "shield.enabled=false")
+    td = r(obs.clone())
+    assert float(td["proto"][0]) == 0.0
+    assert float(td["action"][0, 0]) == pytest.approx(reflex + float(td["xi"][0]), abs=1e-6)
+    assert float(td["taken"][0]) == pytest.approx(float(td["xi"][0]), abs=1e-6)  # minus base
+    # no reflex: a uniform random action in [-pi, pi], a new one each time
+    n = policy("no_reflex")
+    protos = [float(n(obs.clone())["proto"][0]) for _ in range(8)]
+    assert len(set(protos)) == 8 and all(-math.pi <= a <= math.pi for a in protos)
 
 
-def test_new_neuron_takes_reflex_action_and_state_utility(make_policy):
-    p = make_policy()
-    o = obs(sonar=0.5, goal=(4.0, 0.6))
-    td = p(obs_td(o))
-    e = p.experts[0]
-    assert bool(td["grown"]) and len(e) == 1
-    reflex = float(p.reflex(o.sonar, torch.tensor(0.6)))
-    assert e.rows.actions[0] == pytest.approx(reflex, abs=1e-6)
-    assert e.rows.utilities[0] == pytest.approx(-0.6 / math.pi, abs=1e-6)  # f1 = 0, f2
-    assert e.rows.means[0] == 0.0
-    # same situation again: no growth, same winner
-    td = p(obs_td(o))
-    assert not bool(td["grown"]) and int(td["winner"]) == 0 and len(e) == 1
-
-
-def test_no_reflex_new_neurons_take_random_actions(make_policy):
-    p = make_policy(reflex=False)
-    actions = []
-    for k in range(6):
-        p(obs_td(obs(sonar=0.1 + 0.15 * k)))
-        actions.append(float(p.experts[0].rows.actions[k]))
-    assert len(set(actions)) == 6 and all(-math.pi <= a <= math.pi for a in actions)
-
-
-def test_exploration_sigma_and_clipping(make_policy):
-    p = make_policy(temperature0=0.3)
-    o = obs()
-    p(obs_td(o))
-    rows = p.experts[0].rows
-    rows.actions[0], rows.means[0], rows.utilities[0] = 0.2, 0.05, -1.0
-    sigma = 0.3 / (1 + math.exp(-1.0))
+def test_known_state_acts_with_its_neuron():
+    p = policy()
+    obs = observation()
+    place(p, obs, action=0.2, utility=-1.0, mean=0.05)
+    sigma = 0.3 / (1 + math.exp(-1.0))  # T / (1 + e^u)
     draws = []
-    for _ in range(400):
-        td = p(obs_td(o))
-        assert float(td["sigma"]) == pytest.approx(sigma, rel=1e-6)
-        xi = float(td["xi"])
-        assert float(td["action"]) == pytest.approx(0.2 + xi, abs=1e-6)
+    for _ in range(300):
+        td = p(obs.clone())
+        assert not bool(td["novel"][0]) and int(td["winner"][0]) == 0
+        assert float(td["sigma"][0]) == pytest.approx(sigma)
+        xi = float(td["xi"][0])
+        assert float(td["action"][0, 0]) == pytest.approx(0.2 + xi, abs=1e-6)
         draws.append(xi)
     xs = torch.tensor(draws)
-    assert abs(float(xs.mean()) - 0.05) < 4 * sigma / 20
+    assert abs(float(xs.mean()) - 0.05) < 4 * sigma / math.sqrt(300)
     assert abs(float(xs.std()) - sigma) < 0.15 * sigma
-    rows.actions[0] = 3.1
-    rows.means[0] = 1.0
-    assert float(p(obs_td(o))["action"]) == pytest.approx(math.pi)  # clipped (float32 pi)
+    p.experts.actions[0, 0, 0] = 3.1
+    p.experts.means[0, 0, 0] = 1.0
+    assert float(p(obs.clone())["action"][0, 0]) == pytest.approx(math.pi)  # clipped
 
 
-def test_greedy_mode_is_p_plus_mu_and_read_only(make_policy):
-    p = make_policy()
-    o = obs()
-    p(obs_td(o))
-    rows = p.experts[0].rows
-    rows.actions[0], rows.means[0] = 0.2, 0.05
-    rows.used[0] = False
-    with set_exploration_type(ExplorationType.DETERMINISTIC):
-        td = p(obs_td(o))
-        assert float(td["action"]) == pytest.approx(0.25, abs=1e-6)
-        novel = obs(sonar=0.9)
-        td = p(obs_td(novel))  # unseen situation: the reflex's action, nothing stored
-        assert float(td["action"]) == pytest.approx(float(p.reflex(novel.sonar, novel.goal[1])))
-    assert p.total_neurons() == 1 and not bool(p.experts[0].used[0])
+def test_sigma_follows_the_temperature():
+    p = policy()
+    obs = observation(state_reward=-0.5)
+    p.temperature.fill_(0.0)
+    td = p(obs.clone())
+    assert float(td["sigma"][0]) == 0.0 and float(td["xi"][0]) == 0.0
 
 
-def test_reflex_only_drives_with_the_reflex(make_policy):
-    p = make_policy(learning=False)
-    o = obs(sonar=0.03, goal=(3.0, -1.0))
-    td = p(obs_td(o))
-    assert float(td["action"]) == pytest.approx(float(p.reflex(o.sonar, torch.tensor(-1.0))))
-    assert p.total_neurons() == 0 and int(td["winner"]) == -1
+def test_greedy_is_deterministic_and_draws_nothing():
+    p = policy()
+    obs = observation()
+    place(p, obs, action=0.2, utility=-1.0, mean=0.05)
+    novel = observation(sonar=0.9)
+    states = [g.get_state() for g in p.generators]
+    drawn = p._drawn
+    with set_exploration_type(GREEDY):
+        first = [p(obs.clone()), p(novel.clone())]
+        second = [p(obs.clone()), p(novel.clone())]
+    assert float(first[0]["action"][0, 0]) == pytest.approx(0.25, abs=1e-6)  # p + mu
+    assert float(first[1]["action"][0, 0]) == pytest.approx(_reflex(p, novel), abs=1e-6)
+    for a, b in zip(first, second, strict=True):
+        for key in ("action", "xi", "sigma", "taken", "winner"):
+            assert torch.equal(a[key], b[key]), key
+        assert float(a["sigma"][0]) == 0.0
+    assert p._drawn == drawn
+    assert all(torch.equal(g.get_state(), s) for g, s in zip(p.generators, states, strict=True))
+    # the next exploring action draws what it would have drawn without the greedy ones
+    fresh = policy()
+    place(fresh, obs, action=0.2, utility=-1.0, mean=0.05)
+    assert torch.equal(p(obs.clone())["xi"], fresh(obs.clone())["xi"])
 
 
-def test_reflex_target_hook_changes_the_new_neurons_action(make_policy):
-    class SubGoal(MixtureOfExpertsPolicy):
-        def reflex_target(self, obs, expert):
-            return 1.0
+def test_greedy_residual_expert_adds_its_correction_to_the_reflex():
+    p = policy("paper", "options.enabled=false", "shield.enabled=false")
+    obs = observation(goal=(4.5, -0.46))
+    place(p, obs, action=0.25)
+    with set_exploration_type(GREEDY):
+        td = p(obs.clone())
+    assert float(td["action"][0, 0]) == pytest.approx(_reflex(p, obs) + 0.25, abs=1e-6)
+    absolute = policy()
+    place(absolute, obs, action=0.25)
+    with set_exploration_type(GREEDY):
+        assert float(absolute(obs.clone())["action"][0, 0]) == pytest.approx(0.25, abs=1e-6)
 
-    base = make_policy()
-    p = SubGoal(base.config, world="hailu2001")
-    o = obs(goal=(4.0, -1.0))
-    p(obs_td(o))
-    assert p.experts[0].rows.actions[0] == pytest.approx(
-        float(p.reflex(o.sonar, torch.tensor(1.0))), abs=1e-6
+
+def test_without_learning_the_reflex_drives():
+    p = policy("reflex_only")
+    obs = observation(sonar=0.03, goal=(3.0, -1.0))
+    td = p(obs.clone())
+    assert float(td["action"][0, 0]) == pytest.approx(_reflex(p, obs), abs=1e-6)
+    assert int(td["winner"][0]) == -1 and float(td["proto"][0]) == 0.0
+    assert float(td["sigma"][0]) == 0.0 and int(p.neurons().sum()) == 0
+
+
+def _facing_the_wall():
+    """A robot 0.14 m (rim) in front of the dividing wall, facing it."""
+    env = BatchedWorldEnv("hailu2001", size=1, seeds=[0], noise=False)
+    env.set_starts(np.array([[3.1, 1.5, 0.0]]))
+    td = env.reset()
+    env.close()
+    return td
+
+
+def test_shield_replaces_a_move_into_a_wall():
+    obs = _facing_the_wall()
+    shielded = policy("paper_literal", "shield.enabled=true")
+    plain = policy("paper_literal")
+    for p in (shielded, plain):
+        place(p, obs, action=0.0)  # the neuron drives straight into the wall
+    with set_exploration_type(GREEDY):
+        a, b = shielded(obs.clone()), plain(obs.clone())
+    assert not bool(b["shielded"][0]) and float(b["action"][0, 0]) == 0.0
+    alpha = float(a["action"][0, 0])
+    assert bool(a["shielded"][0]) and abs(alpha) > math.radians(30)
+    assert float(a["taken"][0]) == pytest.approx(alpha, abs=1e-6)  # the neuron remembers it
+    # in free space the shield changes nothing
+    free = observation()
+    with set_exploration_type(GREEDY):
+        c, d = shielded(free.clone()), plain(free.clone())
+    assert not bool(c["shielded"][0]) and torch.equal(c["action"], d["action"])
+
+
+def test_options_choose_at_the_first_entry_of_a_region_per_trial():
+    p = policy("paper", seeds=(0, 1))
+    room, door = observation(), observation(pose=POSES["door"])
+    both = stack(room, room)
+    td = p(both.clone())
+    assert td["option_entry"].tolist() == [True, True]
+    assert (td["option"] >= 0).all()
+    chosen = td["option"].clone()
+    for _ in range(3):  # the same region again: no new choice, the same option
+        td = p(both.clone())
+        assert td["option_entry"].tolist() == [False, False]
+        assert torch.equal(td["option"], chosen)
+    td = p(stack(door, room))  # robot 0 enters the door region
+    assert td["option_entry"].tolist() == [True, False]
+    td = p(stack(room, room))  # back in the room: the room's choice still holds
+    assert td["option_entry"].tolist() == [False, False] and torch.equal(td["option"], chosen)
+    p.begin_trial(torch.tensor([1]))  # robot 1 starts a new trial: it chooses again
+    td = p(both.clone())
+    assert td["option_entry"].tolist() == [False, True]
+    assert p.options.choice[1].tolist().count(-1) == len(p.region_names) - 1
+    off = policy("paper_literal")(room.clone())
+    assert int(off["option"][0]) == -1 and not bool(off["option_entry"][0])
+
+
+def test_options_steer_the_reflex_at_the_chosen_subgoal():
+    p = policy("paper", "shield.enabled=false", "options.try_untried=false")
+    r = p.region_names.index("room")
+    labels = p.options.labels[r]
+    k = next(i for i, name in enumerate(labels) if name != "goal")
+    p.options.n[0, r] = 1  # everything tried: greedy on q
+    p.options.q[0, r] = -5.0
+    p.options.q[0, r, k] = -1.0
+    obs = observation(goal=(4.5, -0.46))
+    with set_exploration_type(GREEDY):
+        td = p(obs.clone())
+    assert int(td["option"][0]) == k
+    px, py = p.options.points[r, k].tolist()
+    target = math.atan2(py, px)  # from the pose (0, 0, 0)
+    assert float(td["action"][0, 0]) == pytest.approx(_reflex(p, obs, target), abs=1e-5)
+
+
+def test_robot_states_round_trip():
+    p = policy("paper", seeds=(4, 5))
+    for b, (sonar, n) in enumerate(((0.2, 3), (0.7, 70))):  # robot 1 outgrows the capacity
+        for k in range(n):
+            place(p, observation(sonar=sonar + 0.003 * k), action=0.01 * k, utility=-k, row=b)
+    p.temperature[1] = 0.05
+    p.best_total[0] = -9.0
+    p.options.q[1, 0, 1] = -4.5
+    p.options.n[1, 0, 1] = 3
+    single = MixtureOfExpertsPolicy(p.config, p.world, [5])
+    single.load_state_dict(p.robot_state(1))
+    assert single.neurons().tolist() == [p.neurons()[1].tolist()]
+    assert float(single.temperature[0]) == 0.05 and float(single.options.q[0, 0, 1]) == -4.5
+    n = int(p.experts.count[1, 0])
+    assert torch.equal(single.experts.centres[0, 0, :n], p.experts.centres[1, 0, :n])
+    # several controllers side by side, in any order, with different capacities
+    small = MixtureOfExpertsPolicy(p.config, p.world, [4])
+    small.load_state_dict(p.robot_state(0))
+    both = MixtureOfExpertsPolicy.from_robot_states(
+        p.config, p.world, [small.state_dict(), single.state_dict()], seeds=[4, 5]
     )
+    for key, value in p.state_dict().items():
+        assert torch.equal(both.state_dict()[key], value), key
+    swapped = MixtureOfExpertsPolicy.from_robot_states(
+        p.config, p.world, [p.robot_state(1), p.robot_state(0)]
+    )
+    assert swapped.neurons().tolist() == p.neurons().flip(0).tolist()
+    assert swapped.best_total.tolist() == [-math.inf, -9.0]
+    # each robot acts as its controller alone
+    obs = stack(observation(sonar=0.7), observation(sonar=0.2))
+    with set_exploration_type(GREEDY):
+        td = swapped(obs.clone())
+        alone = single(observation(sonar=0.7))
+    assert torch.equal(td["action"][0], alone["action"][0])
+    assert int(td["winner"][0]) == int(alone["winner"][0]) >= 0
 
 
-def test_spec_covers_every_out_key(make_policy):
-    p = make_policy()
-    td = p(obs_td(obs()))
-    assert set(p.spec.keys()) == set(p.out_keys)
-    assert p.spec.is_in(td.select(*p.out_keys))
+def test_a_robots_actions_do_not_depend_on_the_batch():
+    """Robot b of a batch draws and acts as the same seed alone."""
+    obs = [observation(sonar=0.3), observation(sonar=0.6, pose=POSES["door"])]
+    batch = policy("paper", seeds=(11, 12))
+    alone = [policy("paper", seeds=(s,)) for s in (11, 12)]
+    for _ in range(5):
+        td = batch(stack(*obs))
+        for b, p in enumerate(alone):
+            one = p(obs[b].clone())
+            for key in ("action", "xi", "option", "proto"):
+                assert torch.equal(td[key][b], one[key][0]), key

@@ -1,115 +1,270 @@
-"""The training loop end to end: every recipe from the CLI, determinism, checkpoints, specs."""
+"""Training end to end: robot k of a batch is the same run as its seed alone, a short run learns,
+checkpoints round-trip (and every broken file is one clear error), the command line."""
 
 from __future__ import annotations
 
 import csv
+import math
 
 import pytest
 import torch
 
 from symrl.cli import main
+from symrl.evaluate import evaluate
 from symrl.learner.config import load_config
-from symrl.train import evaluate, load_checkpoint, make_env, train
+from symrl.runs import CheckpointError, load_checkpoint, save_checkpoint
+from symrl.train import make_env, train, train_batch
 
-RECIPES = ["paper", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only"]
-SHORT = ["env.max_actions=40"]  # keeps the random-action recipes fast
-
-
-def _scalars(trials):
-    drop = {"wall_time", "path", "ghosts"}
-    return [{k: v for k, v in t.items() if k not in drop} for t in trials]
+SEEDS = (3, 8)
+RECIPE = "paper"  # options, shield and residual experts: every per-robot stream is in play
 
 
-def test_wrapped_env_specs():
+def _config(seed: int, trials: int = 2, recipe: str = RECIPE):
+    return load_config(recipe, [f"run.trials={trials}", f"run.seed={seed}"])
+
+
+def _scalars(trials: list[dict]) -> list[dict]:
+    """Every scalar column of a trial table (the path and the ghosts are lists)."""
+    return [{k: v for k, v in t.items() if not isinstance(v, list)} for t in trials]
+
+
+@pytest.fixture(scope="module")
+def alone():
+    """Each seed trained on its own (a batch of one robot)."""
+    return {seed: train(_config(seed), progress=False) for seed in SEEDS}
+
+
+@pytest.fixture(scope="module")
+def batch():
+    return train_batch(_config(SEEDS[0]), list(SEEDS), progress=False)
+
+
+def test_robot_k_of_a_batch_is_its_seed_alone(alone, batch):
+    for k, seed in enumerate(SEEDS):
+        result = batch[k]
+        assert result.seed == seed and len(result.trials) == 2
+        assert _scalars(result.trials) == _scalars(alone[seed].trials)
+        assert [t["path"] for t in result.trials] == [t["path"] for t in alone[seed].trials]
+        mine, theirs = result.policy.state_dict(), alone[seed].policy.state_dict()
+        assert mine.keys() == theirs.keys()
+        for key in mine:
+            assert torch.equal(mine[key], theirs[key]), key
+
+
+def test_batch_order_does_not_matter(batch):
+    swapped = train_batch(_config(SEEDS[0]), list(reversed(SEEDS)), progress=False)
+    assert [r.seed for r in swapped] == list(reversed(SEEDS))
+    for k in range(len(SEEDS)):
+        assert _scalars(swapped[-1 - k].trials) == _scalars(batch[k].trials)
+
+
+def test_same_seed_same_table_other_seed_other_table(alone):
+    seed = SEEDS[0]
+    again = train(_config(seed), progress=False)
+    assert _scalars(again.trials) == _scalars(alone[seed].trials)
+    assert [t["path"] for t in again.trials] == [t["path"] for t in alone[seed].trials]
+    assert _scalars(alone[SEEDS[1]].trials) != _scalars(alone[seed].trials)
+
+
+def test_trial_records(alone):
+    result = alone[SEEDS[0]]
+    policy = result.policy
+    for n, t in enumerate(result.trials, 1):
+        assert t["trial"] == n and t["steps"] == len(t["path"]) - 1
+        assert t["neurons"] == sum(t[f"neurons_{name}"] for name in policy.expert_names)
+        assert 1 <= len(t["ghosts"]) <= t["steps"]
+        assert t["path_length"] == pytest.approx(t["steps"] * 0.2, rel=0.1)
+        assert isinstance(t["reached_goal"], bool) and t["collisions"] >= 0
+        assert any(key.startswith("option_") for key in t)
+    assert [t["temperature"] for t in result.trials] == pytest.approx([0.085, 0.085 * 0.85])
+    assert result.trials[-1]["neurons"] == int(policy.neurons().sum()) > 0
+    assert policy.batch == 1 and int(policy.trials_done[0]) == 2
+
+
+def test_a_short_run_learns():
+    """The paper recipe: the mean total of trials 4-5 beats trial 1 on each seed."""
+    results = train_batch(_config(0, trials=5), [0, 4], progress=False)
+    for result in results:
+        totals = [t["total_reinforcement"] for t in result.trials]
+        assert sum(totals[3:]) / 2 > totals[0] + 1.5, (result.seed, totals)
+        assert all(t["reached_goal"] for t in result.trials[3:])
+
+
+def test_reflex_only_grows_nothing():
+    result = train(load_config("reflex_only", ["run.trials=1", "env.max_actions=60"]),
+                   progress=False)  # fmt: skip
+    assert result.trials[0]["neurons"] == 0 and result.trials[0]["replaced"] == 0
+
+
+def test_env_specs():
     from torchrl.envs.utils import check_env_specs
 
-    env = make_env(load_config("paper_literal"))
+    env = make_env(load_config("paper"), [0, 1])
     check_env_specs(env, seed=0)
     td = env.reset()
     assert td["true_pose"].dtype == torch.float64 and td["collision"].dtype == torch.bool
+    assert td.batch_size == (2,)
+    env.close()
 
 
-@pytest.mark.parametrize("recipe", RECIPES)
-def test_every_recipe_trains_from_the_command_line(recipe, tmp_path, capsys):
-    out = tmp_path / recipe
-    assert main(["train", recipe, "--trials", "2", "--logdir", str(out), *SHORT]) == 0
-    for name in ("trials.csv", "config.yaml", "checkpoint.pt", "trajectory.png"):
+# -- checkpoints ----------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def checkpoint(alone, tmp_path_factory):
+    seed = SEEDS[0]
+    path = tmp_path_factory.mktemp("ckpt") / "checkpoint.pt"
+    save_checkpoint(path, alone[seed].policy, alone[seed].config, seed)
+    return path
+
+
+def test_checkpoint_round_trip_gives_the_same_greedy_record(alone, checkpoint):
+    result = alone[SEEDS[0]]
+    policy, config = load_checkpoint(checkpoint)
+    assert config == result.config
+    saved = result.policy.state_dict()
+    for key, value in policy.state_dict().items():
+        assert torch.equal(value, saved[key]), key
+    assert policy.options is not None and policy.shield is not None
+    assert policy.reflex.config == result.config.reflex
+    loaded = evaluate(policy, config, seed=5)
+    in_memory = evaluate(result.policy, result.config, seed=5)
+    assert loaded == in_memory
+    assert policy.neurons().tolist() == result.policy.neurons().tolist()  # greedy grows nothing
+    # other starts, side by side in one batch
+    starts = [None, (0.0, 1.0, 0.5)]
+    assert evaluate(policy, config, starts=starts, seed=5)[0] == loaded[0]
+
+
+def _broken(tmp_path, name: str, content: bytes) -> str:
+    path = tmp_path / name
+    path.write_bytes(content)
+    return str(path)
+
+
+def _rewritten(checkpoint, tmp_path, name: str, change) -> str:
+    data = torch.load(checkpoint, weights_only=True)
+    change(data)
+    path = tmp_path / name
+    torch.save(data, path)
+    return str(path)
+
+
+def _assert_one_line_error(path: str, *words: str) -> None:
+    with pytest.raises(CheckpointError) as err:
+        load_checkpoint(path)
+    message = str(err.value)
+    assert path in message and "\n" not in message, message
+    for word in words:
+        assert word in message, message
+
+
+def test_unreadable_checkpoint_files(checkpoint, tmp_path):
+    whole = checkpoint.read_bytes()
+    g = torch.Generator().manual_seed(0)
+    noise = bytes(torch.randint(0, 256, (4096,), generator=g, dtype=torch.uint8).tolist())
+    _assert_one_line_error(_broken(tmp_path, "truncated.pt", whole[: len(whole) // 2]))
+    _assert_one_line_error(_broken(tmp_path, "empty.pt", b""))
+    _assert_one_line_error(_broken(tmp_path, "random.pt", noise))
+    _assert_one_line_error(_broken(tmp_path, "text.pt", b"config: 1\n"))
+    _assert_one_line_error(str(tmp_path / "missing.pt"), "no such file")
+    other = tmp_path / "other.pt"
+    torch.save({"weights": torch.zeros(3)}, other)
+    _assert_one_line_error(str(other), "not written by symrl")
+
+
+def test_checkpoint_whose_weights_do_not_fit_its_config(checkpoint, tmp_path):
+    def codes(data):
+        data["config"]["experts"]["goal_codes"] = 4
+
+    def partition(data):
+        data["config"]["gate"]["partition"] = False
+
+    def missing(data):
+        del data["policy"]["temperature"]
+
+    for change in (codes, partition, missing):
+        path = _rewritten(checkpoint, tmp_path, f"{change.__name__}.pt", change)
+        _assert_one_line_error(path, "do not match")
+
+
+def test_checkpoint_with_non_finite_weights(checkpoint, tmp_path):
+    def nan(data):
+        data["policy"]["experts.utilities"][0, 0, 0] = math.nan
+
+    def inf(data):
+        data["policy"]["experts.centres"][0, 0, 0, 0] = math.inf
+
+    def nan_best(data):
+        data["policy"]["best_total"][0] = math.nan
+
+    for change, key in ((nan, "experts.utilities"), (inf, "experts.centres"),
+                        (nan_best, "best_total")):  # fmt: skip
+        path = _rewritten(checkpoint, tmp_path, f"{change.__name__}.pt", change)
+        _assert_one_line_error(path, "non-finite", key)
+
+
+def test_checkpoint_with_a_bad_config_or_format(checkpoint, tmp_path):
+    def unknown_key(data):
+        data["config"]["update"]["gama"] = 0.9
+
+    def old_format(data):
+        data["format"] = 1
+
+    path = _rewritten(checkpoint, tmp_path, "key.pt", unknown_key)
+    _assert_one_line_error(path, "update.gama")
+    _assert_one_line_error(_rewritten(checkpoint, tmp_path, "old.pt", old_format), "format 1")
+
+
+def test_checkpoint_with_malformed_entries(checkpoint, tmp_path):
+    def config_not_a_mapping(data):
+        data["config"] = "paper"
+
+    def policy_not_a_mapping(data):
+        data["policy"] = [1, 2]
+
+    def seed_not_a_number(data):
+        data["seed"] = "abc"
+
+    for change in (config_not_a_mapping, policy_not_a_mapping, seed_not_a_number):
+        _assert_one_line_error(_rewritten(checkpoint, tmp_path, f"{change.__name__}.pt", change))
+
+
+# -- the command line -----------------------------------------------------------------------
+
+
+def test_train_command_writes_the_run_folder(tmp_path, capsys):
+    out = tmp_path / "run"
+    args = ["train", "paper", "--trials", "2", "--seed", "1", "--logdir", str(out)]
+    assert main(args) == 0
+    for name in ("config.yaml", "trials.csv", "checkpoint.pt", "trajectory.png"):
         assert (out / name).is_file(), name
     assert list((out / "tb").glob("events.out.tfevents.*"))
     with open(out / "trials.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert [r["trial"] for r in rows] == ["1", "2"]
-    assert {"steps", "total_reinforcement", "collisions", "reached_goal", "neurons",
-            "temperature", "wall_time", "path_length"} <= set(rows[0])  # fmt: skip
-    assert recipe in capsys.readouterr().out
-    if recipe == "reflex_only":
-        assert rows[-1]["neurons"] == "0"
-
-
-def test_bad_override_is_a_clean_cli_error(tmp_path, capsys):
-    assert main(["train", "paper", "learner.gama=1", "--logdir", str(tmp_path)]) == 2
-    assert "learner.gama" in capsys.readouterr().err
-
-
-def test_same_seed_same_trials_table():
-    config = load_config("paper_literal", ["run.trials=3", "run.seed=7"])
-    a = train(config, progress=False).trials
-    b = train(config, progress=False).trials
-    assert _scalars(a) == _scalars(b)
-    assert [t["path"] for t in a] == [t["path"] for t in b]
-    c = train(load_config("paper_literal", ["run.trials=3", "run.seed=8"]), progress=False)
-    assert _scalars(c.trials) != _scalars(a)
-
-
-def test_trial_records(tmp_path):
-    result = train(load_config("paper_literal", ["run.trials=2"]), progress=False)
-    for n, t in enumerate(result.trials, 1):
-        assert t["trial"] == n and t["steps"] == len(t["path"]) - 1
-        assert t["neurons"] == sum(t[f"neurons_{r}"] for r in result.policy.expert_names)
-        assert 1 <= len(t["ghosts"]) <= t["steps"]
-    assert result.trials[0]["temperature"] == pytest.approx(0.3)
-    assert result.trials[1]["temperature"] == pytest.approx(0.3 * 0.85)
-
-
-def test_checkpoint_round_trip_gives_the_same_greedy_trajectory(tmp_path):
-    out = tmp_path / "run"
-    train(load_config("paper_literal", ["run.trials=2"]), logdir=out, progress=False)
+    assert {"steps", "total_reinforcement", "collisions", "shielded", "reached_goal", "neurons",
+            "temperature", "replaced", "path_length", "neurons_room",
+            "option_room"} <= set(rows[0])  # fmt: skip
+    assert "paper (seed 1)" in capsys.readouterr().out
     policy, config = load_checkpoint(out / "checkpoint.pt")
-    again, _ = load_checkpoint(out / "checkpoint.pt")
-    assert policy.neurons() == again.neurons() and policy.total_neurons() > 0
-    a = evaluate(policy, seed=3, config=config)
-    b = evaluate(out / "checkpoint.pt", seed=3)
-    assert a["path"] == b["path"] and a["total_reinforcement"] == b["total_reinforcement"]
-    assert policy.neurons() == again.neurons()  # greedy evaluation grows nothing
+    assert config.run.seed == 1 and config.run.trials == 2
+    assert int(policy.neurons().sum()) == int(rows[-1]["neurons"])
+    # the folder holds a run: refused unless --overwrite
+    assert main(args) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    again = ["train", "reflex_only", "--trials", "1", "--logdir", str(out), "env.max_actions=5"]
+    assert main([*again, "--overwrite"]) == 0
+    with open(out / "trials.csv") as fh:
+        assert [r["steps"] for r in csv.DictReader(fh)] == ["5"]
 
 
-def test_checkpoint_keeps_the_recipe_reflex_and_shield(tmp_path):
-    out = tmp_path / "run"
-    config = load_config("paper", ["run.trials=1"])
-    train(config, logdir=out, progress=False)
-    policy, loaded = load_checkpoint(out / "checkpoint.pt")
-    assert loaded.reflex == config.reflex and policy.reflex.config == config.reflex
-    assert policy.shield is not None and policy.options is not None
-
-
-def test_evaluate_command(tmp_path, capsys):
-    out = tmp_path / "run"
-    train(load_config("paper_literal", ["run.trials=1"]), logdir=out, progress=False)
-    code = main(["evaluate", str(out / "checkpoint.pt"), "--start", "0,0.5,0", "--out", str(out)])
-    assert code == 0 and (out / "evaluate.png").is_file()
-    assert "greedy trial" in capsys.readouterr().out
-
-
-def test_trials_csv_takes_the_union_of_columns(tmp_path):
-    from symrl.train import write_trials_csv
-
-    write_trials_csv(
-        tmp_path / "t.csv",
-        [{"trial": 1, "steps": 30, "path": [(0, 0)]}, {"trial": 2, "steps": 31, "extra": 0.5}],
-    )
-    with open(tmp_path / "t.csv") as fh:
-        rows = list(csv.DictReader(fh))
-    assert rows == [
-        {"trial": "1", "steps": "30", "extra": ""},
-        {"trial": "2", "steps": "31", "extra": "0.5"},
-    ]
+def test_train_command_errors_and_help_keys(tmp_path, capsys):
+    assert main(["train", "paper", "update.gama=1", "--logdir", str(tmp_path / "x")]) == 2
+    assert "update.gama" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+    assert main(["train", "--logdir", str(tmp_path / "y")]) == 2
+    assert "RECIPE" in capsys.readouterr().err
+    assert main(["train", "--help-keys"]) == 0
+    text = capsys.readouterr().out
+    assert "update.gamma = 0.95" in text and "options.critic" in text
