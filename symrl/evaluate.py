@@ -60,7 +60,8 @@ def evaluate(
     starts = list(starts) if starts else [None]
     world = world if world is not None else policy.world
     copies = MixtureOfExpertsPolicy.from_robot_states(
-        policy.config, world, [policy.state_dict()] * len(starts), [seed] * len(starts)
+        policy.config, world, [policy.state_dict()] * len(starts), [seed] * len(starts),
+        policy.subgoals if world is policy.world else None,
     )
     cfg = config.model_copy(update={"env": config.env.model_copy(update={"noise": noise})})
     env = make_env(cfg, [seed + k for k in range(len(starts))], world=world)

@@ -1,14 +1,24 @@
-"""Online training of B independent robots in one TorchRL Collector loop (``symrl train``).
+"""Online training of B independent robots in one TorchRL loop (``symrl train``).
 
 Readable top to bottom:
 
     env  = BatchedWorldEnv(B robots, robot b seeded seeds[b])      the world, batch [B]
     policy = MixtureOfExpertsPolicy(config, seeds)                  acts (gate, experts, reflex)
     loss = TeseoLoss(policy)                                        learns (TESEO update)
-    for td in Collector(env, policy, frames_per_batch=B):           one step of every robot
+    td = env.reset()
+    loop:
+        policy(td)                                                  every robot acts
+        td, next_td = env.step_and_maybe_reset(td)                  step; restart ended trials
         loss(td)                                                    per-transition update
         for robots whose trial ended: loss.end_trial, policy.begin_trial, record the trial
-        (the Collector resets those robots, TorchRL's partial reset)
+        td = next_td
+
+``step_and_maybe_reset`` is the primitive TorchRL's own Collector and ``env.rollout`` step
+with (partial resets of the robots that are done). The Collector around it would add a copy of
+every transition into its batch buffer, a device move and a reshape per step (about 40 % of
+the loop at B = 1, measured with ``benchmarks/bench_train.py``) that an online update, which
+consumes each transition once, does not need. The update of a transition runs before the
+policy acts on its next state: the paper's "adapt the previous winner before acting".
 
 Robot b is the same run as ``symrl train RECIPE --seed seeds[b]`` alone: its world, its
 exploration and its option choices draw from its own streams, and every batched operation
@@ -90,6 +100,7 @@ class TrialRecorder:
         self.collisions += nxt.get("collision").reshape(-1).numpy()
         self.shielded += td.get("shielded").numpy()
         self.td_error += td_error.abs().numpy()
+        self.reached = nxt.get("reached_goal").reshape(-1)
         self._poses.append(nxt.get("true_pose")[:, :2].numpy().copy())
         expert, winner = td.get("expert").numpy(), td.get("winner").numpy()
         self._winners.append(expert * 1_000_003 + winner)
@@ -158,7 +169,7 @@ def train_batch(
     ``on_trial(b, record, policy)`` is called after every finished trial (logging, CSV rows).
     Returns one :class:`TrainResult` per seed, each with its final controller as a B = 1 policy.
     """
-    from torchrl.collectors import Collector
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
     from tqdm.auto import tqdm
 
     from symrl.learner.loss import TeseoLoss
@@ -169,12 +180,6 @@ def train_batch(
     env = make_env(config, seeds, world=world)
     policy = MixtureOfExpertsPolicy(config, env.world, seeds)
     loss = TeseoLoss(policy)
-    collector = Collector(
-        env, policy, frames_per_batch=batch, total_frames=-1,
-        track_traj_ids=False,  # trials are delimited by "done"
-        return_same_td=True,  # each batch is consumed before the next step: no copy
-        auto_register_policy_transforms=False,
-    )  # fmt: skip
     recorder = TrialRecorder(batch)
     trials: list[list[dict[str, Any]]] = [[] for _ in seeds]
     finals: list[dict[str, torch.Tensor] | None] = [None] * batch
@@ -182,18 +187,23 @@ def train_batch(
     bar = tqdm(total=n_trials * batch, desc=label, unit="trial", disable=not progress)
     started, cpu_started = time.perf_counter(), time.process_time()
     frames = 0
+    exploring = set_exploration_type(ExplorationType.RANDOM)  # the policy draws its noise
+    exploring.__enter__()
     try:
-        for td in collector:
-            td = td.squeeze(-1) if td.batch_dims == 2 else td
+        td = env.reset()
+        while True:
+            policy(td)
+            td, next_td = env.step_and_maybe_reset(td)
             stats = loss(td)
             frames += batch
             done = recorder.step(td, stats.get("td_error"))
+            td = next_td
             if not done.any():
                 continue
             rows = torch.from_numpy(np.flatnonzero(done))
             records = [recorder.finish(int(b)) for b in rows]
             totals = torch.tensor([r["total_reinforcement"] for r in records])
-            reached = td.get(("next", "reached_goal")).reshape(-1)[rows]
+            reached = recorder.reached[rows]
             out = loss.end_trial(rows, totals, reached)
             for j, b in enumerate(rows.tolist()):
                 if finals[b] is not None:
@@ -214,15 +224,15 @@ def train_batch(
             if all(f is not None for f in finals):
                 break
     finally:
+        exploring.__exit__(None, None, None)
         bar.close()
-        collector.shutdown()
         env.close()
     elapsed, cpu = time.perf_counter() - started, time.process_time() - cpu_started
     timings = {"seconds": elapsed, "cpu_seconds": cpu, "frames": frames,
                "robots": batch, "steps_per_second": frames / max(elapsed, 1e-9)}  # fmt: skip
     results = []
     for b, seed in enumerate(seeds):
-        single = MixtureOfExpertsPolicy(config, env.world, [seed])
+        single = MixtureOfExpertsPolicy(config, env.world, [seed], policy.subgoals)
         single.load_state_dict(finals[b])  # type: ignore[arg-type]
         results.append(TrainResult(config, seed, trials[b], single, timings))
     return results

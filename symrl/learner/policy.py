@@ -37,6 +37,7 @@ from torchrl.envs.utils import ExplorationType, exploration_type
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.shield import IRShield, ShieldConfig
+from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
@@ -100,7 +101,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         config: RunConfig,
         world: WorldMap | None = None,
         seeds: list[int] | None = None,
+        subgoals: SubgoalTable | None = None,
     ) -> None:
+        """``subgoals``: the map's sub-goal table if already built (it is derived from the map
+        and ``config.options`` alone; building it takes tens of milliseconds)."""
         super().__init__()
         self.config = config
         self.world = world if world is not None else load_map(config.env.map)
@@ -118,7 +122,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             names=self.expert_names,
         )  # fmt: skip
         self.options = (
-            SubgoalOptions(self.world, batch, config.options, self.seeds)
+            SubgoalOptions(self.world, batch, config.options, self.seeds, subgoals)
             if config.options.enabled
             else None
         )
@@ -144,6 +148,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self._zeros_long = torch.zeros(batch, dtype=torch.long)
         self._no_option = torch.full((batch,), -1, dtype=torch.long)
         self._no_entry = torch.zeros(batch, dtype=torch.bool)
+
+    @property
+    def subgoals(self) -> SubgoalTable | None:
+        """The sub-goal table in use (None without options)."""
+        return self.options.table if self.options is not None else None
 
     @property
     def batch(self) -> int:
@@ -274,11 +283,12 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         world: WorldMap,
         states: list[dict[str, torch.Tensor]],
         seeds: list[int] | None = None,
+        subgoals: SubgoalTable | None = None,
     ) -> MixtureOfExpertsPolicy:
         """One policy whose robot b is the controller ``states[b]`` (from :meth:`robot_state`
         or a one-robot policy's state dict): evaluate several controllers side by side."""
         seeds = list(seeds) if seeds is not None else [0] * len(states)
-        policy = cls(config, world, seeds)
+        policy = cls(config, world, seeds, subgoals)
         merged = {}
         for key, value in states[0].items():
             if key.startswith("experts.") or key in _PER_ROBOT:
