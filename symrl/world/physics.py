@@ -281,7 +281,7 @@ class RobotBatch:
             raise ValueError(f"step: need {self.size} actions, one per robot, got {alpha.size}")
         if not np.isfinite(alpha).all():
             b = int(np.argmin(np.isfinite(alpha)))
-            raise ValueError(f"step: the action of robot {b} must be finite, got {alpha[b]!r}")
+            raise ValueError(f"step: the action of robot {b} must be finite, got {float(alpha[b])}")
         alpha = np.minimum(np.maximum(alpha, -_PI), _PI)
         x0, y0, h0 = self._x, self._y, self._h
         if self._noisy:  # one draw per robot and step: rotation, translation, the n sonars
