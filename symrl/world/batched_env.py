@@ -179,8 +179,8 @@ class BatchedWorldEnv(EnvBase):
         alpha = action.detach().reshape(self.size).to("cpu", torch.float64).numpy()
         r = self.physics.step(alpha, self._rngs)
         out = self._arrays(r)
-        out["terminated"] = r.reached_goal[:, None].copy()
-        out["truncated"] = r.truncated[:, None]
+        out["terminated"] = r.reached_goal.reshape(-1, 1).copy()
+        out["truncated"] = r.truncated.reshape(-1, 1)
         out["done"] = out["terminated"] | out["truncated"]
         self._last = out
         return self._tensordict(out)
@@ -189,7 +189,9 @@ class BatchedWorldEnv(EnvBase):
 
     def _arrays(self, r: Readings) -> dict[str, np.ndarray]:
         """Numpy outputs of one reset or step (rows of ``r``); torch shares their memory."""
-        reward = r.reward.astype(np.float32)[:, None]
+        # (k, 1) by reshape, not [:, None]: numpy gives a new axis stride 0, which some torch
+        # kernels (torch.stack(..., out=) in the Collector) cannot take
+        reward = r.reward.astype(np.float32).reshape(-1, 1)
         return {
             "sonar": r.sonar,
             "ir": r.ir,
@@ -198,8 +200,8 @@ class BatchedWorldEnv(EnvBase):
             "goal": r.goal,
             "state_reward": reward,
             "reward": reward.copy(),
-            "collision": r.collision[:, None],
-            "reached_goal": r.reached_goal[:, None],
+            "collision": r.collision.reshape(-1, 1),
+            "reached_goal": r.reached_goal.reshape(-1, 1),
             "true_pose": r.true_pose,
         }
 

@@ -420,7 +420,7 @@ class RobotBatch:
         return Readings(
             sonar=(sonar * (1.0 / self.robot.sonar_range)).astype(f32),
             ir=refl.astype(f32),
-            bumper=real.astype(f32)[:, None],
+            bumper=real.astype(f32).reshape(-1, 1),  # not [:, None]: torch dislikes stride 0
             odometry=_columns(xo, yo, ho, f32),
             goal=goal,
             reward=f1 + f2,
