@@ -298,12 +298,12 @@ class Hailu2001Env(gymnasium.Env):
 
     def _info(self, r: Readings, stepped: bool) -> dict[str, Any]:
         """The info dict; after a reset the flags are False and f1 = f2 = 0."""
-        return {
+        return {  # indexing a numpy array gives numpy scalars (np.bool_, np.float64)
             "true_pose": r.true_pose[0],
-            "collision": np.bool_(r.collision[0]),
-            "real_collision": np.bool_(r.real_collision[0]),
-            "virtual_collision": np.bool_(r.virtual_collision[0]),
-            "f1": np.float64(r.f1[0] if stepped else 0.0),
-            "f2": np.float64(r.f2[0] if stepped else 0.0),
-            "reached_goal": np.bool_(r.reached_goal[0]),
+            "collision": r.collision[0],
+            "real_collision": r.real_collision[0],
+            "virtual_collision": r.virtual_collision[0],
+            "f1": r.f1[0] if stepped else np.float64(0.0),
+            "f2": r.f2[0] if stepped else np.float64(0.0),
+            "reached_goal": r.reached_goal[0],
         }
