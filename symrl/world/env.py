@@ -227,8 +227,7 @@ class Hailu2001Env(gymnasium.Env):
         r = self._batch.step(np.array([alpha]), (self.np_random,))
         x1, y1 = r.true_pose[0, :2].tolist()
         self.path.append((x1, y1))
-        xo, yo = self._batch.odometry_pose[0, :2].tolist()
-        self.odometry_path.append((xo, yo))
+        self.odometry_path.append(self._batch.odometry_xy(0))
         obs = self._observation(r)
         info = self._info(r, True)
         if self.render_mode == "human":

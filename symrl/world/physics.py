@@ -166,6 +166,10 @@ class RobotBatch:
         """(B, 3) float64: the true poses (x, y, heading), headings in [-pi, pi]."""
         return _columns(self._x, self._y, self._h)
 
+    def odometry_xy(self, b: int) -> tuple[float, float]:
+        """Robot b's odometry position as floats (for the Gymnasium env's ``odometry_path``)."""
+        return float(self._xo[b]), float(self._yo[b])
+
     @property
     def odometry_pose(self) -> np.ndarray:
         """(B, 3) float64: the poses the robots believe."""
@@ -436,21 +440,26 @@ class RobotBatch:
         reached = math.hypot(x1 - gx, y1 - gy) <= gr
         truncated = not reached and int(self.actions_taken[0]) >= self.max_actions
         f32 = np.float32
+        goal_angle = (angle - ho + _PI) % _TWO_PI - _PI
+        # one array per dtype, sliced into the fields (fewer numpy calls)
+        obs = np.array([[xo, yo, ho, math.hypot(dx, dy), goal_angle, float(real)]], f32)
+        values = np.array([[f1 + f2, f1, f2, x1, y1, h1]])
+        flags = np.array([[collision, real, virtual, reached, truncated]])
         return Readings(
             sonar=(sonar * (1.0 / robot.sonar_range)).astype(f32),
             ir=refl.astype(f32),
-            bumper=np.array([[1.0 if real else 0.0]], f32),
-            odometry=np.array([[xo, yo, ho]], f32),
-            goal=np.array([[math.hypot(dx, dy), (angle - ho + _PI) % _TWO_PI - _PI]], f32),
-            reward=np.array([f1 + f2]),
-            f1=np.array([f1]),
-            f2=np.array([f2]),
-            collision=np.array([collision]),
-            real_collision=np.array([real]),
-            virtual_collision=np.array([virtual]),
-            reached_goal=np.array([reached]),
-            truncated=np.array([truncated]),
-            true_pose=np.array([[x1, y1, h1]]),
+            bumper=obs[:, 5:6],
+            odometry=obs[:, 0:3],
+            goal=obs[:, 3:5],
+            reward=values[:, 0],
+            f1=values[:, 1],
+            f2=values[:, 2],
+            collision=flags[:, 0],
+            real_collision=flags[:, 1],
+            virtual_collision=flags[:, 2],
+            reached_goal=flags[:, 3],
+            truncated=flags[:, 4],
+            true_pose=values[:, 3:6],
         )
 
     # --- internals -------------------------------------------------------------------------
