@@ -176,7 +176,7 @@ class BatchedWorldEnv(EnvBase):
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         action = tensordict.get("action")
-        alpha = action.detach().reshape(self.size).to("cpu", torch.float64).numpy()
+        alpha = action.detach().cpu().numpy().reshape(self.size)  # float32; widened exactly
         r = self.physics.step(alpha, self._rngs)
         out = self._arrays(r)
         out["terminated"] = r.reached_goal.reshape(-1, 1).copy()
