@@ -406,9 +406,8 @@ class RobotBatch:
         rays, sectors, clear = walls.scan(
             x1, y1, h1, self._sonar_offsets, self.n_sensors, self._cast_range, self._ir_reach, near
         )
-        rim, refl = self._rim_refl(
-            rays[None], None if sectors is None else sectors[None], np.array([clear])
-        )
+        # (the scalar scan gives sectors only within IR range: no row to blank)
+        rim, refl = self._rim_refl(rays[None], None if sectors is None else sectors[None], None)
         self._x[0], self._y[0], self._h[0] = x1, y1, h1  # private, never handed out
         self._ex, self._ey, self._clear[0] = near[0][None], near[1][None], clear
 
@@ -480,10 +479,11 @@ class RobotBatch:
         return rim, refl, clear
 
     def _rim_refl(
-        self, rays: np.ndarray, sectors: np.ndarray | None, clear: np.ndarray
+        self, rays: np.ndarray, sectors: np.ndarray | None, clear: np.ndarray | None
     ) -> tuple[np.ndarray, np.ndarray]:
         """Sonar rim distances (the nearest sub-ray of a cone) and IR reflectances ``(k, n)``
-        from the ray distances ``(k, R)``, sector distances ``(k, n)`` and clearances ``(k,)``."""
+        from the ray distances ``(k, R)``, sector distances ``(k, n)`` and clearances ``(k,)``
+        (rows at or beyond IR range read 0; ``None``: no such row)."""
         robot = self.robot
         n = self.n_sensors
         if self._cone_rays > 1:
@@ -494,7 +494,8 @@ class RobotBatch:
         r = robot.ir_range
         d = np.minimum(np.maximum(sectors - robot.radius, 0.0), r)
         refl = 100.0 * (1.0 - d * (1.0 / r)) ** 3
-        refl[clear >= self._ir_reach] = 0.0  # rows with nothing within IR range read 0
+        if clear is not None:
+            refl[clear >= self._ir_reach] = 0.0  # rows with nothing within IR range read 0
         return rim, refl
 
     def _f1(self, sonar: np.ndarray, collision: np.ndarray) -> np.ndarray:
