@@ -105,6 +105,9 @@ class Hailu2001Env(gymnasium.Env):
     `virtual_collision` is an IR reflectance above 70 after a move that made no contact. After
     `reset` the flags are False and `f1 = f2 = 0`.
 
+    The physics is `symrl.world.physics.RobotBatch` with B = 1 (`BatchedWorldEnv`, the TorchRL
+    training env, steps B robots with the same model and the same per-robot random streams).
+
     Attributes: `world` (`WorldMap`), `robot` (`RobotConfig`), `true_pose` and `odometry_pose`
     ((3,) float64), `path` and `odometry_path` (lists of (x, y) since the reset, start included),
     `actions_taken`; `sense(x, y, heading)` gives the noise-free sonar rim distances and IR

@@ -17,8 +17,11 @@ Robot b's trajectory is bitwise the same whatever B is and wherever b sits in th
 operation is element-wise or a per-row reduction (min/max, exact in any order), the ray cast's
 matrix product is one BLAS call per row, and the few transcendental functions whose numpy SIMD
 loops round differently from the C library (atan2, hypot, pow) go through ``math`` per element,
-as the original scalar model did. So the B = 1 batch (the Gymnasium env) reproduces the scalar
-model's trajectories exactly.
+as the original scalar model did. A batch of one takes a float lane (:meth:`RobotBatch.step`
+on Python floats and the scalar ``Walls`` methods, the same operations in the same order), since
+numpy's per-call overhead dominates a single robot; the tests hold it bitwise equal to the array
+lane (a robot alone against the same robot inside larger batches) and to the trajectories of the
+scalar model the Gymnasium env had before, which it reproduces exactly.
 """
 
 from __future__ import annotations
@@ -289,6 +292,8 @@ class RobotBatch:
         if not np.isfinite(alpha).all():
             b = int(np.argmin(np.isfinite(alpha)))
             raise ValueError(f"step: the action of robot {b} must be finite, got {float(alpha[b])}")
+        if len(rngs) != self.size:
+            raise ValueError(f"step: need {self.size} generators, one per robot, got {len(rngs)}")
         if self.size == 1:
             return self._step_one(float(alpha[0]), rngs[0])
         alpha = np.minimum(np.maximum(alpha, -_PI), _PI)
