@@ -21,17 +21,20 @@ def actions(values) -> TensorDict:
     return TensorDict({"action": values}, batch_size=[len(values)])
 
 
-def test_check_env_specs_and_shapes():
-    env = BatchedWorldEnv(size=3, seeds=[0, 1, 2])
+@pytest.mark.parametrize("size", [1, 3])  # a batch of one takes the physics' float lane
+def test_check_env_specs_and_shapes(size):
+    env = BatchedWorldEnv(size=size, seeds=range(size))
     check_env_specs(env)
     td = env.reset()
-    assert td.batch_size == torch.Size([3])
-    assert td["sonar"].shape == (3, 24) and td["sonar"].dtype == torch.float32
-    assert td["true_pose"].shape == (3, 3) and td["true_pose"].dtype == torch.float64
-    assert td["state_reward"].shape == (3, 1) and td["collision"].dtype == torch.bool
+    assert td.batch_size == torch.Size([size])
+    assert td["sonar"].shape == (size, 24) and td["sonar"].dtype == torch.float32
+    assert td["true_pose"].shape == (size, 3) and td["true_pose"].dtype == torch.float64
+    assert td["state_reward"].shape == (size, 1) and td["collision"].dtype == torch.bool
     td = env.rand_step(td)
-    assert td["next", "reward"].shape == (3, 1) and td["next", "done"].shape == (3, 1)
+    assert td["next", "reward"].shape == (size, 1) and td["next", "done"].shape == (size, 1)
     assert torch.equal(td["next", "reward"], td["next", "state_reward"])
+    # no stride-0 axis (torch.stack(..., out=) in the Collector cannot take one)
+    assert all(0 not in v.stride() for v in td["next"].values())
 
 
 def test_robot_b_follows_the_gym_env_seeded_with_its_seed():
