@@ -289,13 +289,13 @@ class RobotBatch:
         alpha = np.asarray(alpha, dtype=np.float64).reshape(-1)
         if alpha.shape != (self.size,):
             raise ValueError(f"step: need {self.size} actions, one per robot, got {alpha.size}")
+        if len(rngs) != self.size:
+            raise ValueError(f"step: need {self.size} generators, one per robot, got {len(rngs)}")
+        if self.size == 1 and math.isfinite(a := float(alpha[0])):
+            return self._step_one(a, rngs[0])
         if not np.isfinite(alpha).all():
             b = int(np.argmin(np.isfinite(alpha)))
             raise ValueError(f"step: the action of robot {b} must be finite, got {float(alpha[b])}")
-        if len(rngs) != self.size:
-            raise ValueError(f"step: need {self.size} generators, one per robot, got {len(rngs)}")
-        if self.size == 1:
-            return self._step_one(float(alpha[0]), rngs[0])
         alpha = np.minimum(np.maximum(alpha, -_PI), _PI)
         x0, y0, h0 = self._x, self._y, self._h
         if self._noisy:  # one draw per robot and step: rotation, translation, the n sonars
