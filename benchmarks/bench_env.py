@@ -1,10 +1,12 @@
-"""How fast is the world? Raw `Hailu2001Env.step` (noise on), sensing alone, and baselines.
+"""How fast is the world? `Hailu2001Env`, `BatchedWorldEnv` at B = 1, 10, 100, sensing, baselines.
 
 The machine is shared, so absolute numbers drift. To keep them comparable the measurements are
 interleaved (round robin over the cases, best of ``--repeats`` rounds), timed in CPU time of this
 process (``time.process_time``, which ignores the time other processes hold the cores), and also
 printed as ratios to baselines measured in the same run (gymnasium's CartPole-v1 step and a
-trivial numpy step).
+trivial numpy step). The batched env is counted in robot-steps (B per ``env.step``), driven by a
+fixed action tensor through ``env.step`` and ``env.step_and_maybe_reset`` (TorchRL's rollout
+loop, with per-robot resets), so the figure includes TorchRL's per-step overhead.
 
     python benchmarks/bench_env.py [--steps 5000] [--repeats 5]
 """
@@ -18,7 +20,9 @@ from collections.abc import Callable
 
 import gymnasium
 import numpy as np
+import torch
 
+from symrl.world.batched_env import BatchedWorldEnv
 from symrl.world.env import Hailu2001Env
 
 
@@ -56,6 +60,22 @@ def sense_loop(env: Hailu2001Env) -> Callable[[int], None]:
     def run(n: int) -> None:
         for k in range(n):
             env.sense(*poses[k % 512])
+
+    return run
+
+
+def batched_loop(size: int) -> Callable[[int], None]:
+    """``env.step_and_maybe_reset`` with random actions fixed in advance; ``fn(n)`` makes
+    ``n // size`` batch steps, i.e. about n robot-steps."""
+    env = BatchedWorldEnv(size=size, seeds=list(range(size)))
+    gen = torch.Generator().manual_seed(0)
+    actions = (torch.rand(64, size, 1, generator=gen) * 2.0 - 1.0) * math.pi
+
+    def run(n: int) -> None:
+        td = env.reset()
+        for k in range(max(n // size, 1)):
+            td.set("action", actions[k % 64])
+            _, td = env.step_and_maybe_reset(td)
 
     return run
 
@@ -104,6 +124,8 @@ def main() -> None:
             Hailu2001Env(robot={"sonar_cone_deg": 25.0})
         ),
     }
+    for size in (1, 10, 100):
+        cases[f"BatchedWorldEnv B={size:<3d} robot-steps, noise on, random"] = batched_loop(size)
     rates = dict.fromkeys(cases, 0.0)
     for _ in range(rep):  # round robin, so every case sees the same mix of machine load
         for name, fn in cases.items():
@@ -113,7 +135,8 @@ def main() -> None:
     print(f"{'what':52s} {'calls/cpu-s':>11s} {'us/call':>8s} {'x CartPole':>10s} {'x no-op':>8s}")
     for name, rate in rates.items():
         print(f"{name:52s} {rate:11.0f} {1e6 / rate:8.1f} {cart / rate:10.1f} {noop / rate:8.1f}")
-    print("(x CartPole / x no-op: how many times slower than that baseline, same run)")
+    print("(x CartPole / x no-op: how many times slower than that baseline, same run;")
+    print(" BatchedWorldEnv rows count robot-steps: B per env.step)")
 
 
 if __name__ == "__main__":

@@ -30,12 +30,6 @@ __all__ = ["BatchedWorldEnv"]
 _OBS_KEYS = ("sonar", "ir", "bumper", "odometry", "goal")
 
 
-def _strided(array: np.ndarray) -> np.ndarray:
-    """A copy if ``array`` has a zero stride (``x[:, None]``): torch's stack into the Collector's
-    buffers crashes (SIGFPE) on zero-stride inputs."""
-    return array.copy() if 0 in array.strides else array
-
-
 class BatchedWorldEnv(EnvBase):
     """B robots in one world, one TorchRL env with ``batch_size=[B]`` (CPU).
 
@@ -182,11 +176,11 @@ class BatchedWorldEnv(EnvBase):
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         action = tensordict.get("action")
-        alpha = action.detach().reshape(self.size).to("cpu", torch.float64).numpy()
+        alpha = action.detach().cpu().numpy().reshape(self.size)  # float32; widened exactly
         r = self.physics.step(alpha, self._rngs)
         out = self._arrays(r)
-        out["terminated"] = r.reached_goal[:, None].copy()
-        out["truncated"] = r.truncated[:, None]
+        out["terminated"] = r.reached_goal.reshape(-1, 1).copy()
+        out["truncated"] = r.truncated.reshape(-1, 1)
         out["done"] = out["terminated"] | out["truncated"]
         self._last = out
         return self._tensordict(out)
@@ -195,7 +189,9 @@ class BatchedWorldEnv(EnvBase):
 
     def _arrays(self, r: Readings) -> dict[str, np.ndarray]:
         """Numpy outputs of one reset or step (rows of ``r``); torch shares their memory."""
-        reward = r.reward.astype(np.float32)[:, None]
+        # (k, 1) by reshape, not [:, None]: numpy gives a new axis stride 0, which some torch
+        # kernels (torch.stack(..., out=) in the Collector) cannot take
+        reward = r.reward.astype(np.float32).reshape(-1, 1)
         return {
             "sonar": r.sonar,
             "ir": r.ir,
@@ -204,15 +200,15 @@ class BatchedWorldEnv(EnvBase):
             "goal": r.goal,
             "state_reward": reward,
             "reward": reward.copy(),
-            "collision": r.collision[:, None],
-            "reached_goal": r.reached_goal[:, None],
+            "collision": r.collision.reshape(-1, 1),
+            "reached_goal": r.reached_goal.reshape(-1, 1),
             "true_pose": r.true_pose,
         }
 
     def _tensordict(self, out: dict[str, np.ndarray]) -> TensorDictBase:
         """The output TensorDict, built directly (no per-key spec encoding: the hot loop)."""
         return TensorDict._new_unsafe(
-            {key: torch.from_numpy(_strided(value)) for key, value in out.items()},
+            {key: torch.from_numpy(value) for key, value in out.items()},
             batch_size=self.batch_size,
             device=self.device,
         )

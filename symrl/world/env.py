@@ -105,6 +105,9 @@ class Hailu2001Env(gymnasium.Env):
     `virtual_collision` is an IR reflectance above 70 after a move that made no contact. After
     `reset` the flags are False and `f1 = f2 = 0`.
 
+    The physics is `symrl.world.physics.RobotBatch` with B = 1 (`BatchedWorldEnv`, the TorchRL
+    training env, steps B robots with the same model and the same per-robot random streams).
+
     Attributes: `world` (`WorldMap`), `robot` (`RobotConfig`), `true_pose` and `odometry_pose`
     ((3,) float64), `path` and `odometry_path` (lists of (x, y) since the reset, start included),
     `actions_taken`; `sense(x, y, heading)` gives the noise-free sonar rim distances and IR
@@ -227,8 +230,7 @@ class Hailu2001Env(gymnasium.Env):
         r = self._batch.step(np.array([alpha]), (self.np_random,))
         x1, y1 = r.true_pose[0, :2].tolist()
         self.path.append((x1, y1))
-        xo, yo = self._batch.odometry_pose[0, :2].tolist()
-        self.odometry_path.append((xo, yo))
+        self.odometry_path.append(self._batch.odometry_xy(0))
         obs = self._observation(r)
         info = self._info(r, True)
         if self.render_mode == "human":
@@ -298,12 +300,12 @@ class Hailu2001Env(gymnasium.Env):
 
     def _info(self, r: Readings, stepped: bool) -> dict[str, Any]:
         """The info dict; after a reset the flags are False and f1 = f2 = 0."""
-        return {
+        return {  # indexing a numpy array gives numpy scalars (np.bool_, np.float64)
             "true_pose": r.true_pose[0],
-            "collision": np.bool_(r.collision[0]),
-            "real_collision": np.bool_(r.real_collision[0]),
-            "virtual_collision": np.bool_(r.virtual_collision[0]),
-            "f1": np.float64(r.f1[0] if stepped else 0.0),
-            "f2": np.float64(r.f2[0] if stepped else 0.0),
-            "reached_goal": np.bool_(r.reached_goal[0]),
+            "collision": r.collision[0],
+            "real_collision": r.real_collision[0],
+            "virtual_collision": r.virtual_collision[0],
+            "f1": r.f1[0] if stepped else np.float64(0.0),
+            "f2": r.f2[0] if stepped else np.float64(0.0),
+            "reached_goal": r.reached_goal[0],
         }

@@ -206,6 +206,9 @@ class Walls:
         self, x: np.ndarray, y: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`closest` for B points: ex, ey ``(B, n)`` and the clearances ``(B,)``."""
+        if len(x) == 1:  # the scalar method (same numbers) has less overhead
+            ex1, ey1, c = self.closest(float(x[0]), float(y[0]))
+            return ex1[None], ey1[None], np.array([c])
         wx = self.ax - x[:, None]
         wy = self.ay - y[:, None]
         s = (wx * self.dx + wy * self.dy) * self._neg_inv_len2
@@ -295,6 +298,13 @@ class Walls:
         clearances ``(B,)``. Rows with a clearance of at least ``sector_range`` (where
         :meth:`scan` returns ``None``) read ``sector_range`` in every sector; ``sectors`` is
         ``None`` when that holds for every row. ``closest``: :meth:`closest_many` at the points."""
+        if len(x) == 1:  # the scalar method (same numbers) has less overhead
+            one = None if closest is None else (closest[0][0], closest[1][0], float(closest[2][0]))
+            rays, sec, c = self.scan(
+                float(x[0]), float(y[0]), float(heading[0]), ray_offsets, n_sectors, ray_range,
+                sector_range, one,
+            )  # fmt: skip
+            return rays[None], None if sec is None else sec[None], np.array([c])
         ex, ey, clear = self.closest_many(x, y) if closest is None else closest
         near = clear < sector_range
         angles = heading[:, None] + ray_offsets
@@ -327,6 +337,12 @@ class Walls:
         clear1: np.ndarray,
     ) -> np.ndarray:
         """:meth:`swept_disc_contact` for B motions with known end clearances: ``(B,)`` bool."""
+        if len(x0) == 1:  # the scalar method (same answer) has less overhead
+            hit = self.swept_disc_contact(
+                float(x0[0]), float(y0[0]), float(x1[0]), float(y1[0]), radius,
+                float(clear0[0]), float(clear1[0]),
+            )  # fmt: skip
+            return np.array([hit])
         mx, my = x1 - x0, y1 - y0
         mlen2 = mx * mx + my * my
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -17,8 +17,11 @@ Robot b's trajectory is bitwise the same whatever B is and wherever b sits in th
 operation is element-wise or a per-row reduction (min/max, exact in any order), the ray cast's
 matrix product is one BLAS call per row, and the few transcendental functions whose numpy SIMD
 loops round differently from the C library (atan2, hypot, pow) go through ``math`` per element,
-as the original scalar model did. So the B = 1 batch (the Gymnasium env) reproduces the scalar
-model's trajectories exactly.
+as the original scalar model did. A batch of one takes a float lane (:meth:`RobotBatch.step`
+on Python floats and the scalar ``Walls`` methods, the same operations in the same order), since
+numpy's per-call overhead dominates a single robot; the tests hold it bitwise equal to the array
+lane (a robot alone against the same robot inside larger batches) and to the trajectories of the
+scalar model the Gymnasium env had before, which it reproduces exactly.
 """
 
 from __future__ import annotations
@@ -142,6 +145,9 @@ class RobotBatch:
         self._cone_rays = m
         self._cast_range = robot.radius + robot.sonar_range
         self._ir_reach = robot.radius + robot.ir_range
+        # clearance from which a virtual collision is impossible (reflectance well below the
+        # threshold); the exact test runs only on robots closer than this
+        self._virtual_reach = robot.radius + robot.ir_collision_distance + 1e-6
         self._sonar_std = robot.sonar_noise_std if self.noise else 0.0
         self._rot_std = math.radians(robot.rotation_noise_deg) if self.noise else 0.0
         self._trans_std = robot.translation_noise * robot.step if self.noise else 0.0
@@ -152,7 +158,7 @@ class RobotBatch:
         ones = np.ones(self.size)
         self._x, self._y = world.start.x * ones, world.start.y * ones
         self._h = _wrap(world.start.heading * ones)
-        self._xo, self._yo, self._ho = self._x, self._y, self._h
+        self._xo, self._yo, self._ho = self._x.copy(), self._y.copy(), self._h.copy()
         self.actions_taken = np.zeros(self.size, dtype=np.int64)
         self.sonar = np.zeros((self.size, n))
         # closest wall points (relative) and clearance of each true pose: reused by the next step
@@ -162,6 +168,10 @@ class RobotBatch:
     def true_pose(self) -> np.ndarray:
         """(B, 3) float64: the true poses (x, y, heading), headings in [-pi, pi]."""
         return _columns(self._x, self._y, self._h)
+
+    def odometry_xy(self, b: int) -> tuple[float, float]:
+        """Robot b's odometry position as floats (for the Gymnasium env's ``odometry_path``)."""
+        return float(self._xo[b]), float(self._yo[b])
 
     @property
     def odometry_pose(self) -> np.ndarray:
@@ -279,9 +289,13 @@ class RobotBatch:
         alpha = np.asarray(alpha, dtype=np.float64).reshape(-1)
         if alpha.shape != (self.size,):
             raise ValueError(f"step: need {self.size} actions, one per robot, got {alpha.size}")
+        if len(rngs) != self.size:
+            raise ValueError(f"step: need {self.size} generators, one per robot, got {len(rngs)}")
+        if self.size == 1 and math.isfinite(a := float(alpha[0])):
+            return self._step_one(a, rngs[0])
         if not np.isfinite(alpha).all():
             b = int(np.argmin(np.isfinite(alpha)))
-            raise ValueError(f"step: the action of robot {b} must be finite, got {alpha[b]!r}")
+            raise ValueError(f"step: the action of robot {b} must be finite, got {float(alpha[b])}")
         alpha = np.minimum(np.maximum(alpha, -_PI), _PI)
         x0, y0, h0 = self._x, self._y, self._h
         if self._noisy:  # one draw per robot and step: rotation, translation, the n sonars
@@ -311,10 +325,15 @@ class RobotBatch:
             )
         else:
             real = maybe
-        d = np.minimum(np.maximum(clear - robot.radius, 0.0), robot.ir_range)
-        reflectance = 100.0 * _math_map(pow, 1.0 - d / robot.ir_range, 3.0)
-        virtual = ~real & (reflectance > robot.ir_collision_threshold)
-        collision = real | virtual
+        close = clear < self._virtual_reach
+        if close.any():
+            d = np.minimum(np.maximum(clear - robot.radius, 0.0), robot.ir_range)
+            reflectance = 100.0 * _math_map(pow, 1.0 - d / robot.ir_range, 3.0)
+            virtual = ~real & (reflectance > robot.ir_collision_threshold)
+            collision = real | virtual
+        else:
+            virtual = close
+            collision = real
         if collision.any():  # emergency handler: back to the pose before the translation
             x1 = np.where(collision, x0, x1)
             y1 = np.where(collision, y0, y1)
@@ -354,6 +373,99 @@ class RobotBatch:
             truncated, angle,
         )  # fmt: skip
 
+    def _step_one(self, alpha: float, rng: np.random.Generator) -> Readings:
+        """:meth:`step` for a batch of one, on Python floats: the same operations in the same
+        order (IEEE arithmetic and the C library's cos, sin, atan2, hypot, pow, as the array
+        lane), without numpy's per-call overhead, which dominates a single robot's step. The
+        B-invariance tests hold the two lanes bitwise equal (a batch of one against a robot
+        inside a larger batch)."""
+        robot = self.robot
+        walls = self.walls
+        alpha = -_PI if alpha < -_PI else (_PI if alpha > _PI else alpha)
+        x0, y0, h0 = float(self._x[0]), float(self._y[0]), float(self._h[0])
+        clear0 = float(self._clear[0])
+        if self._noisy:  # one draw per step: rotation, translation, then the n sonars
+            z = rng.standard_normal(self.n_sensors + 2)
+            rot_err, trans_err = self._rot_std * float(z[0]), self._trans_std * float(z[1])
+        else:
+            z = None
+            rot_err = trans_err = 0.0
+        h1 = (h0 + alpha + rot_err + _PI) % _TWO_PI - _PI
+        length = robot.step + trans_err
+        x1 = x0 + length * math.cos(h1)
+        y1 = y0 + length * math.sin(h1)
+
+        near = walls.closest(x1, y1)
+        clear = near[2]
+        real = clear0 <= robot.radius + abs(length) + 1e-9 and walls.swept_disc_contact(
+            x0, y0, x1, y1, robot.radius, clear0, clear
+        )
+        virtual = False
+        if not real and clear < self._virtual_reach:
+            d = min(max(clear - robot.radius, 0.0), robot.ir_range)
+            virtual = 100.0 * (1.0 - d / robot.ir_range) ** 3 > robot.ir_collision_threshold
+        collision = real or virtual
+        if collision:  # emergency handler: back to the pose before the translation
+            x1, y1 = x0, y0
+            near = (self._ex[0], self._ey[0], clear0)
+        rays, sectors, clear = walls.scan(
+            x1, y1, h1, self._sonar_offsets, self.n_sensors, self._cast_range, self._ir_reach, near
+        )
+        # (the scalar scan gives sectors only within IR range: no row to blank)
+        rim, refl = self._rim_refl(rays[None], None if sectors is None else sectors[None], None)
+        self._x[0], self._y[0], self._h[0] = x1, y1, h1  # private, never handed out
+        self._ex, self._ey, self._clear[0] = near[0][None], near[1][None], clear
+
+        if robot.perfect_odometry:
+            xo, yo, ho = x1, y1, h1
+        else:
+            xo, yo = float(self._xo[0]), float(self._yo[0])
+            ho = (float(self._ho[0]) + alpha + _PI) % _TWO_PI - _PI
+            if not collision:
+                xo = xo + robot.step * math.cos(ho)
+                yo = yo + robot.step * math.sin(ho)
+        self._xo[0], self._yo[0], self._ho[0] = xo, yo, ho
+        self.actions_taken = self.actions_taken + 1
+
+        if z is not None and self._sonar_std > 0.0:
+            rim = rim + self._sonar_std * z[2:]
+        sonar = np.minimum(np.maximum(rim, 0.0), robot.sonar_range)
+        self.sonar = sonar
+        if collision:
+            f1 = -3.0
+        else:
+            dmin = float(sonar.min())
+            close = robot.close_distance
+            f1 = -1.0 + dmin / close if dmin < close else 0.0
+        gx, gy, gr = self._goal
+        dx, dy = gx - xo, gy - yo
+        angle = math.atan2(dy, dx)
+        f2 = -abs((ho - angle + _PI) % _TWO_PI - _PI) / _PI
+        reached = math.hypot(x1 - gx, y1 - gy) <= gr
+        truncated = not reached and int(self.actions_taken[0]) >= self.max_actions
+        f32 = np.float32
+        goal_angle = (angle - ho + _PI) % _TWO_PI - _PI
+        # one array per dtype, sliced into the fields (fewer numpy calls)
+        obs = np.array([[xo, yo, ho, math.hypot(dx, dy), goal_angle, float(real)]], f32)
+        values = np.array([[f1 + f2, f1, f2, x1, y1, h1]])
+        flags = np.array([[collision, real, virtual, reached, truncated]])
+        return Readings(
+            sonar=(sonar * (1.0 / robot.sonar_range)).astype(f32),
+            ir=refl.astype(f32),
+            bumper=obs[:, 5:6],
+            odometry=obs[:, 0:3],
+            goal=obs[:, 3:5],
+            reward=values[:, 0],
+            f1=values[:, 1],
+            f2=values[:, 2],
+            collision=flags[:, 0],
+            real_collision=flags[:, 1],
+            virtual_collision=flags[:, 2],
+            reached_goal=flags[:, 3],
+            truncated=flags[:, 4],
+            true_pose=values[:, 3:6],
+        )
+
     # --- internals -------------------------------------------------------------------------
 
     def _sense(
@@ -365,28 +477,40 @@ class RobotBatch:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Noise-free sonar rim distances, IR reflectances ``(k, n)`` and true clearances ``(k,)``
         at k poses (``near``: ``Walls.closest_many`` there, if already computed)."""
+        rays, sectors, clear = self.walls.scan_many(
+            x, y, h, self._sonar_offsets, self.n_sensors, self._cast_range, self._ir_reach, near
+        )
+        rim, refl = self._rim_refl(rays, sectors, clear)
+        return rim, refl, clear
+
+    def _rim_refl(
+        self, rays: np.ndarray, sectors: np.ndarray | None, clear: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Sonar rim distances (the nearest sub-ray of a cone) and IR reflectances ``(k, n)``
+        from the ray distances ``(k, R)``, sector distances ``(k, n)`` and clearances ``(k,)``
+        (rows at or beyond IR range read 0; ``None``: no such row)."""
         robot = self.robot
         n = self.n_sensors
-        rays, sectors, clear = self.walls.scan_many(
-            x, y, h, self._sonar_offsets, n, self._cast_range, self._ir_reach, near
-        )
         if self._cone_rays > 1:
-            rays = np.minimum.reduce(rays.reshape(len(x), n, self._cone_rays), axis=2)
+            rays = np.minimum.reduce(rays.reshape(len(rays), n, self._cone_rays), axis=2)
         rim = np.minimum(rays - robot.radius, robot.sonar_range)
         if sectors is None:  # nothing within IR range of any robot
-            return rim, np.zeros((len(x), n)), clear
+            return rim, np.zeros((len(rays), n))
         r = robot.ir_range
         d = np.minimum(np.maximum(sectors - robot.radius, 0.0), r)
         refl = 100.0 * (1.0 - d * (1.0 / r)) ** 3
-        refl[clear >= self._ir_reach] = 0.0  # rows with nothing within IR range read 0
-        return rim, refl, clear
+        if clear is not None:
+            refl[clear >= self._ir_reach] = 0.0  # rows with nothing within IR range read 0
+        return rim, refl
 
     def _f1(self, sonar: np.ndarray, collision: np.ndarray) -> np.ndarray:
         """Eq. 3: -3 on a collision, -1 + d_min / d_c if the nearest sonar reading is below d_c."""
         close = self.robot.close_distance
         dmin = np.minimum.reduce(sonar, axis=1)
         f1 = np.where(dmin < close, -1.0 + dmin / close, 0.0)
-        return np.where(collision, -3.0, f1)
+        if collision.any():
+            f1[collision] = -3.0
+        return f1
 
     def _goal_angle(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Direction from (x, y) to the goal (C library atan2, as the scalar model)."""
@@ -420,7 +544,7 @@ class RobotBatch:
         return Readings(
             sonar=(sonar * (1.0 / self.robot.sonar_range)).astype(f32),
             ir=refl.astype(f32),
-            bumper=real.astype(f32)[:, None],
+            bumper=real.astype(f32).reshape(-1, 1),  # not [:, None]: torch dislikes stride 0
             odometry=_columns(xo, yo, ho, f32),
             goal=goal,
             reward=f1 + f2,

@@ -155,5 +155,8 @@ def test_buffers_move_with_the_module(mapper):
         "threshold",
         "used",
         "rule_region",
+        "sign",
+        "padding",
     }
+    assert set(mapper.state_dict()) == {"axis", "greater", "threshold", "used", "rule_region"}
     assert list(mapper.parameters()) == []
