@@ -12,6 +12,7 @@ import torch
 from symrl.cli import main
 from symrl.evaluate import evaluate
 from symrl.learner.config import load_config
+from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.runs import CheckpointError, load_checkpoint, save_checkpoint
 from symrl.train import make_env, train, train_batch
 
@@ -76,9 +77,15 @@ def test_trial_records(alone):
         assert t["path_length"] == pytest.approx(t["steps"] * 0.2, rel=0.1)
         assert isinstance(t["reached_goal"], bool) and t["collisions"] >= 0
         assert any(key.startswith("option_") for key in t)
-    assert [t["temperature"] for t in result.trials] == pytest.approx([0.085, 0.085 * 0.85])
     assert result.trials[-1]["neurons"] == int(policy.neurons().sum()) > 0
     assert policy.batch == 1 and int(policy.trials_done[0]) == 2
+    assert float(policy.temperature[0]) == pytest.approx(0.1 * 0.85**2)
+
+
+def test_trial_record_shows_the_temperature_the_trial_explored_with(alone):
+    # paper: T0 = 0.1, cooled x0.85 after each trial
+    temperatures = [t["temperature"] for t in alone[SEEDS[0]].trials]
+    assert temperatures == pytest.approx([0.1, 0.085])
 
 
 def test_a_short_run_learns():
@@ -134,6 +141,19 @@ def test_checkpoint_round_trip_gives_the_same_greedy_record(alone, checkpoint):
     # other starts, side by side in one batch
     starts = [None, (0.0, 1.0, 0.5)]
     assert evaluate(policy, config, starts=starts, seed=5)[0] == loaded[0]
+
+
+def test_evaluating_side_by_side_is_evaluating_each_alone():
+    """A batch of greedy trials from several starts gives each start's record alone, also
+    when the trials end at different steps."""
+    config = load_config("reflex_only")
+    policy = MixtureOfExpertsPolicy(config)
+    starts = [(0.0, 0.0, 0.0), (2.5, -1.5, 0.0)]
+    both = evaluate(policy, config, starts=starts, noise=False)
+    assert both[0]["steps"] != both[1]["steps"]
+    for k, start in enumerate(starts):
+        (alone,) = evaluate(policy, config, starts=[start], noise=False)
+        assert both[k] == alone, k
 
 
 def _broken(tmp_path, name: str, content: bytes) -> str:
@@ -253,10 +273,15 @@ def test_train_command_writes_the_run_folder(tmp_path, capsys):
     # the folder holds a run: refused unless --overwrite
     assert main(args) == 2
     assert "--overwrite" in capsys.readouterr().err
+    first_events = set((out / "tb").glob("events.out.tfevents.*"))
     again = ["train", "reflex_only", "--trials", "1", "--logdir", str(out), "env.max_actions=5"]
     assert main([*again, "--overwrite"]) == 0
     with open(out / "trials.csv") as fh:
         assert [r["steps"] for r in csv.DictReader(fh)] == ["5"]
+    _, config = load_checkpoint(out / "checkpoint.pt")
+    assert config.recipe == "reflex_only"
+    # the replaced run leaves nothing behind: TensorBoard shows the new run only
+    assert not first_events & set((out / "tb").glob("events.out.tfevents.*"))
 
 
 def test_train_command_errors_and_help_keys(tmp_path, capsys):
