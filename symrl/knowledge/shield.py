@@ -82,6 +82,10 @@ class IRShield(nn.Module):
         count = int(round(2 * math.pi / step))
         grid = torch.arange(count, dtype=torch.float64) * (2 * math.pi / count) - math.pi
         self.register_buffer("candidates", grid, persistent=False)
+        # A move shortens no rim distance by more than its length: while every IR reading is
+        # at most this reflectance (rim distance >= margin + step), every move is safe.
+        reach = min(self.config.margin + self.step, self.ir_range)
+        self.quiet = 100.0 * (1.0 - reach / self.ir_range) ** 3 - 1e-6
 
     def distances(self, reflectance: torch.Tensor) -> torch.Tensor:
         """Rim distance per IR sensor (metres); ``inf`` where it sees nothing (reflectance 0)."""
@@ -113,7 +117,16 @@ class IRShield(nn.Module):
     ) -> tuple[torch.Tensor, torch.Tensor]:
         action = action.to(torch.float64)
         margin = self.config.margin
-        unsafe = self.clearance(reflectance, action[..., None])[..., 0] < margin
+        near = reflectance.amax(dim=-1) > self.quiet  # the rows where a move could be unsafe
+        if not bool(near.any()):
+            return action, near
+        if bool(near.all()):
+            unsafe = self.clearance(reflectance, action[..., None])[..., 0] < margin
+        else:
+            some = near.nonzero(as_tuple=True)
+            unsafe = torch.zeros_like(near)
+            room = self.clearance(reflectance[some], action[some][..., None])[..., 0]
+            unsafe[some] = room < margin
         if not bool(unsafe.any()):
             return action, unsafe
         # the candidate search runs only on the rows whose action is unsafe (the rare case)

@@ -116,3 +116,22 @@ def test_a_larger_margin_vetoes_more():
 def test_bad_config_names_the_field(field, value):
     with pytest.raises(ValueError, match=f"ShieldConfig.{field}"):
         ShieldConfig(**{field: value})
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(0.0, 100.0), min_size=24, max_size=24),
+    st.lists(st.floats(0.0, 100.0), min_size=24, max_size=24),
+    st.floats(-math.pi, math.pi),
+)
+def test_rows_far_from_walls_are_skipped_exactly(near_row, far_row, angle):
+    """The batched shield only evaluates rows whose IR sees a wall within reach of one move;
+    its veto is the full clearance test on every row."""
+    shield = IRShield()
+    far = [min(v, shield.quiet) * 0.5 for v in far_row]  # no wall within margin + step
+    refl = torch.tensor([near_row, far], dtype=torch.float32)
+    action = torch.full((2,), angle, dtype=torch.float64)
+    _, vetoed = shield(refl, action)
+    full = shield.clearance(refl, action[:, None])[:, 0] < shield.config.margin
+    assert vetoed.tolist() == full.tolist()
+    assert not bool(full[1])  # a row below the quiet reflectance is never unsafe
