@@ -211,3 +211,20 @@ def test_describe_keys_lists_every_section():
                 "options.critic", "shield.margin", "reflex.d_a", "run.seed"):  # fmt: skip
         assert key in text, key
     assert "Discount of the TD error" in text  # each key's docstring
+
+
+@pytest.mark.parametrize(
+    "override, keys",
+    [
+        ("env.robot.n_sensors=16", ["env.robot.n_sensors", "reflex.n_rays"]),
+        ("env.robot.sonar_range=3", ["env.robot.sonar_range", "reflex.sonar_range"]),
+    ],
+)
+def test_the_reflex_reads_the_robots_sonars(override, keys):
+    """The reflex turns the observation's normalised sonars back into metres with its own
+    ray count and range: a robot with other sonars must be refused when the config loads (a
+    count mismatch fails only in the first trial, a range mismatch silently misreads every
+    distance)."""
+    message = _error([override])
+    for key in keys:
+        assert key in message, message
