@@ -293,3 +293,60 @@ def test_train_command_errors_and_help_keys(tmp_path, capsys):
     assert main(["train", "--help-keys"]) == 0
     text = capsys.readouterr().out
     assert "update.gamma = 0.95" in text and "options.critic" in text
+
+
+def test_evaluate_command(checkpoint, tmp_path, capsys):
+    code = main(["evaluate", str(checkpoint), "--start", "0,0.5,0", "--out", str(tmp_path)])
+    assert code == 0 and (tmp_path / "evaluate.png").is_file()
+    assert "greedy trial" in capsys.readouterr().out
+    assert main(["evaluate", str(tmp_path / "missing.pt")]) == 2
+    assert "no such file" in capsys.readouterr().err
+
+
+def _fake_step(poses, done, expert=0, winner=0):
+    """A [B] transition with what the TrialRecorder reads."""
+    from tensordict import TensorDict
+
+    b = len(poses)
+    pose = torch.tensor([[x, y, 0.0] for x, y in poses], dtype=torch.float64)
+    return TensorDict(
+        {
+            "true_pose": pose - 0.5,  # where the step started (read at a trial's first step)
+            "shielded": torch.zeros(b, dtype=torch.bool),
+            "expert": torch.full((b,), expert),
+            "winner": torch.full((b,), winner),
+            "next": TensorDict(
+                {
+                    "true_pose": pose,
+                    "reward": torch.full((b, 1), -0.5),
+                    "collision": torch.zeros(b, 1, dtype=torch.bool),
+                    "reached_goal": torch.tensor([[d] for d in done]),
+                    "done": torch.tensor([[d] for d in done]),
+                },
+                [b],
+            ),
+        },
+        [b],
+    )
+
+
+def test_trial_recorder_keeps_a_long_trial_while_others_end():
+    from symrl.train import TrialRecorder
+
+    recorder = TrialRecorder(2)
+    finished = []
+    for k in range(700):  # robot 0: trials of 3 steps; robot 1: one trial of 700 steps
+        done = [k % 3 == 2, k == 699]
+        ended = recorder.step(_fake_step([(k, 0.0), (0.0, k)], done), torch.zeros(2))
+        assert ended.tolist() == done
+        for b in map(int, ended.nonzero()[0]):
+            finished.append((b, recorder.finish(b)))
+    long = [r for b, r in finished if b == 1]
+    short = [r for b, r in finished if b == 0]
+    assert len(long) == 1 and len(short) == 233
+    assert long[0]["steps"] == 700 and len(long[0]["path"]) == 701
+    assert long[0]["path"][0] == [-0.5, -0.5] and long[0]["path"][-1] == [0.0, 699.0]
+    assert long[0]["total_reinforcement"] == pytest.approx(-350.0)
+    last = short[-1]
+    assert last["steps"] == 3 and last["path"][1:] == [[696.0, 0.0], [697.0, 0.0], [698.0, 0.0]]
+    assert last["ghosts"] == [last["path"][0]]  # one acting neuron all along
