@@ -71,6 +71,7 @@ class SubgoalOptions(nn.Module):
         self.labels = self.table.labels
         self.region_names = self.table.region_names
         self.goal = (float(world.goal.x), float(world.goal.y))
+        self._goal = torch.tensor(self.goal, dtype=torch.float64)
         self.register_buffer("points", self.table.points.to(torch.float64), persistent=False)
         self.register_buffer("valid", self.table.valid.clone(), persistent=False)
         self.register_buffer("q", torch.zeros(batch, r, k, dtype=torch.float64))
@@ -106,8 +107,7 @@ class SubgoalOptions(nn.Module):
         point = self.points[region, chosen]
         reached = torch.linalg.vector_norm(point - xy, dim=-1) < self.config.reach  # type: ignore[attr-defined]
         self.stage.masked_fill_(reached, _GOAL_STAGE)
-        goal = torch.tensor(self.goal, dtype=torch.float64)
-        target = torch.where((self.stage == _GOAL_STAGE)[:, None], goal, point)
+        target = torch.where((self.stage == _GOAL_STAGE)[:, None], self._goal, point)
         d = target - xy
         bearing = torch.atan2(d[:, 1], d[:, 0]) - odometry[:, 2].to(torch.float64)
         angle = torch.remainder(bearing + math.pi, 2 * math.pi) - math.pi
