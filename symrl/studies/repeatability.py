@@ -259,18 +259,14 @@ def read_trials_csv(path: Path | str) -> list[dict[str, Any]]:
 
 
 def code_version() -> str:
-    """The git commit the numbers come from, ``+dirty`` if ``symrl/`` has uncommitted changes."""
-    import subprocess
+    """The code the numbers come from: the installed symrl's commit (``+dirty`` if it was built
+    from a tree with uncommitted changes), else its version; see :func:`symrl.provenance`."""
+    from symrl.about import provenance
 
-    root = Path(__file__).resolve().parents[2]
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, check=True,
-                              capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "symrl"], cwd=root,
-                               check=True, capture_output=True, text=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-    return head + ("+dirty" if dirty else "")
+    info = provenance()
+    if info["revision"]:
+        return info["revision"] + ("+dirty" if info["dirty"] else "")
+    return info["symrl"] or "unknown"
 
 
 @functools.lru_cache(maxsize=1)
