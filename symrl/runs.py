@@ -129,7 +129,7 @@ def _map_content(world: Any) -> dict[str, Any] | None:
 def save_checkpoint(path: str | Path, policy: Any, config: RunConfig, seed: int) -> None:
     """The controller of one robot (a B = 1 policy), its config, seed and map content."""
     path = Path(path)
-    from symrl.provenance import provenance
+    from symrl.about import provenance
 
     _atomic_save(
         {
@@ -199,7 +199,7 @@ class RunWriter:
     def __init__(self, logdir: str | Path, config: RunConfig, world: Any, overwrite: bool = False):
         from torchrl.record.loggers import TensorboardLogger
 
-        from symrl.provenance import provenance
+        from symrl.about import provenance
 
         self.dir = Path(logdir)
         if self.dir.exists() and not self.dir.is_dir():

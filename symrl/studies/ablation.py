@@ -90,7 +90,7 @@ def run_ablation(
         raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
     if not recipes:
         raise ValueError("run_ablation: no recipes given")
-    from symrl.provenance import provenance
+    from symrl.about import provenance
 
     t0 = time.perf_counter()
     code = provenance()

@@ -114,7 +114,7 @@ def run_generalisation(
     """All three measurements; writes ``generalise.json``/``.md`` and figures into ``out``."""
     if sets < 1 or trials < 1:
         raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
-    from symrl.provenance import provenance
+    from symrl.about import provenance
 
     t0 = time.perf_counter()
     code = provenance()

@@ -116,7 +116,7 @@ def run_study(
     progress: bool = True,
 ) -> StudyResult:
     """Run ``sets`` sets of ``trials`` trials (set k: seed + k) and write the results folder."""
-    from symrl.provenance import provenance
+    from symrl.about import provenance
     from symrl.studies.runner import resolve_config
     from symrl.world import load_map
 

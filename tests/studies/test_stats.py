@@ -6,9 +6,9 @@ import math
 
 import pytest
 
+from symrl.runs import read_trials_csv, write_trials_csv
 from symrl.studies.ablation import summarise, summary_markdown
 from symrl.studies.ppo import first_reliable
-from symrl.runs import read_trials_csv, write_trials_csv
 from symrl.studies.repeatability import table1_markdown
 from symrl.studies.runner import table1
 
