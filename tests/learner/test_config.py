@@ -228,3 +228,15 @@ def test_the_reflex_reads_the_robots_sonars(override, keys):
     message = _error([override])
     for key in keys:
         assert key in message, message
+
+
+def test_every_public_name_of_the_learner_package_resolves():
+    import symrl.learner
+
+    missing = []
+    for name in symrl.learner.__all__:
+        try:
+            getattr(symrl.learner, name)
+        except AttributeError:
+            missing.append(name)
+    assert not missing, f"symrl.learner.__all__ names what does not exist: {missing}"
