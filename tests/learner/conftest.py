@@ -1,4 +1,5 @@
-"""Shared helpers of the learner tests: policies on the paper's map, hand-made observations."""
+"""The learner tests import their hand-made observations and transitions from
+``learner_helpers`` beside them."""
 
 from __future__ import annotations
 
