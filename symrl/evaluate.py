@@ -33,14 +33,14 @@ def rollout(policy: Any, env: Any) -> list[dict[str, Any]]:
         td = env.reset()
         while any(r is None for r in records):
             policy(td)
-            td = env.step(td)
+            td, next_td = env.step_and_maybe_reset(td)
             done = recorder.step(td, torch.zeros(batch))
             for b in np.flatnonzero(done):
-                if records[b] is None:
+                if records[b] is None:  # a robot's first trial is its evaluation
                     record = recorder.finish(int(b))
-                    record["reached_goal"] = bool(td.get(("next", "reached_goal")).reshape(-1)[b])
+                    record["reached_goal"] = bool(recorder.reached[b])
                     records[b] = record
-            td = env.step_and_maybe_reset(td)[1] if done.any() else env.step_mdp(td)
+            td = next_td
     return records  # type: ignore[return-value]
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -37,6 +38,7 @@ __all__ = [
 ]
 
 CHECKPOINT_FORMAT = 2
+_RUN_FILES = ("config.yaml", "trials.csv", "tb", "checkpoint.pt", "trajectory.png", "evaluate.png")
 _BASE_COLUMNS = (
     "trial", "steps", "total_reinforcement", "collisions", "shielded", "reached_goal",
     "neurons", "temperature", "replaced", "improved", "mean_abs_td_error", "path_length",
@@ -112,6 +114,7 @@ def _atomic_save(obj: Any, path: Path) -> None:
     os.close(fd)
     try:
         torch.save(obj, tmp)
+        os.chmod(tmp, 0o644)  # mkstemp makes it private; a run's files are readable alike
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -167,6 +170,14 @@ def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
             f"checkpoint {str(path)!r}: format {data.get('format')!r}, this symrl reads "
             f"format {CHECKPOINT_FORMAT}"
         )
+    kinds = (("config", dict), ("policy", dict), ("seed", int))
+    for key, kind in kinds:
+        value = data.get(key, 0 if key == "seed" else None)
+        if not isinstance(value, kind) or isinstance(value, bool):
+            raise CheckpointError(
+                f"checkpoint {str(path)!r}: {key} must be a {kind.__name__}, got "
+                f"{type(value).__name__}"
+            )
     try:
         cfg = dict(data["config"])
         config = config_from_dict(cfg, recipe=str(cfg.get("recipe", "checkpoint")))
@@ -175,17 +186,21 @@ def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
         raise CheckpointError(f"checkpoint {str(path)!r}: {err}") from None
     policy = MixtureOfExpertsPolicy(config, world, [int(data.get("seed", config.run.seed))])
     state = data["policy"]
+    for key, value in state.items():
+        if not isinstance(value, torch.Tensor):
+            raise CheckpointError(f"checkpoint {str(path)!r}: {key} is not a tensor")
+        # best_total is -inf until a trial reaches the goal; nothing else may be non-finite
+        ok = torch.isfinite(value) | ((key == "best_total") & (value == -torch.inf))
+        if value.is_floating_point() and not bool(ok.all()):
+            raise CheckpointError(f"checkpoint {str(path)!r}: non-finite values in {key}")
     try:
         policy.load_state_dict(state)
-    except (RuntimeError, KeyError) as err:
-        first = str(err).splitlines()[0][:160]
+    except (RuntimeError, KeyError, TypeError) as err:
+        lines = [line.strip() for line in str(err).splitlines() if line.strip()]
+        detail = (lines[1] if len(lines) > 1 else lines[0] if lines else type(err).__name__)[:200]
         raise CheckpointError(
-            f"checkpoint {str(path)!r}: weights do not match its config ({first})"
+            f"checkpoint {str(path)!r}: weights do not match its config ({detail})"
         ) from None
-    for key, value in state.items():  # best_total is -inf until a trial reaches the goal
-        finite = torch.isfinite(value) | (key == "best_total")
-        if value.is_floating_point() and not bool((finite & ~torch.isnan(value)).all()):
-            raise CheckpointError(f"checkpoint {str(path)!r}: non-finite values in {key}")
     return policy, config
 
 
@@ -204,10 +219,18 @@ class RunWriter:
         self.dir = Path(logdir)
         if self.dir.exists() and not self.dir.is_dir():
             raise FileExistsError(f"--logdir {str(self.dir)!r}: exists and is not a folder")
-        if (self.dir / "config.yaml").exists() and not overwrite:
-            raise FileExistsError(
-                f"--logdir {str(self.dir)!r}: already holds a run (pass --overwrite to replace it)"
-            )
+        if (self.dir / "config.yaml").exists():
+            if not overwrite:
+                raise FileExistsError(
+                    f"--logdir {str(self.dir)!r}: already holds a run "
+                    "(pass --overwrite to replace it)"
+                )
+            for name in _RUN_FILES:  # nothing of the old run may mix with the new one
+                old = self.dir / name
+                if old.is_dir():
+                    shutil.rmtree(old)
+                elif old.exists():
+                    old.unlink()
         self.dir.mkdir(parents=True, exist_ok=True)
         self.config = config
         self.world = world

@@ -135,13 +135,16 @@ class TrialRecorder:
             self._offset += drop
 
 
-def _trial_extras(policy, loss_out: dict[str, torch.Tensor], j: int, b: int) -> dict[str, Any]:
-    """Learner columns of robot ``b``'s trial record (``j``: its index in ``loss_out``)."""
+def _trial_extras(
+    policy, loss_out: dict[str, torch.Tensor], j: int, b: int, temperature: float
+) -> dict[str, Any]:
+    """Learner columns of robot ``b``'s trial record (``j``: its index in ``loss_out``;
+    ``temperature``: the one the trial explored with, before the cooling at its end)."""
     neurons = policy.neurons()[b]
     out: dict[str, Any] = {"neurons": int(neurons.sum())}
     for name, n in zip(policy.expert_names, neurons.tolist(), strict=True):
         out[f"neurons_{name}"] = n
-    out["temperature"] = float(policy.temperature[b])
+    out["temperature"] = temperature
     out["replaced"] = int(loss_out["replaced"][j])
     out["improved"] = bool(loss_out["improved"][j])
     if policy.options is not None:
@@ -204,13 +207,14 @@ def train_batch(
             records = [recorder.finish(int(b)) for b in rows]
             totals = torch.tensor([r["total_reinforcement"] for r in records])
             reached = recorder.reached[rows]
+            explored = policy.temperature[rows].tolist()  # before end_trial cools it
             out = loss.end_trial(rows, totals, reached)
             for j, b in enumerate(rows.tolist()):
                 if finals[b] is not None:
                     continue  # this robot has done its trials: only driving on
                 record = {"trial": len(trials[b]) + 1, **records[j]}
                 record["reached_goal"] = bool(reached[j])
-                record.update(_trial_extras(policy, out, j, b))
+                record.update(_trial_extras(policy, out, j, b, explored[j]))
                 trials[b].append(record)
                 bar.update(1)
                 if batch == 1:

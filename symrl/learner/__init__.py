@@ -1,4 +1,5 @@
-"""The learner: growing RBF experts, the mixture-of-experts policy, the TESEO update, configs.
+"""The learner: growing RBF experts, sub-goal options, the mixture-of-experts policy (acts), the
+TESEO update (learns), configs.
 
 Names are imported lazily so ``from symrl.learner import load_config`` does not pay for
 importing TorchRL (several seconds); the policy and the loss load it on first use.
@@ -11,13 +12,21 @@ from typing import Any
 
 _EXPORTS = {
     "ConfigError": "config",
-    "LearnerConfig": "config",
-    "EnvConfig": "config",
     "RunConfig": "config",
+    "EnvConfig": "config",
+    "GateConfig": "config",
+    "ExpertsConfig": "config",
+    "UpdateConfig": "config",
+    "OptionsConfig": "config",
+    "ShieldSection": "config",
+    "RunSection": "config",
     "load_config": "config",
-    "GrowingRBFExpert": "experts",
+    "config_from_dict": "config",
+    "config_to_dict": "config",
+    "ExpertBank": "experts",
+    "SubgoalOptions": "options",
     "MixtureOfExpertsPolicy": "policy",
-    "Observation": "policy",
+    "Perception": "policy",
     "TeseoLoss": "loss",
 }
 

@@ -193,6 +193,17 @@ class RunConfig(_Section):
     def _consistent(self) -> RunConfig:
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
+        robot = self.env.robot
+        if self.reflex.n_rays != robot.n_sensors:
+            raise ValueError(
+                f"reflex.n_rays={self.reflex.n_rays} must equal env.robot.n_sensors="
+                f"{robot.n_sensors} (the reflex reads the robot's sonars)"
+            )
+        if self.reflex.sonar_range != robot.sonar_range:
+            raise ValueError(
+                f"reflex.sonar_range={self.reflex.sonar_range} must equal "
+                f"env.robot.sonar_range={robot.sonar_range} (the sonars are normalised by it)"
+            )
         if self.experts.max_neurons < self.experts.capacity:
             raise ValueError(
                 f"experts.max_neurons={self.experts.max_neurons} must be >= "

@@ -145,7 +145,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self._drawn = 0
         # constant outputs for the parts a recipe leaves out (never written in place)
         self._zeros = torch.zeros(batch, dtype=torch.float64)
-        self._zeros_long = torch.zeros(batch, dtype=torch.long)
         self._no_option = torch.full((batch,), -1, dtype=torch.long)
         self._no_entry = torch.zeros(batch, dtype=torch.bool)
 
@@ -171,7 +170,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ) -> Perception:
         """Gate and winner search for a batch of observations; changes nothing."""
         region = self.mapper.ids(odometry[:, :2].to(torch.float64))
-        expert = region if self.config.gate.partition else self._zeros_long
+        expert = region if self.config.gate.partition else torch.zeros_like(region)
         x = self.encode(sonar, goal[:, 0])
         if not self.config.experts.learning:
             none = torch.full_like(region, -1)
