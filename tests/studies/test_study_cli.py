@@ -62,3 +62,20 @@ def test_plan_command_writes_json_and_png(tmp_path):
 def test_bad_sizes_give_a_clear_error(capsys):
     assert main(["study", "reflex_only", "--sets", "0"]) == 2
     assert "at least 1 set" in capsys.readouterr().err
+
+
+def test_set_k_of_a_study_is_train_with_seed_plus_k():
+    """A study trains its sets as one batch (or a batch per worker); set k is still exactly the
+    run ``symrl train RECIPE --seed SEED+k`` makes alone."""
+    from symrl.learner.config import load_config
+    from symrl.studies.runner import run_sets
+    from symrl.train import train
+
+    sets = run_sets("paper", sets=3, trials=2, seed=40, progress=False)
+    alone = train(load_config("paper", ["run.trials=2", "run.seed=42"]), progress=False)
+    columns = ("steps", "total_reinforcement", "collisions", "neurons", "temperature", "shielded")
+    assert [[t[c] for c in columns] for t in sets[2].rows] == [
+        [t[c] for c in columns] for t in alone.trials
+    ]
+    split = run_sets("paper", sets=3, trials=2, seed=40, workers=2, progress=False)
+    assert [s.rows for s in split] == [s.rows for s in sets]
