@@ -39,7 +39,10 @@ import torch
 
 from symrl.learner.config import RunConfig
 
-__all__ = ["TrainResult", "train", "train_batch", "make_env", "TrialRecorder"]
+__all__ = [
+    "TrainResult", "train", "train_batch", "make_env", "TrialRecorder", "run_snapshot",
+    "restore_snapshot",
+]  # fmt: skip
 
 
 @dataclass
@@ -166,11 +169,20 @@ def train_batch(
     progress: bool = True,
     on_trial: Any = None,
     world: Any = None,
+    on_snapshot: Any = None,
+    resume: dict[str, Any] | None = None,
+    stop: Any = None,
 ) -> list[TrainResult]:
     """Train one robot per seed for ``config.run.trials`` trials, all in one batch.
 
     ``on_trial(b, record, policy)`` is called after every finished trial (logging, CSV rows).
     Returns one :class:`TrainResult` per seed, each with its final controller as a B = 1 policy.
+
+    Resumable runs (one robot): ``on_snapshot(state)`` is called at every trial boundary with
+    everything the run needs to go on (:func:`run_snapshot`); ``resume=state`` continues from
+    such a state exactly as the uninterrupted run would have. ``stop()`` is asked after every
+    step; when it answers True the loop ends there and the result holds the finished trials
+    (``TrainResult.timings["stopped"]`` is 1).
     """
     from torchrl.envs.utils import ExplorationType, set_exploration_type
     from tqdm.auto import tqdm
@@ -180,20 +192,32 @@ def train_batch(
 
     seeds = [int(s) for s in seeds]
     batch, n_trials = len(seeds), config.run.trials
+    if (resume is not None or on_snapshot is not None) and batch != 1:
+        raise ValueError(f"train_batch: snapshots and resume need one robot, got {batch}")
     env = make_env(config, seeds, world=world)
     policy = MixtureOfExpertsPolicy(config, env.world, seeds)
     loss = TeseoLoss(policy)
     recorder = TrialRecorder(batch)
     trials: list[list[dict[str, Any]]] = [[] for _ in seeds]
     finals: list[dict[str, torch.Tensor] | None] = [None] * batch
+    if resume is not None:
+        td = restore_snapshot(resume, env, policy, loss)
+        trials[0] = [dict(r) for r in resume["trials"]]
+        if len(trials[0]) >= n_trials:
+            raise ValueError(
+                f"--trials {n_trials}: the run has done {len(trials[0])} trials already; "
+                "give a larger budget to go on"
+            )
     label = config.recipe if batch == 1 else f"{config.recipe} x{batch}"
-    bar = tqdm(total=n_trials * batch, desc=label, unit="trial", disable=not progress)
+    bar = tqdm(total=n_trials * batch, desc=label, unit="trial", disable=not progress,
+               initial=sum(len(t) for t in trials))  # fmt: skip
     started, cpu_started = time.perf_counter(), time.process_time()
-    frames = 0
+    frames, stopped = 0, False
     exploring = set_exploration_type(ExplorationType.RANDOM)  # the policy draws its noise
     exploring.__enter__()
     try:
-        td = env.reset()
+        if resume is None:
+            td = env.reset()
         while True:
             policy(td)
             td, next_td = env.step_and_maybe_reset(td)
@@ -202,6 +226,9 @@ def train_batch(
             done = recorder.step(td, stats.get("td_error"))
             td = next_td
             if not done.any():
+                if stop is not None and stop():
+                    stopped = True
+                    break
                 continue
             rows = torch.from_numpy(np.flatnonzero(done))
             records = [recorder.finish(int(b)) for b in rows]
@@ -225,7 +252,12 @@ def train_batch(
                 if len(trials[b]) == n_trials:
                     finals[b] = policy.robot_state(b)
             policy.begin_trial(rows)
+            if on_snapshot is not None:
+                on_snapshot(run_snapshot(env, policy, loss, trials[0], td))
             if all(f is not None for f in finals):
+                break
+            if stop is not None and stop():
+                stopped = True
                 break
     finally:
         exploring.__exit__(None, None, None)
@@ -233,16 +265,90 @@ def train_batch(
         env.close()
     elapsed, cpu = time.perf_counter() - started, time.process_time() - cpu_started
     timings = {"seconds": elapsed, "cpu_seconds": cpu, "frames": frames,
-               "robots": batch, "steps_per_second": frames / max(elapsed, 1e-9)}  # fmt: skip
+               "robots": batch, "steps_per_second": frames / max(elapsed, 1e-9),
+               "stopped": int(stopped)}  # fmt: skip
     results = []
     for b, seed in enumerate(seeds):
         single = MixtureOfExpertsPolicy(config, env.world, [seed], policy.subgoals)
-        single.load_state_dict(finals[b])  # type: ignore[arg-type]
+        single.load_state_dict(finals[b] if finals[b] is not None else policy.robot_state(b))
         results.append(TrainResult(config, seed, trials[b], single, timings))
     return results
 
 
-def train(config: RunConfig, progress: bool = True, on_trial: Any = None) -> TrainResult:
-    """Train ``config.run.trials`` trials with ``config.run.seed`` (a batch of one robot)."""
-    return train_batch(config, [config.run.seed], progress=progress, on_trial=on_trial)[0]
+def train(
+    config: RunConfig,
+    progress: bool = True,
+    on_trial: Any = None,
+    on_snapshot: Any = None,
+    resume: dict[str, Any] | None = None,
+    stop: Any = None,
+) -> TrainResult:
+    """Train ``config.run.trials`` trials with ``config.run.seed`` (a batch of one robot);
+    ``on_snapshot``, ``resume`` and ``stop`` as in :func:`train_batch`."""
+    return train_batch(
+        config, [config.run.seed], progress=progress, on_trial=on_trial,
+        on_snapshot=on_snapshot, resume=resume, stop=stop,
+    )[0]  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------------------
+# Snapshots of a run at a trial boundary (resume)
+
+SNAPSHOT_FORMAT = 1
+_PHYSICS_STATE = ("_x", "_y", "_h", "_xo", "_yo", "_ho", "actions_taken", "sonar", "_ex", "_ey",
+                  "_clear")  # fmt: skip
+_ROW_SKIP = ("path", "ghosts")
+
+
+def run_snapshot(env, policy, loss, trials: list[dict[str, Any]], td) -> dict[str, Any]:
+    """Everything a one-robot run needs to go on from a trial boundary: the controller and
+    the update's buffers, every random stream (the policy's exploration and option generators
+    and its pre-drawn noise blocks, the robot's world generator), the robot's physics state and
+    the observation of its next trial's start (its reset already drew from the world stream:
+    the resumed run must not draw it again), and the trial rows so far (scalars; the last row
+    keeps its path for the trajectory figure). Tensors and plain Python values only."""
+    rows = [{k: v for k, v in r.items() if k not in _ROW_SKIP} for r in trials[:-1]]
+    rows += [dict(r) for r in trials[-1:]]
+    physics = env.physics
+    return {
+        "format": SNAPSHOT_FORMAT,
+        "trials": rows,
+        "policy": {k: v.clone() for k, v in policy.state_dict().items()},
+        "loss": {k: v.clone() for k, v in loss.state_dict().items()},
+        "generators": [g.get_state() for g in policy.generators],
+        "option_generators": (
+            [g.get_state() for g in policy.options.generators]
+            if policy.options is not None else []
+        ),  # fmt: skip
+        "normals": policy._normals.clone(),
+        "uniforms": policy._uniforms.clone(),
+        "drawn": int(policy._drawn),
+        "env_rngs": [rng.bit_generator.state for rng in env.rngs],
+        "physics": {n: torch.from_numpy(np.array(getattr(physics, n))) for n in _PHYSICS_STATE},
+        "last": {k: torch.from_numpy(np.array(v)) for k, v in (env._last or {}).items()},
+        "td": td.clone().to_dict(),
+    }
+
+
+def restore_snapshot(state: dict[str, Any], env, policy, loss):
+    """Put ``env``, ``policy`` and ``loss`` (fresh, same config and seed) into the state of
+    :func:`run_snapshot`; returns the observation the next trial starts from."""
+    from tensordict import TensorDict
+
+    policy.load_state_dict(state["policy"])
+    loss.load_state_dict(state["loss"])
+    for g, saved in zip(policy.generators, state["generators"], strict=True):
+        g.set_state(saved)
+    if policy.options is not None:
+        for g, saved in zip(policy.options.generators, state["option_generators"], strict=True):
+            g.set_state(saved)
+    policy._normals = state["normals"].clone()
+    policy._uniforms = state["uniforms"].clone()
+    policy._drawn = int(state["drawn"])
+    for rng, saved in zip(env.rngs, state["env_rngs"], strict=True):
+        rng.bit_generator.state = saved
+    for name in _PHYSICS_STATE:
+        setattr(env.physics, name, state["physics"][name].numpy().copy())
+    env._last = {k: v.numpy().copy() for k, v in state["last"].items()}
+    return TensorDict(state["td"], batch_size=env.batch_size).clone()
 
