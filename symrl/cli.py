@@ -34,42 +34,126 @@ def _drive(args: argparse.Namespace) -> int:
     return drive_command(args)
 
 
+def _at_least(flag: str, value: int | None, low: int) -> None:
+    """A numeric flag below its bound is a one-line input error."""
+    if value is not None and value < low:
+        raise ValueError(f"{flag} {value}: must be >= {low}")
+
+
 def _train(args: argparse.Namespace) -> int:
     import os
+    import signal
     import time
 
     import numpy as np
 
-    from symrl.learner.config import describe_keys, load_config
-    from symrl.runs import RunWriter
-    from symrl.train import train
+    from symrl.learner.config import config_from_dict, config_to_dict, describe_keys, load_config
+    from symrl.runs import RunWriter, load_resume
+    from symrl.train import train_batch
     from symrl.world.worldmap import load_map
 
     if args.help_keys:
         print(describe_keys())
         return 0
-    if args.recipe is None:
-        raise ValueError("train: a RECIPE is needed (e.g. `symrl train paper`)")
-    overrides = list(args.overrides or [])
-    for flag, key in ((args.trials, "run.trials"), (args.seed, "run.seed"), (args.map, "env.map")):
-        if flag is not None:
-            overrides.append(f"{key}={flag}")
-    config = load_config(args.recipe, overrides)
-    stamp = time.strftime("%Y%m%d-%H%M%S") + f"-{time.time_ns() // 1000 % 1_000_000:06d}"
-    logdir = args.logdir or f"runs/{config.recipe}__s{config.run.seed}__{stamp}-{os.getpid()}"
-    writer = RunWriter(logdir, config, load_map(config.env.map), overwrite=args.overwrite)
+    _at_least("--trials", args.trials, 1)
+    _at_least("--seed", args.seed, 0)
+    _at_least("--checkpoint-every", args.checkpoint_every, 1)
+    state = None
+    if args.resume is not None:
+        given = [name for name, value in (
+            ("RECIPE", args.recipe), ("--seed", args.seed), ("--map", args.map),
+            ("--logdir", args.logdir), ("key=value", args.overrides), ("--overwrite",
+                                                                      args.overwrite),
+        ) if value]  # fmt: skip
+        if given:
+            raise ValueError(
+                f"--resume {args.resume!r}: a resumed run keeps its own config; drop "
+                f"{', '.join(given)} (only --trials may extend the budget)"
+            )
+        config, seed, state = load_resume(args.resume)
+        if args.trials is not None:
+            data = config_to_dict(config)
+            data["run"]["trials"] = args.trials
+            config = config_from_dict(data, recipe=config.recipe)
+        done = len(state["trials"])
+        if done >= config.run.trials:
+            raise ValueError(
+                f"--resume {args.resume!r}: the run has done {done} of {config.run.trials} "
+                "trials; pass a larger --trials to go on"
+            )
+        from symrl.runs import load_checkpoint
+
+        world = load_checkpoint(os.path.join(args.resume, "checkpoint.pt"))[0].world
+        logdir = args.resume
+        writer = RunWriter(logdir, config, world, resume_rows=state["trials"])
+    else:
+        if args.recipe is None:
+            raise ValueError("train: a RECIPE is needed (e.g. `symrl train paper`)")
+        overrides = list(args.overrides or [])
+        for flag, key in (
+            (args.trials, "run.trials"), (args.seed, "run.seed"), (args.map, "env.map"),
+        ):  # fmt: skip
+            if flag is not None:
+                overrides.append(f"{key}={flag}")
+        config = load_config(args.recipe, overrides)
+        seed = config.run.seed
+        stamp = time.strftime("%Y%m%d-%H%M%S") + f"-{time.time_ns() // 1000 % 1_000_000:06d}"
+        logdir = args.logdir or f"runs/{config.recipe}__s{config.run.seed}__{stamp}-{os.getpid()}"
+        world = load_map(config.env.map)
+        from symrl.train import check_memory
+
+        check_memory(config, 1, world)
+        writer = RunWriter(logdir, config, world, overwrite=args.overwrite)
+
+    every = args.checkpoint_every or 1
+    latest: list = [None, 0]  # the last snapshot, and whether it is on disk
 
     def on_trial(b: int, record: dict, policy) -> None:
         writer.trial(record, last=record["trial"] == config.run.trials)
 
+    def on_snapshot(snapshot: dict) -> None:
+        latest[:] = [snapshot, 0]
+        n = len(snapshot["trials"])
+        if n % every == 0 and n < config.run.trials:
+            writer.snapshot(None, seed, snapshot)
+            latest[1] = 1
+
+    signalled: list[int] = []
+    handlers = {}
+
+    def on_signal(signum: int, frame) -> None:
+        signalled.append(signum)
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        handlers[sig] = signal.signal(sig, on_signal)
     try:
-        result = train(config, progress=True, on_trial=on_trial)
+        (result,) = train_batch(
+            config, [seed], progress=True, on_trial=on_trial, world=world,
+            on_snapshot=on_snapshot, resume=state, stop=lambda: bool(signalled),
+        )  # fmt: skip
     finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
         writer.close()
-    writer.finish(result.policy, result.seed)
-    trials, last = result.trials, result.trials[-5:]
+    trials = result.trials
+    if result.timings.get("stopped"):
+        name = signal.Signals(signalled[0]).name
+        if latest[0] is not None and not latest[1]:
+            writer.snapshot(None, seed, latest[0])
+        if latest[0] is None and state is None:
+            saved = "no trial finished, nothing to resume"
+        else:
+            saved = f"saved in {logdir}/; go on with: symrl train --resume {logdir}"
+        print(
+            f"symrl train: stopped by {name} after {len(trials)} of {config.run.trials} "
+            f"finished trials; {saved}",
+            file=sys.stderr,
+        )
+        return 128 + int(signalled[0])
+    writer.finish(result.policy, seed, state=latest[0])
+    last = trials[-5:]
     print(
-        f"{config.recipe} (seed {config.run.seed}): {len(trials)} trials, "
+        f"{config.recipe} (seed {seed}): {len(trials)} trials, "
         f"{result.timings['steps_per_second']:.0f} steps/s; last trial {trials[-1]['steps']} "
         f"actions, total {trials[-1]['total_reinforcement']:.2f}, {trials[-1]['neurons']} "
         f"neurons; last-{len(last)} mean {np.mean([t['steps'] for t in last]):.1f} actions, "
@@ -179,6 +263,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--map", default=None, help="built-in map name or map file (env.map)")
     p.add_argument("--logdir", default=None, help="run folder (default runs/RECIPE__sSEED__TIME)")
     p.add_argument("--overwrite", action="store_true", help="replace a run already in --logdir")
+    p.add_argument("--resume", default=None, metavar="RUN_DIR",
+                   help="go on with the run in RUN_DIR from its last checkpoint (its own config; "
+                   "--trials may extend the budget)")
+    p.add_argument("--checkpoint-every", type=int, default=1, metavar="N",
+                   help="write the resumable checkpoint every N trials (default 1; always at "
+                   "the end and when stopped by Ctrl-C or SIGTERM)")
     p.add_argument("--help-keys", action="store_true", help="list every config key and exit")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
     p.set_defaults(handler=_train)

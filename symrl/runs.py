@@ -34,6 +34,7 @@ __all__ = [
     "read_trials_csv",
     "save_checkpoint",
     "load_checkpoint",
+    "load_resume",
     "CheckpointError",
 ]
 
@@ -129,22 +130,62 @@ def _map_content(world: Any) -> dict[str, Any] | None:
     return None
 
 
-def save_checkpoint(path: str | Path, policy: Any, config: RunConfig, seed: int) -> None:
-    """The controller of one robot (a B = 1 policy), its config, seed and map content."""
+def save_checkpoint(
+    path: str | Path,
+    policy: Any,
+    config: RunConfig,
+    seed: int,
+    resume: dict[str, Any] | None = None,
+    provenance: dict[str, Any] | None = None,
+    world: Any = None,
+) -> None:
+    """The controller of one robot (a B = 1 policy), its config, seed and map content; with
+    ``resume`` (a :func:`symrl.train.run_snapshot`) also the whole run state, so that
+    ``symrl train --resume`` can go on from it (``load_checkpoint`` ignores it)."""
     path = Path(path)
-    from symrl.about import provenance
+    if provenance is None:
+        from symrl.about import provenance as current
 
-    _atomic_save(
-        {
-            "format": CHECKPOINT_FORMAT,
-            "provenance": provenance(),
-            "config": config_to_dict(config),
-            "map": _map_content(policy.world),
-            "seed": int(seed),
-            "policy": policy.state_dict(),
-        },
-        path,
-    )
+        provenance = current()
+    data = {
+        "format": CHECKPOINT_FORMAT,
+        "provenance": provenance,
+        "config": config_to_dict(config),
+        "map": _map_content(world if world is not None else policy.world),
+        "seed": int(seed),
+        "policy": resume["policy"] if resume is not None else policy.state_dict(),
+    }
+    if resume is not None:
+        data["resume"] = resume
+    _atomic_save(data, path)
+
+
+def load_resume(run_dir: str | Path) -> tuple[RunConfig, int, dict[str, Any]]:
+    """``(config, seed, state)`` of the run in folder ``run_dir`` to resume it; every fault
+    (no such folder, no checkpoint, a checkpoint without run state or of another format) is a
+    one-line :class:`CheckpointError`."""
+    from symrl.train import SNAPSHOT_FORMAT
+
+    folder = Path(run_dir)
+    if not folder.is_dir():
+        raise CheckpointError(f"--resume {str(folder)!r}: no such run folder")
+    path = folder / "checkpoint.pt"
+    if not path.is_file():
+        raise CheckpointError(f"--resume {str(folder)!r}: no checkpoint.pt in it")
+    _, config = load_checkpoint(path)  # checks format, config, map and weights
+    data = torch.load(path, map_location="cpu", weights_only=True)
+    state = data.get("resume")
+    if not isinstance(state, dict):
+        raise CheckpointError(
+            f"--resume {str(folder)!r}: checkpoint.pt holds a controller only, no run state "
+            "to resume from"
+        )
+    if state.get("format") != SNAPSHOT_FORMAT:
+        raise CheckpointError(
+            f"--resume {str(folder)!r}: run state format {state.get('format')!r}, this symrl "
+            f"resumes format {SNAPSHOT_FORMAT}"
+        )
+    return config, int(data["seed"]), state
 
 
 def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
@@ -211,7 +252,16 @@ def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
 class RunWriter:
     """Writes one run's folder as the run goes (see the module docstring)."""
 
-    def __init__(self, logdir: str | Path, config: RunConfig, world: Any, overwrite: bool = False):
+    def __init__(
+        self,
+        logdir: str | Path,
+        config: RunConfig,
+        world: Any,
+        overwrite: bool = False,
+        resume_rows: list[dict[str, Any]] | None = None,
+    ):
+        """``resume_rows``: go on with the run already in ``logdir`` whose finished trials are
+        these rows (the trial table is rewritten with them, then appended to)."""
         from torchrl.record.loggers import TensorboardLogger
 
         from symrl.about import provenance
@@ -219,7 +269,9 @@ class RunWriter:
         self.dir = Path(logdir)
         if self.dir.exists() and not self.dir.is_dir():
             raise FileExistsError(f"--logdir {str(self.dir)!r}: exists and is not a folder")
-        if (self.dir / "config.yaml").exists():
+        if resume_rows is not None:
+            pass
+        elif (self.dir / "config.yaml").exists():
             if not overwrite:
                 raise FileExistsError(
                     f"--logdir {str(self.dir)!r}: already holds a run "
@@ -231,22 +283,38 @@ class RunWriter:
                     shutil.rmtree(old)
                 elif old.exists():
                     old.unlink()
-        self.dir.mkdir(parents=True, exist_ok=True)
+        try:
+            self.dir.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise FileExistsError(
+                f"--logdir {str(self.dir)!r}: cannot make it ({err.strerror})"
+            ) from None
         self.config = config
         self.world = world
         self.expert_names = expert_names(config, world)
-        meta = {**config_to_dict(config), "provenance": provenance()}
+        self.provenance = provenance()
+        meta = {**config_to_dict(config), "provenance": self.provenance}
         (self.dir / "config.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
         self.columns = trial_columns(config, world)
         self._csv = open(self.dir / "trials.csv", "w", newline="")  # noqa: SIM115 - kept open
         self._writer = csv.DictWriter(self._csv, fieldnames=self.columns, extrasaction="ignore")
         self._writer.writeheader()
+        for row in resume_rows or []:
+            self._writer.writerow({k: _fmt(row[k]) for k in self.columns if k in row})
         self._csv.flush()
         self.logger = TensorboardLogger(exp_name="tb", log_dir=str(self.dir))
         rows = ["| key | value |", "| --- | --- |"]
         rows += [f"| {k} | {v} |" for k, v in _flat(config_to_dict(config)).items()]
         self.logger.experiment.add_text("config", "\n".join(rows), 0)
-        self.trials: list[dict[str, Any]] = []
+        self.trials: list[dict[str, Any]] = [dict(r) for r in resume_rows or []]
+        self.snapshots = 0
+
+    def snapshot(self, policy: Any, seed: int, state: dict[str, Any]) -> None:
+        """Write ``checkpoint.pt`` with the run state ``state`` (atomic: a crash leaves the
+        previous one)."""
+        save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed, resume=state,
+                        provenance=self.provenance, world=self.world)  # fmt: skip
+        self.snapshots += 1
 
     def trial(self, record: dict[str, Any], last: bool) -> None:
         """Append one finished trial: CSV row (flushed), TensorBoard scalars and images."""
@@ -271,12 +339,14 @@ class RunWriter:
             fig = trajectory_figure(self.world, record)
             self.logger.experiment.add_figure("trial/trajectory", fig, global_step=n, close=True)
 
-    def finish(self, policy: Any, seed: int) -> None:
-        """Checkpoint, last trajectory, HParams; close the files."""
+    def finish(self, policy: Any, seed: int, state: dict[str, Any] | None = None) -> None:
+        """Checkpoint (with the run state ``state`` if given: the run can be resumed), last
+        trajectory, HParams; close the files."""
         import matplotlib.pyplot as plt
 
         self._csv.close()
-        save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed)
+        save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed, resume=state,
+                        provenance=self.provenance)  # fmt: skip
         if self.trials:
             from symrl.figures import trajectory_figure
 

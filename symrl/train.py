@@ -41,6 +41,7 @@ from symrl.learner.config import RunConfig
 
 __all__ = [
     "TrainResult", "train", "train_batch", "make_env", "TrialRecorder", "run_snapshot",
+    "check_memory",
     "restore_snapshot",
 ]  # fmt: skip
 
@@ -163,6 +164,37 @@ def _trial_extras(
 # Training
 
 
+def _available_memory() -> int:
+    """Bytes of memory available now (Linux ``MemAvailable``; 8 GiB where unknown)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 8 << 30
+
+
+def check_memory(config: RunConfig, batch: int, world: Any) -> int:
+    """Bytes the expert storage of ``batch`` robots takes at ``experts.capacity``; a
+    ValueError (one line, with the estimate) if that is over half the memory available."""
+    from symrl.runs import expert_names
+
+    xc = config.experts
+    dim = config.env.robot.n_sensors + xc.goal_codes
+    per_neuron = 4 * dim + 8 * 4 + 1  # centre (f32), action/utility/mean/taken (f64), used
+    need = batch * len(expert_names(config, world)) * xc.capacity * per_neuron
+    free = _available_memory()
+    if need > free // 2:
+        raise ValueError(
+            f"experts.capacity={xc.capacity}: {batch} robot(s) would preallocate "
+            f"{need / 2**30:.1f} GiB of expert storage, {free / 2**30:.1f} GiB is available; "
+            "lower it (storage doubles when full, up to experts.max_neurons)"
+        )
+    return need
+
+
 def train_batch(
     config: RunConfig,
     seeds: Sequence[int],
@@ -195,6 +227,7 @@ def train_batch(
     if (resume is not None or on_snapshot is not None) and batch != 1:
         raise ValueError(f"train_batch: snapshots and resume need one robot, got {batch}")
     env = make_env(config, seeds, world=world)
+    check_memory(config, batch, env.world)
     policy = MixtureOfExpertsPolicy(config, env.world, seeds)
     loss = TeseoLoss(policy)
     recorder = TrialRecorder(batch)
