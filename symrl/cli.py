@@ -10,27 +10,51 @@ import argparse
 import math
 import sys
 from collections.abc import Sequence
+from pathlib import Path
+
+START_HELP = "start pose X,Y,HEADING_DEG (metres, metres, degrees; heading 0 if left out)"
 
 
 def parse_pose(text: str) -> tuple[float, float, float]:
-    """Read ``X,Y,HEADING`` (metres, metres, radians) or ``X,Y`` (heading 0)."""
+    """Read ``X,Y,HEADING_DEG`` (metres, metres, degrees) or ``X,Y`` (heading 0); returns
+    ``(x, y, heading)`` with the heading in radians, as the env and the API take it."""
     parts = text.split(",")
     try:
         values = [float(p) for p in parts]
     except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"--start {text!r}: expected X,Y,HEADING as numbers, e.g. 0,0,0"
-        ) from None
+        values = []
     if len(values) not in (2, 3) or not all(math.isfinite(v) for v in values):
-        raise argparse.ArgumentTypeError(f"--start {text!r}: expected X,Y[,HEADING] finite numbers")
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: expected X,Y[,HEADING_DEG] as finite numbers (metres, metres, degrees), "
+            "e.g. 0,0.5,90"
+        )
     if len(values) == 2:
         values.append(0.0)
-    return values[0], values[1], values[2]
+    return values[0], values[1], math.radians(values[2])
+
+
+def format_pose(pose) -> str:
+    """A pose ``(x, y, heading in radians)`` as printed: ``(x, y, heading deg)``."""
+    x, y, h = (float(v) for v in pose)
+    return f"({x:g}, {y:g}, {math.degrees(h):.0f} deg)"
+
+
+def _one_line_errors(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Usage errors of ``parser`` as one line (``symrl CMD: error: ...``), exit 2."""
+
+    def error(message: str):
+        parser.exit(2, f"{parser.prog}: error: {message}\n")
+
+    parser.error = error  # type: ignore[method-assign]
+    return parser
 
 
 def _drive(args: argparse.Namespace) -> int:
     from symrl.drive import drive_command
 
+    _at_least("--seed", args.seed, 0)
+    if args.out and Path(args.out).exists() and not Path(args.out).is_dir():
+        raise ValueError(f"--out {args.out!r}: exists and is not a folder")
     return drive_command(args)
 
 
@@ -173,6 +197,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from symrl.figures import trajectory_figure
     from symrl.runs import load_checkpoint
 
+    _at_least("--seed", args.seed, 0)
     policy, config = load_checkpoint(args.checkpoint)
     world = None
     if args.map is not None:
@@ -186,8 +211,11 @@ def _evaluate(args: argparse.Namespace) -> int:
     fig = trajectory_figure(world or policy.world, record, title=title)
     fig.savefig(out / "evaluate.png", dpi=120)
     plt.close(fig)
+    home = (world or policy.world).start
+    start = args.start if args.start is not None else (home.x, home.y, home.heading)
     print(
-        f"greedy trial: {record['steps']} actions, total {record['total_reinforcement']:.2f}, "
+        f"greedy trial from {format_pose(start)}: {record['steps']} actions, "
+        f"total {record['total_reinforcement']:.2f}, "
         f"{record['collisions']} collisions, reached goal {record['reached_goal']}, "
         f"path {record['path_length']:.2f} m"
     )
@@ -234,7 +262,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser("drive", help="let the fuzzy reflex drive one trial and save its path")
-    p.add_argument("--start", type=parse_pose, default=None, help="start pose X,Y,HEADING")
+    _one_line_errors(p)
+    p.add_argument("--start", type=parse_pose, default=None, help=START_HELP)
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--out", default="out/drive", help="output folder (default out/drive)")
     p.add_argument("--map", default="hailu2001", help="built-in map name or map file")
@@ -257,6 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(e.g. update.gamma=0.9 shield.enabled=false); --help-keys lists every key with its "
         "default and meaning.",
     )
+    _one_line_errors(p)
     p.add_argument("recipe", nargs="?", help="recipe name (paper, paper_literal, ...) or YAML file")
     p.add_argument("--trials", type=int, default=None, help="number of trials (recipe default)")
     p.add_argument("--seed", type=int, default=None, help="random seed (recipe default)")
@@ -274,8 +304,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(handler=_train)
 
     p = sub.add_parser("evaluate", help="drive a saved controller greedily and save its path")
+    _one_line_errors(p)
     p.add_argument("checkpoint", help="checkpoint file written by `symrl train`")
-    p.add_argument("--start", type=parse_pose, default=None, help="start pose X,Y,HEADING")
+    p.add_argument("--start", type=parse_pose, default=None, help=START_HELP)
     p.add_argument("--seed", type=int, default=0, help="random seed for the world's noise")
     p.add_argument("--map", default=None, help="drive in another map (default: its own)")
     p.add_argument("--out", default=None, help="output folder (default: beside the checkpoint)")

@@ -123,6 +123,6 @@ def drive_command(args: argparse.Namespace) -> int:
 
     png = drive_figure(result, world, out / "path.png", title=title)
     (out / "trial.json").write_text(json.dumps(result, indent=1))
-    print(summary(result))
+    print(f"start ({x:g}, {y:g}, {math.degrees(h):.0f} deg)  {summary(result)}")
     print(f"saved {png} and {out / 'trial.json'}")
     return 0

@@ -84,12 +84,12 @@ def test_cli_drive_saves_png_and_prints_the_numbers(tmp_path, capsys, clean_tria
 
 def test_cli_drive_start_and_seed(tmp_path, capsys):
     out = tmp_path / "d"
-    assert main(["drive", "--start", "1,1.5,3.14159", "--seed", "3", "--out", str(out)]) == 0
+    assert main(["drive", "--start", "1,1.5,180", "--seed", "3", "--out", str(out)]) == 0
     saved = json.loads((out / "trial.json").read_text())
     assert saved["seed"] == 3
     assert saved["noise"] is True
     assert saved["start"][:2] == pytest.approx([1.0, 1.5])
-    expected = drive(start=(1.0, 1.5, 3.14159), seed=3)
+    expected = drive(start=(1.0, 1.5, math.pi), seed=3)
     assert f"steps: {expected['steps']} " in capsys.readouterr().out
 
 
