@@ -7,6 +7,7 @@ Parsing lives here; the work lives in the modules named by each handler, importe
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
 from collections.abc import Sequence
@@ -49,13 +50,26 @@ def _one_line_errors(parser: argparse.ArgumentParser) -> argparse.ArgumentParser
     return parser
 
 
+@contextlib.contextmanager
+def _naming_start(start):
+    """A start pose the world refuses (in a wall, too near one) is an error of ``--start``."""
+    try:
+        yield
+    except ValueError as err:
+        if start is None or "pose" not in str(err):
+            raise
+        x, y, h = start
+        raise ValueError(f"--start {x:g},{y:g},{math.degrees(h):g}: {err}") from None
+
+
 def _drive(args: argparse.Namespace) -> int:
     from symrl.drive import drive_command
 
     _at_least("--seed", args.seed, 0)
     if args.out and Path(args.out).exists() and not Path(args.out).is_dir():
         raise ValueError(f"--out {args.out!r}: exists and is not a folder")
-    return drive_command(args)
+    with _naming_start(args.start):
+        return drive_command(args)
 
 
 def _at_least(flag: str, value: int | None, low: int) -> None:
@@ -198,13 +212,16 @@ def _evaluate(args: argparse.Namespace) -> int:
     from symrl.runs import load_checkpoint
 
     _at_least("--seed", args.seed, 0)
+    if args.out and Path(args.out).exists() and not Path(args.out).is_dir():
+        raise ValueError(f"--out {args.out!r}: exists and is not a folder")
     policy, config = load_checkpoint(args.checkpoint)
     world = None
     if args.map is not None:
         from symrl.world.worldmap import load_map
 
         world = load_map(args.map)
-    (record,) = evaluate(policy, config, starts=[args.start], seed=args.seed, world=world)
+    with _naming_start(args.start):
+        (record,) = evaluate(policy, config, starts=[args.start], seed=args.seed, world=world)
     out = Path(args.out) if args.out else Path(args.checkpoint).parent
     out.mkdir(parents=True, exist_ok=True)
     title = f"greedy: {record['steps']} actions, total {record['total_reinforcement']:.2f}"

@@ -178,7 +178,8 @@ def _available_memory() -> int:
 
 def check_memory(config: RunConfig, batch: int, world: Any) -> int:
     """Bytes the expert storage of ``batch`` robots takes at ``experts.capacity``; a
-    ValueError (one line, with the estimate) if that is over half the memory available."""
+    ValueError (one line, with the estimate) if that is over a quarter of the memory available
+    (checkpoints and the end-of-trial updates copy it)."""
     from symrl.runs import expert_names
 
     xc = config.experts
@@ -186,11 +187,12 @@ def check_memory(config: RunConfig, batch: int, world: Any) -> int:
     per_neuron = 4 * dim + 8 * 4 + 1  # centre (f32), action/utility/mean/taken (f64), used
     need = batch * len(expert_names(config, world)) * xc.capacity * per_neuron
     free = _available_memory()
-    if need > free // 2:
+    if need > free // 4:
         raise ValueError(
             f"experts.capacity={xc.capacity}: {batch} robot(s) would preallocate "
-            f"{need / 2**30:.1f} GiB of expert storage, {free / 2**30:.1f} GiB is available; "
-            "lower it (storage doubles when full, up to experts.max_neurons)"
+            f"{need / 2**30:.1f} GiB of expert storage, more than a quarter of the "
+            f"{free / 2**30:.1f} GiB available; lower it (storage doubles when full, up to "
+            "experts.max_neurons)"
         )
     return need
 

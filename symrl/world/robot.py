@@ -72,10 +72,13 @@ class RobotConfig:
                 raise ValueError(
                     f"RobotConfig.{name} must be non-negative, got {getattr(self, name)!r}"
                 )
-        for name, low in (("n_sensors", 3), ("sonar_cone_rays", 1)):
+        # upper bounds: every step casts n_sensors * sonar_cone_rays rays per robot
+        for name, low, high in (("n_sensors", 3, 360), ("sonar_cone_rays", 1, 100)):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ValueError(f"RobotConfig.{name} must be an integer >= {low}, got {value!r}")
+            if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+                raise ValueError(
+                    f"RobotConfig.{name} must be an integer >= {low} and <= {high}, got {value!r}"
+                )
         if self.sonar_cone_deg >= 360.0:
             raise ValueError(
                 f"RobotConfig.sonar_cone_deg must be below 360, got {self.sonar_cone_deg!r}"
