@@ -85,6 +85,7 @@ class Hailu2001Env(gymnasium.Env):
 
     - Termination: the TRUE centre is within the goal radius (0.40 m) of the goal (4.0, -2.0).
     - Truncation: `max_actions` (200) actions without reaching the goal (a failed trial).
+    - After either, `step` raises `gymnasium.error.ResetNeeded` until `reset` is called.
 
     ## Arguments
 
@@ -169,6 +170,7 @@ class Hailu2001Env(gymnasium.Env):
         self.path: list[tuple[float, float]] = []
         self.odometry_path: list[tuple[float, float]] = []
         self._sensed = False  # a reading exists (render draws the sonar only after a reset)
+        self._ended = False  # the episode ended (terminated or truncated): step needs a reset
         self._renderer: Any = None
 
     # --- public state ----------------------------------------------------------------------
@@ -219,6 +221,7 @@ class Hailu2001Env(gymnasium.Env):
         self.path = [(x, y)]
         self.odometry_path = [(x, y)]
         self._sensed = True
+        self._ended = False
         # the reset state's reinforcement (r.reward) is the batched env's; here f1 = f2 = 0
         info = self._info(r, False)
         if self.render_mode == "human":
@@ -226,8 +229,13 @@ class Hailu2001Env(gymnasium.Env):
         return self._observation(r), info
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        if self._ended:
+            raise gymnasium.error.ResetNeeded(
+                "step() after the episode ended (terminated or truncated); call reset() first"
+            )
         alpha = self._parse_action(action)
         r = self._batch.step(np.array([alpha]), (self.np_random,))
+        self._ended = bool(r.reached_goal[0] or r.truncated[0])
         x1, y1 = r.true_pose[0, :2].tolist()
         self.path.append((x1, y1))
         self.odometry_path.append(self._batch.odometry_xy(0))

@@ -264,7 +264,10 @@ class EnvRenderer:
         draw_sonar(ax, pose, sonar_rim, self.robot.radius)
         draw_robot(ax, pose, self.robot.radius)
         self.fig.canvas.draw()
-        frame = np.asarray(self.fig.canvas.buffer_rgba())[:, :, :3].copy()
+        frame = np.asarray(self.fig.canvas.buffer_rgba())[:, :, :3]
+        # even width and height (H.264 video needs them): repeat the last row / column
+        h, w = frame.shape[:2]
+        frame = np.pad(frame, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
         if self.human:
             import matplotlib.pyplot as plt
 

@@ -376,7 +376,9 @@ def test_a_long_random_drive_collides_both_ways_and_keeps_its_distance():
     safe = R + env.robot.ir_collision_distance
     real = virtual = 0
     for a in rng.uniform(-1.2, 1.2, 1500):
-        _, reward, _, _, info = env.step(np.array([a], np.float32))
+        _, reward, terminated, truncated, info = env.step(np.array([a], np.float32))
+        if terminated or truncated:  # the drive goes on from the start
+            env.reset()
         real += int(info["real_collision"])
         virtual += int(info["virtual_collision"])
         assert (reward <= -3.0) == bool(info["collision"])
@@ -399,3 +401,16 @@ def test_no_tunnelling_through_a_thin_wall_with_long_steps():
     _, _, _, _, info = env.step(np.array([0.0], np.float32))
     assert info["real_collision"]
     np.testing.assert_allclose(info["true_pose"], [1.7, 1.0, 0.0])
+
+
+def test_step_after_the_episode_ended_needs_a_reset():
+    env = make(max_actions=2, noise=False)
+    env.reset(seed=0)
+    env.step(np.array([0.0], np.float32))
+    *_, truncated, _ = env.step(np.array([0.0], np.float32))
+    assert truncated
+    with pytest.raises(gymnasium.error.ResetNeeded, match="call reset") as err:
+        env.step(np.array([0.0], np.float32))
+    assert "\n" not in str(err.value)
+    env.reset(seed=0)
+    env.step(np.array([0.0], np.float32))  # a reset starts a new episode

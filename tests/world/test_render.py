@@ -15,7 +15,9 @@ def test_rgb_array_is_hwc_uint8_of_the_figure_size():
     env.reset(seed=0)
     first = env.render()
     width, height = env._renderer.fig.canvas.get_width_height()
-    assert first.shape == (height, width, 3) and first.dtype == np.uint8
+    # the figure's pixels, rounded up to even sizes (H.264 video needs them)
+    assert first.shape == (height + height % 2, width + width % 2, 3) and first.dtype == np.uint8
+    assert first.shape[0] % 2 == 0 and first.shape[1] % 2 == 0
     assert len(np.unique(first.reshape(-1, 3), axis=0)) > 5  # walls, goal, robot drawn
     for _ in range(3):
         env.step(np.array([0.0], np.float32))
@@ -52,4 +54,13 @@ def test_human_mode_draws_on_a_non_interactive_backend():
     env.reset(seed=0)
     assert env.step(np.array([0.0], np.float32))[0]["sonar"].shape == (24,)
     assert env.render() is None
+    env.close()
+
+
+@pytest.mark.parametrize("world", ["hailu2001", "maze", "l_corridor"])
+def test_rgb_array_frames_have_even_width_and_height(world):
+    env = Hailu2001Env(map=world, render_mode="rgb_array", noise=False)
+    env.reset(seed=0)
+    height, width, channels = env.render().shape
+    assert height % 2 == 0 and width % 2 == 0 and channels == 3
     env.close()
