@@ -75,6 +75,7 @@ def first_reliable(reached: list[bool], window: int = 20, level: float = 0.8) ->
 def make_env(seed: int):
     """The world env through TorchRL's ``GymEnv`` with the flat observation PPO reads."""
     import torch
+    from torchrl.data import Categorical
     from torchrl.envs import (
         CatTensors,
         Compose,
@@ -90,7 +91,9 @@ def make_env(seed: int):
     import symrl
 
     base = GymEnv(symrl.ENV_ID, noise=True)
-    base.set_info_dict_reader(default_info_dict_reader(["collision"]))
+    # the info's collision flag is a bool per step (a spec, else TorchRL assumes float32)
+    collision = Categorical(2, (), dtype=torch.bool)
+    base.set_info_dict_reader(default_info_dict_reader(["collision"], spec=[collision]))
     env = TransformedEnv(
         base,
         Compose(
