@@ -71,7 +71,7 @@ def test_a_signal_stops_the_run_with_its_finished_trials_saved(runs, tmp_path, c
     run = tmp_path / "stopped"
     runs_module.RunWriter.trial = trial_then_signal
     try:
-        # the checkpoint on disk is from trial 0 of 3: the stop writes the one of trial 2
+        # every 3 trials: no checkpoint on disk at trial 2 until the stop writes it
         code = _train("paper", "--trials", "4", "--seed", str(SEED), "--logdir", str(run),
                       "--checkpoint-every", "3")  # fmt: skip
     finally:
