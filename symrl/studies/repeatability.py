@@ -7,6 +7,8 @@ parallel worker processes (one torch thread each). The study writes one results 
 - ``table1.md`` / ``table1.json``: mean and variance at the last trial beside the paper's Table 1
   and the optimum of ``symrl plan``
 - ``curves.png`` (Figs 7-9), ``trajectories.png`` (Fig 6), ``ghosts.png`` (Fig 5)
+- ``sets/set-K.pt``: each finished set with the settings it ran with; a study re-run into the
+  same folder with the same settings loads these and trains only the sets missing
 
 Variances are sample variances (ddof = 1) over the sets; the paper does not say which it used.
 """
@@ -124,8 +126,11 @@ def run_study(
     config = resolve_config(recipe, overrides)
     if starts is None:  # the paper's other starts lie in its room; other maps: none by default
         starts = OTHER_STARTS if config.env.map == "hailu2001" else ()
-    results = run_sets(config, sets, trials, seed, (), starts, workers, progress=progress)
-    batches = {id(r.timings): r.timings for r in results}.values()  # one per worker batch
+    keep = Path(out) / "sets" if out is not None else None  # finished sets, kept for a re-run
+    results = run_sets(config, sets, trials, seed, (), starts, workers, progress=progress,
+                       keep=keep)  # fmt: skip
+    # one per worker batch (kept sets loaded from disk carry their batch's timings by value)
+    batches = {tuple(sorted(r.timings.items())): r.timings for r in results}.values()
     train_cpu = sum(t.get("cpu_seconds", 0.0) for t in batches)
     rows = [r for s in results for r in s.rows]
     table = table1(rows)

@@ -159,9 +159,15 @@ def run_sets(
     starts: Sequence[tuple[float, float, float]] = (),
     workers: int | None = 1,
     progress: bool = True,
+    keep: str | os.PathLike | None = None,
 ) -> list[SetResult]:
     """Train ``sets`` sets (set k: ``seed + k``) of ``trials`` trials and drive each final
-    controller from ``starts``; sets in order."""
+    controller from ``starts``; sets in order.
+
+    ``keep``: a folder where each finished set is saved (``set-K.pt``, with the settings it was
+    run with); a set found there with the same settings is loaded, not run again (set k is the
+    same run whatever the batch it runs in, so a study re-run into the same folder after an
+    interruption gives the same sets)."""
     if sets < 1 or trials < 1:
         raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
     workers = 1 if workers is None else workers
@@ -169,18 +175,73 @@ def run_sets(
         raise ValueError(f"--workers must be >= 1, got {workers}")
     config = resolve_config(recipe, [*overrides, f"run.trials={trials}", f"run.seed={seed}"])
     data = config_to_dict(config)
-    workers = min(workers, sets, os.cpu_count() or 1)
-    chunks = [list(c) for c in np.array_split(np.arange(sets), workers) if len(c)]
+    done: dict[int, SetResult] = {}
+    if keep is not None:
+        done = {k: s for k in range(sets) if (s := _load_set(keep, k, data, starts)) is not None}
+    todo = np.array([k for k in range(sets) if k not in done], dtype=np.int64)
+    if len(todo) == 0:
+        return [done[k] for k in range(sets)]
+
+    def finished(batch: list[SetResult]) -> list[SetResult]:
+        for s in batch:
+            if keep is not None:
+                _save_set(keep, s, data, starts)
+            done[s.index] = s
+        return batch
+
+    workers = min(workers, len(todo), os.cpu_count() or 1)
+    chunks = [[int(k) for k in c] for c in np.array_split(todo, workers) if len(c)]
     jobs = [(data, c, [seed + k for k in c], list(starts)) for c in chunks]
     if len(jobs) == 1:
-        return _run_batch(*jobs[0], progress=progress)
+        finished(_run_batch(*jobs[0], progress=progress))
+        return [done[k] for k in range(sets)]
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures import ProcessPoolExecutor, as_completed
 
     ctx = multiprocessing.get_context("spawn")  # no forked torch / OpenMP state
     with ProcessPoolExecutor(len(jobs), mp_context=ctx) as pool:
         futures = [pool.submit(_run_batch, *job, False) for job in jobs]
-        return [s for fut in futures for s in fut.result()]
+        for fut in as_completed(futures):  # each batch saved as soon as it is done
+            finished(fut.result())
+    return [done[k] for k in range(sets)]
+
+
+def _set_settings(data: dict[str, Any], index: int, starts: Sequence[Any]) -> dict[str, Any]:
+    return {"config": data, "set": int(index),
+            "starts": [[float(v) for v in s] for s in starts]}  # fmt: skip
+
+
+def _save_set(folder: str | os.PathLike, s: SetResult, data: dict[str, Any], starts) -> None:
+    import dataclasses
+    from pathlib import Path
+
+    from symrl.runs import _atomic_save
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    record = {"settings": _set_settings(data, s.index, starts), "set": dataclasses.asdict(s)}
+    _atomic_save(record, folder / f"set-{s.index:03d}.pt")
+
+
+def _load_set(folder, index: int, data: dict[str, Any], starts) -> SetResult | None:
+    """Set ``index`` as saved in ``folder`` if it was run with these settings, else None."""
+    from pathlib import Path
+
+    import torch
+
+    path = Path(folder) / f"set-{index:03d}.pt"
+    if not path.is_file():
+        return None
+    try:
+        record = torch.load(path, map_location="cpu", weights_only=True)
+        if record.get("settings") != _set_settings(data, index, starts):
+            return None
+        fields = dict(record["set"])
+        fields["paths"] = {int(k): v for k, v in fields["paths"].items()}
+        fields["ghosts"] = {int(k): v for k, v in fields["ghosts"].items()}
+        return SetResult(**fields)
+    except Exception:  # noqa: BLE001 - an unreadable or foreign file: run the set again
+        return None
 
 
 def _init_worker() -> None:
