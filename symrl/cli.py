@@ -79,6 +79,26 @@ def _at_least(flag: str, value: int | None, low: int) -> None:
 
 
 def _train(args: argparse.Namespace) -> int:
+    """``symrl train``: SIGINT and SIGTERM only ask the run to stop (after the current step,
+    with its finished trials saved), from the start of the command on."""
+    import signal
+
+    signalled: list[int] = []
+    handlers = {}
+
+    def on_signal(signum: int, frame) -> None:
+        signalled.append(signum)
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        handlers[sig] = signal.signal(sig, on_signal)
+    try:
+        return _train_run(args, signalled)
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
+
+
+def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
     import os
     import signal
     import time
@@ -156,22 +176,12 @@ def _train(args: argparse.Namespace) -> int:
             writer.snapshot(None, seed, snapshot)
             latest[1] = 1
 
-    signalled: list[int] = []
-    handlers = {}
-
-    def on_signal(signum: int, frame) -> None:
-        signalled.append(signum)
-
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        handlers[sig] = signal.signal(sig, on_signal)
     try:
         (result,) = train_batch(
             config, [seed], progress=True, on_trial=on_trial, world=world,
             on_snapshot=on_snapshot, resume=state, stop=lambda: bool(signalled),
         )  # fmt: skip
     finally:
-        for sig, handler in handlers.items():
-            signal.signal(sig, handler)
         writer.close()
     trials = result.trials
     if result.timings.get("stopped"):
