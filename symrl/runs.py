@@ -6,8 +6,13 @@ A run folder::
     config.yaml      the resolved config, written when the run starts (with versions)
     trials.csv       one row per finished trial, appended and flushed as it finishes
     tb/              TensorBoard events (scalars per trial, trajectory images, HParams)
-    checkpoint.pt    the controller, the config and the map's content (self-contained)
+    checkpoint.pt    the controller, the config and the map's content (self-contained), and
+                     the run state to resume from (``symrl train --resume``); rewritten
+                     atomically after every trial (``--checkpoint-every N``) and at the end
     trajectory.png   the last trial's path
+
+A resumed run rewrites ``trials.csv`` from the rows its checkpoint holds, then appends: its trial
+table is the one the uninterrupted run would have written.
 """
 
 from __future__ import annotations
