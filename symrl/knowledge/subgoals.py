@@ -4,7 +4,7 @@ The paper's region lines cut the world "at its joints"; where a line crosses fre
 two different regions it marks a passage (the door, here). A robot that aims the reflex's
 goal-following input at a point of such a passage instead of at the goal itself no longer folds
 into the concave corner, which is what the literal learner never un-learns
-(``research/ALGORITHM.md`` section 5). This module finds the passages of any map automatically
+(``docs/ALGORITHM.md`` sections 5-6). This module finds the passages of any map automatically
 and turns them into a small table of candidate sub-goals per region, so the learner only has to
 *choose* among a handful of symbolic options per region. Nothing here is specific to the
 ``hailu2001`` map and nothing knows of TorchRL; the table is plain tensors.
