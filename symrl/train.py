@@ -78,7 +78,7 @@ def make_env(
 
 
 class TrialRecorder:
-    """Per-robot accumulators of the current trial, read from the Collector's transitions."""
+    """Per-robot accumulators of the current trial, read from each batch of transitions."""
 
     def __init__(self, batch: int) -> None:
         self.batch = batch
@@ -139,25 +139,27 @@ class TrialRecorder:
             self._offset += drop
 
 
-def _trial_extras(
-    policy, loss_out: dict[str, torch.Tensor], j: int, b: int, temperature: float
-) -> dict[str, Any]:
-    """Learner columns of robot ``b``'s trial record (``j``: its index in ``loss_out``;
-    ``temperature``: the one the trial explored with, before the cooling at its end)."""
-    neurons = policy.neurons()[b]
-    out: dict[str, Any] = {"neurons": int(neurons.sum())}
-    for name, n in zip(policy.expert_names, neurons.tolist(), strict=True):
-        out[f"neurons_{name}"] = n
-    out["temperature"] = temperature
-    out["replaced"] = int(loss_out["replaced"][j])
-    out["improved"] = bool(loss_out["improved"][j])
-    if policy.options is not None:
-        labels = policy.options.labels
-        for r, name in enumerate(policy.region_names):
-            k = int(policy.options.choice[b, r])
-            if k >= 0:
-                out[f"option_{name}"] = labels[r][k]
-    return out
+def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor],
+                  temperature: list[float]) -> list[dict[str, Any]]:
+    """The learner columns of the trial records of robots ``rows`` (``out``: what
+    ``loss.end_trial`` returned for them; ``temperature``: the one each trial explored with,
+    read before the cooling at its end). Tensors are read once per call, not per robot."""
+    counts = policy.experts.count[rows].tolist()
+    replaced, improved = out["replaced"].tolist(), out["improved"].tolist()
+    choices = policy.options.choice[rows].tolist() if policy.options is not None else None
+    extras = []
+    for j in range(len(counts)):
+        extra: dict[str, Any] = {"neurons": sum(counts[j])}
+        extra.update({f"neurons_{n}": c for n, c in zip(policy.expert_names, counts[j],
+                                                         strict=True)})  # fmt: skip
+        extra.update(temperature=temperature[j], replaced=replaced[j], improved=improved[j])
+        if choices is not None:
+            labels = policy.options.labels
+            for r, name in enumerate(policy.region_names):
+                if choices[j][r] >= 0:
+                    extra[f"option_{name}"] = labels[r][choices[j][r]]
+        extras.append(extra)
+    return extras
 
 
 # ---------------------------------------------------------------------------------------------
@@ -271,12 +273,13 @@ def train_batch(
             reached = recorder.reached[rows]
             explored = policy.temperature[rows].tolist()  # before end_trial cools it
             out = loss.end_trial(rows, totals, reached)
+            extras = _trial_extras(policy, rows, out, explored)
             for j, b in enumerate(rows.tolist()):
                 if finals[b] is not None:
                     continue  # this robot has done its trials: only driving on
                 record = {"trial": len(trials[b]) + 1, **records[j]}
                 record["reached_goal"] = bool(reached[j])
-                record.update(_trial_extras(policy, out, j, b, explored[j]))
+                record.update(extras[j])
                 trials[b].append(record)
                 bar.update(1)
                 if batch == 1:

@@ -4,7 +4,7 @@ Two fuzzy behaviours vote on three output sets (LEFT, FORWARD, RIGHT): obstacle 
 reads the sonars, goal following reads the signed goal angle. Their activation vectors are
 fused with constant desirabilities (Eq. 5) and defuzzified to one crisp turning angle.
 The paper gives the architecture but not the rules; the rule base here is the reconstruction
-of ``research/ALGORITHM.md`` section 4, with its one crucial detail: the FL/FR rules are guarded
+of ``docs/ALGORITHM.md`` section 4, with its one crucial detail: the FL/FR rules are guarded
 by "and not F", otherwise a robot facing a concave corner gets LEFT = RIGHT, the votes cancel
 into "forward", and it rams the corner. The whole reflex is a few tensor operations over any
 leading batch shape (fuzzy libraries that take milliseconds per inference are what we avoid).

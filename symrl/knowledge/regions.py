@@ -37,6 +37,8 @@ class RegionMapper(nn.Module):
     threshold: torch.Tensor
     used: torch.Tensor
     rule_region: torch.Tensor
+    sign: torch.Tensor
+    padding: torch.Tensor
 
     def __init__(self, spec: RegionSpec) -> None:
         super().__init__()

@@ -4,7 +4,7 @@ The paper's region lines cut the world "at its joints"; where a line crosses fre
 two different regions it marks a passage (the door, here). A robot that aims the reflex's
 goal-following input at a point of such a passage instead of at the goal itself no longer folds
 into the concave corner, which is what the literal learner never un-learns
-(``research/ALGORITHM.md`` section 5). This module finds the passages of any map automatically
+(``docs/ALGORITHM.md`` sections 5-6). This module finds the passages of any map automatically
 and turns them into a small table of candidate sub-goals per region, so the learner only has to
 *choose* among a handful of symbolic options per region. Nothing here is specific to the
 ``hailu2001`` map and nothing knows of TorchRL; the table is plain tensors.
@@ -126,7 +126,6 @@ class Passage:
 def region_pieces(world: WorldMap) -> list[tuple[str, shapely.Geometry]]:
     """The connected pieces of each region's free area, cut by the thin walls: ``(region,
     polygon)`` in the order of ``regions.names``, pieces of one region by their lowest point."""
-    xmin, xmax, ymin, ymax = world.bounds
     free = world.free_polygon
     cuts = [
         LineString([(a, b), (c, d)]).buffer(1e-6, cap_style="flat")
@@ -137,13 +136,7 @@ def region_pieces(world: WorldMap) -> list[tuple[str, shapely.Geometry]]:
     cells: dict[str, list] = {name: [] for name in world.regions.names}
     taken = None
     for rule in world.regions.rules:
-        lo_hi = [[xmin - 1.0, xmax + 1.0], [ymin - 1.0, ymax + 1.0]]
-        for c in rule.conditions:
-            bound = lo_hi[c.axis]
-            if c.greater:
-                bound[0] = max(bound[0], c.threshold)
-            else:
-                bound[1] = min(bound[1], c.threshold)
+        lo_hi = rule.bounds(world.bounds)
         if any(lo >= hi for lo, hi in lo_hi):
             continue
         cell = box(lo_hi[0][0], lo_hi[1][0], lo_hi[0][1], lo_hi[1][1])

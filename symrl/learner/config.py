@@ -48,6 +48,7 @@ __all__ = [
     "config_to_dict",
     "config_from_dict",
     "describe_keys",
+    "apply_overrides",
 ]
 
 
@@ -364,6 +365,14 @@ def load_config(
     return config_from_dict(data, recipe=str(data.get("recipe", name)))
 
 
+def apply_overrides(config: RunConfig, overrides: list[str] | tuple[str, ...]) -> RunConfig:
+    """``config`` with ``key=value`` overrides applied (validated again)."""
+    data = config_to_dict(config)
+    for text in overrides:
+        data = _merge(data, _parse_override(text))
+    return config_from_dict(data, recipe=config.recipe)
+
+
 def describe_keys() -> str:
     """Every config key with its default and docstring (for ``symrl train --help-keys``)."""
     import dataclasses
@@ -396,7 +405,7 @@ def describe_keys() -> str:
         names = (
             [f.name for f in dataclasses.fields(cls)]
             if dataclasses.is_dataclass(cls)
-            else list(cls.model_fields)
+            else list(cls.model_fields)  # type: ignore[attr-defined]
         )
         doc = docs(cls)
         value: Any = defaults

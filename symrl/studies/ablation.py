@@ -28,10 +28,17 @@ from symrl.studies.repeatability import (
     OTHER_STARTS,
     PAPER_TABLE1,
     StudyResult,
-    _start_summary,
     write_study,
 )
-from symrl.studies.runner import LAST, curves, optimum, run_sets, summarise, table1
+from symrl.studies.runner import (
+    LAST,
+    curves,
+    optimum,
+    run_sets,
+    start_summary,
+    summarise,
+    table1,
+)
 
 __all__ = ["RECIPES", "summarise", "summary_markdown", "run_ablation", "ablate_command"]
 
@@ -103,7 +110,7 @@ def run_ablation(
         rows = [r for s in sets_r for r in s.rows]
         table = table1(rows)
         table.update(paper=PAPER_TABLE1, optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1])
-        table["other_starts"] = _start_summary(sets_r)
+        table["other_starts"] = start_summary(sets_r)
         table["provenance"] = code
         wall_r = time.perf_counter() - r0
         table["wall_time_s"] = round(wall_r, 1)

@@ -24,10 +24,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from symrl.runs import write_trials_csv
-from symrl.studies.runner import SetResult, curves, optimum, run_sets, table1
+from symrl.studies.runner import SetResult, curves, optimum, run_sets, start_summary, table1
 
 __all__ = [
     "PAPER_TABLE1",
@@ -140,7 +138,7 @@ def run_study(
     table["provenance"] = provenance()
     table["seeds"] = [seed, seed + sets - 1]
     table["overrides"] = list(overrides)
-    table["other_starts"] = _start_summary(results)
+    table["other_starts"] = start_summary(results)
     table["train_steps"] = int(sum(int(r["steps"]) for r in rows))
     table["train_cpu_s"] = round(train_cpu, 3)
     wall = time.perf_counter() - t0
@@ -150,26 +148,6 @@ def run_study(
     if out is not None:
         write_study(study, figures=figures)
     return study
-
-
-def _start_summary(results: Sequence[SetResult]) -> list[dict[str, Any]]:
-    """Per other start pose: how many sets' final controllers reached the goal from it."""
-    out = []
-    for k in range(len(results[0].evaluations) if results else 0):
-        evs = [r.evaluations[k] for r in results]
-        out.append(
-            {
-                "start": evs[0]["start"],
-                "reached": sum(e["reached_goal"] for e in evs),
-                "sets": len(evs),
-                "mean_steps_when_reached": (
-                    float(np.mean([e["steps"] for e in evs if e["reached_goal"]]))
-                    if any(e["reached_goal"] for e in evs)
-                    else None
-                ),
-            }
-        )
-    return out
 
 
 def write_study(study: StudyResult, figures: bool = True) -> None:

@@ -30,6 +30,7 @@ __all__ = [
     "curves",
     "mean_std",
     "summarise",
+    "start_summary",
     "optimum",
     "LAST",
 ]
@@ -62,12 +63,9 @@ def resolve_config(recipe: str | RunConfig, overrides: Sequence[str] = ()) -> Ru
     if isinstance(recipe, RunConfig):
         if not overrides:
             return recipe
-        from symrl.learner.config import _merge, _parse_override
+        from symrl.learner.config import apply_overrides
 
-        data = config_to_dict(recipe)
-        for text in overrides:
-            data = _merge(data, _parse_override(text))
-        return config_from_dict(data, recipe=recipe.recipe)
+        return apply_overrides(recipe, overrides)
     return load_config(recipe, list(overrides))
 
 
@@ -377,6 +375,27 @@ def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any
         "collisions_last": mean_std(coll_last),
         "collisions_all_trials": mean_std(coll_all),
     }
+
+
+def start_summary(results: Sequence[SetResult]) -> list[dict[str, Any]]:
+    """Per other start pose: how many sets' final controllers reached the goal from it."""
+    out = []
+    for k in range(len(results[0].evaluations) if results else 0):
+        evs = [r.evaluations[k] for r in results]
+        out.append(
+            {
+                "start": evs[0]["start"],
+                "reached": sum(e["reached_goal"] for e in evs),
+                "sets": len(evs),
+                "mean_steps_when_reached": (
+                    float(np.mean([e["steps"] for e in evs if e["reached_goal"]]))
+                    if any(e["reached_goal"] for e in evs)
+                    else None
+                ),
+            }
+        )
+    return out
+
 
 
 @functools.lru_cache(maxsize=8)

@@ -85,6 +85,19 @@ class RegionRule:
     region: str
     conditions: tuple[Condition, ...]
 
+    def bounds(self, world_bounds: tuple[float, float, float, float]) -> list[list[float]]:
+        """The axis-aligned box ``[[x_lo, x_hi], [y_lo, y_hi]]`` its conditions allow inside the
+        map's bounds widened by 1 m (empty when a lower end is not below its upper end)."""
+        xmin, xmax, ymin, ymax = world_bounds
+        lo_hi = [[xmin - 1.0, xmax + 1.0], [ymin - 1.0, ymax + 1.0]]
+        for c in self.conditions:
+            bound = lo_hi[c.axis]
+            if c.greater:
+                bound[0] = max(bound[0], c.threshold)
+            else:
+                bound[1] = min(bound[1], c.threshold)
+        return lo_hi
+
 
 @dataclass(frozen=True)
 class RegionSpec:
@@ -498,13 +511,7 @@ def _check_regions(world: WorldMap, source: str, outer: Polygon) -> None:
     free = world.free_polygon
     taken = None
     for i, rule in enumerate(world.regions.rules):
-        lo_hi = [[xmin - 1.0, xmax + 1.0], [ymin - 1.0, ymax + 1.0]]
-        for c in rule.conditions:
-            bound = lo_hi[c.axis]
-            if c.greater:
-                bound[0] = max(bound[0], c.threshold)
-            else:
-                bound[1] = min(bound[1], c.threshold)
+        lo_hi = rule.bounds(world.bounds)
         cell = box(lo_hi[0][0], lo_hi[1][0], lo_hi[0][1], lo_hi[1][1])
         if any(lo >= hi for lo, hi in lo_hi) or free.intersection(cell).area <= 1e-9:
             raise MapError(
