@@ -351,7 +351,7 @@ def run_snapshot(env, policy, loss, trials: list[dict[str, Any]], td) -> dict[st
     return {
         "format": SNAPSHOT_FORMAT,
         "trials": rows,
-        "policy": {k: v.clone() for k, v in policy.state_dict().items()},
+        "policy": _trimmed(policy.state_dict(), int(policy.experts.count.max())),
         "loss": {k: v.clone() for k, v in loss.state_dict().items()},
         "generators": [g.get_state() for g in policy.generators],
         "option_generators": (
@@ -365,6 +365,17 @@ def run_snapshot(env, policy, loss, trials: list[dict[str, Any]], td) -> dict[st
         "physics": {n: torch.from_numpy(np.array(getattr(physics, n))) for n in _PHYSICS_STATE},
         "last": {k: torch.from_numpy(np.array(v)) for k, v in (env._last or {}).items()},
         "td": td.clone().to_dict(),
+    }
+
+
+def _trimmed(state: dict[str, torch.Tensor], neurons: int) -> dict[str, torch.Tensor]:
+    """Cloned state dict with the expert storage cut to the neurons in use (a large
+    ``experts.capacity`` is mostly empty; the bank grows again from the saved size, with the
+    same numbers)."""
+    n = max(neurons, 1)
+    return {
+        k: (v[:, :, :n] if k.startswith("experts.") and v.dim() >= 3 else v).clone()
+        for k, v in state.items()
     }
 
 

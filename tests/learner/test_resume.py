@@ -56,6 +56,9 @@ def test_the_resumable_checkpoint_is_a_plain_checkpoint(runs, tmp_path, capsys):
     for key, value in same.state_dict().items():
         assert torch.equal(value, policy.state_dict()[key]), key
     assert main(["evaluate", str(parted / "checkpoint.pt"), "--out", str(tmp_path)]) == 0
+    # the expert storage is saved cut to the neurons in use, not at its allocated capacity
+    saved = torch.load(parted / "checkpoint.pt", weights_only=True)["policy"]
+    assert saved["experts.centres"].shape[2] == int(saved["experts.count"].max())
 
 
 def test_a_signal_stops_the_run_with_its_finished_trials_saved(runs, tmp_path, capsys):
