@@ -117,13 +117,15 @@ def run_study(
 ) -> StudyResult:
     """Run ``sets`` sets of ``trials`` trials (set k: seed + k) and write the results folder."""
     from symrl.about import provenance
+    from symrl.studies.placement import study_starts
     from symrl.studies.runner import resolve_config
     from symrl.world import load_map
 
     t0 = time.perf_counter()
     config = resolve_config(recipe, overrides)
-    if starts is None:  # the paper's other starts lie in its room; other maps: none by default
-        starts = OTHER_STARTS if config.env.map == "hailu2001" else ()
+    world = load_map(config.env.map)
+    if starts is None:  # the paper's other starts lie in its room; other maps: from the map
+        starts = OTHER_STARTS if config.env.map == "hailu2001" else study_starts(world)
     results = run_sets(config, sets, trials, seed, (), starts, workers, progress=progress)
     batches = {id(r.timings): r.timings for r in results}.values()  # one per worker batch
     train_cpu = sum(t.get("cpu_seconds", 0.0) for t in batches)
@@ -141,7 +143,7 @@ def run_study(
     wall = time.perf_counter() - t0
     table["wall_time_s"] = round(wall, 2)
     study = StudyResult(config.recipe, results, table, Path(out) if out else None, wall,
-                        load_map(config.env.map))  # fmt: skip
+                        world)  # fmt: skip
     if out is not None:
         write_study(study, figures=figures)
     return study
@@ -193,11 +195,13 @@ def write_figures(study: StudyResult) -> None:
     assert out is not None
     rows = study.rows
     world = study.world
-    ref = {
-        "neurons:paper 82.5": 82.5,
-        "steps:paper 27.7": 27.7,
-        "total_reinforcement:paper -6.24": -6.24,
-    }
+    ref: dict[str, float] = {}
+    if world is None or world.name == "hailu2001":  # the paper's numbers are of its world only
+        ref = {
+            "neurons:paper 82.5": 82.5,
+            "steps:paper 27.7": 27.7,
+            "total_reinforcement:paper -6.24": -6.24,
+        }
     opt = study.table.get("optimum")
     if opt:
         ref[f"steps:optimum {opt['steps']}"] = opt["steps"]
