@@ -199,7 +199,7 @@ def _frac(r: dict[str, Any]) -> str:
 def markdown(report: dict[str, Any]) -> str:
     """The three tables of the generalisation study."""
     x0, y0, h0 = report.get("start", (0.0, 0.0, 0.0))
-    box = np.asarray(report["obstacle"], dtype=float)
+    box = np.asarray(report.get("obstacle", OBSTACLE), dtype=float)
     (bx0, by0), (bx1, by1) = box.min(axis=0), box.max(axis=0)
     what = (f"{bx1 - bx0:.2g} m box at ({(bx0 + bx1) / 2:.2f}, {(by0 + by1) / 2:.2f})"
             if abs((bx1 - bx0) - (by1 - by0)) < 1e-6 else "polygon")  # fmt: skip

@@ -103,16 +103,25 @@ def test_derived_obstacle_is_on_free_ground_and_keeps_the_goal_reachable(name):
     assert reaches_goal(blocked) and not shapely.is_empty(poly)
 
 
-def test_ablate_and_generalise_take_a_map(tmp_path):
+def test_ablate_takes_a_map(tmp_path):
     out = tmp_path / "abl"
     assert main(["ablate", "--recipes", "reflex_only", "--sets", "1", "--trials", "1",
-                 "--map", "l_corridor", "--out", str(out)]) == 0  # fmt: skip
+                 "--map", "hailu2001_mirror", "--out", str(out)]) == 0  # fmt: skip
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["_map"] == "l_corridor"
-    assert summary["_optimum"]["steps"] == optimum("l_corridor")["steps"]
+    assert summary["_map"] == "hailu2001_mirror"
+    assert summary["_optimum"]["steps"] == optimum("hailu2001_mirror")["steps"]
     assert "paper, Table 1" not in (out / "summary.md").read_text()
+    table = json.loads((out / "reflex_only" / "table1.json").read_text())
+    mirror = load_map("hailu2001_mirror")
+    assert [s["start"] for s in table["other_starts"]] == [list(p) for p in study_starts(mirror)]
+
+
+def test_generalise_takes_a_map(tmp_path):
+    mirror = load_map("hailu2001_mirror")
     report = run_generalisation("paper", sets=1, trials=1, out=tmp_path / "gen",
-                                noise_levels=(), map="l_corridor")  # fmt: skip
-    assert report["map"] == "l_corridor" and len(report["starts"]) == 8
-    assert report["obstacle"] == derived_obstacle(load_map("l_corridor"))
+                                noise_levels=(), map="hailu2001_mirror")  # fmt: skip
+    assert report["map"] == "hailu2001_mirror" and len(report["starts"]) == 8
+    assert [s["near_learned_route"] for s in report["starts"]] == [True] * 4 + [False] * 4
+    assert report["obstacle"] == derived_obstacle(mirror) != OBSTACLE
     assert (tmp_path / "gen" / "obstacle.png").is_file()
+    assert "hailu2001_mirror" in (tmp_path / "gen" / "generalise.md").read_text()
