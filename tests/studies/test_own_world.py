@@ -125,3 +125,18 @@ def test_generalise_takes_a_map(tmp_path):
     assert report["obstacle"] == derived_obstacle(mirror) != OBSTACLE
     assert (tmp_path / "gen" / "obstacle.png").is_file()
     assert "hailu2001_mirror" in (tmp_path / "gen" / "generalise.md").read_text()
+
+
+def test_baseline_and_generalise_parsers_take_a_map():
+    from symrl.cli import build_parser
+    from symrl.studies.ppo import make_env
+
+    parser = build_parser()
+    for argv in (["baseline", "ppo"], ["generalise"], ["ablate"]):
+        assert parser.parse_args(argv).map == "hailu2001"
+        assert parser.parse_args([*argv, "--map", "maze"]).map == "maze"
+    env = make_env(0, "two_doors")  # the PPO env is built on the map it is given
+    try:
+        assert env.base_env._env.unwrapped.world.name == "two_doors"
+    finally:
+        env.close()
