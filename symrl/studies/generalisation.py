@@ -8,13 +8,13 @@ measurements, each beside the reflex alone (``reflex_only``) on the same seeds:
    the final controller greedily from ``STARTS`` (four near the learned route, four far from it).
 2. **New obstacle**: the same controllers, from the usual start, in the map plus ``OBSTACLE``
    (a 0.5 m box on the learned route) via ``WorldMap.with_obstacle``.
+3. **Noise**: learning itself under more odometry drift (``env.rotation_noise_deg``) and more
+   sonar noise (``env.sonar_noise_std``): the ablation summary per level.
 
 ``STARTS`` and ``OBSTACLE`` are the paper's world's. On any other map (``map=``, ``--map``) the
 start poses are the map's ``starts:`` or four derived in the start's region and its neighbours
 plus four in the other regions, and the obstacle is a box on the shortest path about a third of
 the way (``symrl.studies.placement``).
-3. **Noise**: learning itself under more odometry drift (``env.rotation_noise_deg``) and more
-   sonar noise (``env.sonar_noise_std``): the ablation summary per level.
 """
 
 from __future__ import annotations
