@@ -57,8 +57,12 @@ TABLE_KEYS = (
 )
 
 
-def table1_markdown(recipe: str, table: dict[str, Any], opt: dict[str, Any] | None) -> str:
-    """Table 1 beside the paper's numbers and the optimum, as Markdown."""
+def table1_markdown(recipe: str, table: dict[str, Any], opt: dict[str, Any] | None,
+                    paper: bool = True) -> str:
+    """Table 1 beside the paper's numbers (``paper``: only meaningful on its world) and the
+    optimum, as Markdown."""
+    if not paper:
+        return _table_own_world(recipe, table, opt)
     lines = [
         f"Table 1 - `{recipe}`: {table['sets']} sets, last trial ({table['trial']}); "
         "variance = sample variance over sets",
@@ -79,6 +83,27 @@ def table1_markdown(recipe: str, table: dict[str, Any], opt: dict[str, Any] | No
             f"| {key.replace('_', ' ')} | {t['mean']:.2f} | {t['variance']:.3f} | "
             f"{t['min']:.4g} to {t['max']:.4g} | {paper.get('mean', '')} "
             f"| {paper.get('variance', '')} | {best} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _table_own_world(recipe: str, table: dict[str, Any], opt: dict[str, Any] | None) -> str:
+    """Table 1 on a map other than the paper's: ours and the map's optimum only."""
+    lines = [
+        f"Table 1 - `{recipe}` on `{table.get('map', '?')}`: {table['sets']} sets, last trial "
+        f"({table['trial']}); variance = sample variance over sets",
+        "",
+        "| quantity | ours mean | ours variance | ours min-max | optimum |",
+        "| --- | ---: | ---: | ---: | ---: |",
+    ]
+    for key in TABLE_KEYS:
+        if key not in table:
+            continue
+        t = table[key]
+        best = f"{opt['steps']} ({opt['length_m']} m)" if opt and key == "steps" else ""
+        lines.append(
+            f"| {key.replace('_', ' ')} | {t['mean']:.2f} | {t['variance']:.3f} | "
+            f"{t['min']:.4g} to {t['max']:.4g} | {best} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -175,8 +200,11 @@ def write_study(study: StudyResult, figures: bool = True) -> None:
     assert out is not None
     out.mkdir(parents=True, exist_ok=True)
     write_trials_csv(out / "trials.csv", study.rows)
+    own = study.world is not None and study.world.name != "hailu2001"
+    if own:
+        study.table["map"] = study.world.name
     (out / "table1.json").write_text(json.dumps(study.table, indent=2) + "\n")
-    md = table1_markdown(study.recipe, study.table, study.table.get("optimum"))
+    md = table1_markdown(study.recipe, study.table, study.table.get("optimum"), paper=not own)
     starts = study.table.get("other_starts", [])
     if starts:
         md += "\nFinal controller (greedy) from other start poses: " + "; ".join(
