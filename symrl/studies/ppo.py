@@ -72,8 +72,9 @@ def first_reliable(reached: list[bool], window: int = 20, level: float = 0.8) ->
     return int(hits[0] + window) if len(hits) else None
 
 
-def make_env(seed: int):
-    """The world env through TorchRL's ``GymEnv`` with the flat observation PPO reads."""
+def make_env(seed: int, map: str = "hailu2001"):
+    """The world env (``map``: name or file) through TorchRL's ``GymEnv`` with the flat
+    observation PPO reads."""
     import torch
     from torchrl.envs import (
         CatTensors,
@@ -89,7 +90,7 @@ def make_env(seed: int):
 
     import symrl
 
-    base = GymEnv(symrl.ENV_ID, noise=True)
+    base = GymEnv(symrl.ENV_ID, noise=True, map=map)
     base.set_info_dict_reader(default_info_dict_reader(["collision"]))
     env = TransformedEnv(
         base,
@@ -140,7 +141,8 @@ def make_modules(env, hidden: int):
 
 
 def run_ppo(
-    seed: int = 100, episodes: int = 20, log_path: str | None = None, **overrides: Any
+    seed: int = 100, episodes: int = 20, log_path: str | None = None, map: str = "hailu2001",
+    **overrides: Any,
 ) -> dict[str, Any]:
     """Train PPO for ``episodes`` episodes; per-episode rows and the reliability summary.
 
@@ -161,7 +163,7 @@ def run_ppo(
     torch.manual_seed(seed)
     np.random.seed(seed)
     t0 = time.perf_counter()
-    env = make_env(seed)
+    env = make_env(seed, map)
     actor, critic = make_modules(env, cfg.hidden)
     gae = GAE(gamma=cfg.gamma, lmbda=cfg.lmbda, value_network=critic, average_gae=True)
     loss = ClipPPOLoss(
@@ -240,6 +242,7 @@ def run_ppo(
     reached = [r["reached_goal"] for r in rows]
     return {
         "seed": seed,
+        "map": map,
         "config": asdict(cfg),
         "rows": rows,
         "episodes": len(rows),
@@ -287,7 +290,8 @@ def baseline_command(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     jobs = [
-        {"seed": s, "episodes": args.episodes, "log_path": str(out / f"episodes-seed{s}.csv")}
+        {"seed": s, "episodes": args.episodes, "log_path": str(out / f"episodes-seed{s}.csv"),
+         "map": args.map}
         for s in seeds
     ]
     results = run_jobs(run_ppo, jobs, workers=None, desc="ppo")
@@ -303,7 +307,8 @@ def baseline_command(args: argparse.Namespace) -> int:
     (out / "summary.md").write_text(md)
     from symrl.figures import plot_baseline
 
-    plot_baseline(results, out / "ppo.png", "PPO (TorchRL) on symrl/Hailu2001-v0")
+    plot_baseline(results, out / "ppo.png",
+                  f"PPO (TorchRL) on symrl/Hailu2001-v0, map {args.map}")
     print(md)
     print(f"wrote {out}/ (episodes.csv, summary.json, summary.md, ppo.png); wall time {wall} s")
     return 0
