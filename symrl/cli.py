@@ -358,6 +358,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--seed", type=int, default=100)
     p.add_argument("--recipes", default=None, help="comma-separated subset of recipes")
+    p.add_argument("--map", default="hailu2001",
+                   help="built-in map name or map file (env.map; default hailu2001)")
     p.add_argument("--out", default="results/ablate")
     p.set_defaults(handler=_ablate)
 
@@ -371,6 +373,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("algorithm", choices=["ppo"])
     p.add_argument("--episodes", type=int, default=20, help="training budget in episodes")
     p.add_argument("--seeds", default="100", help="comma-separated seeds")
+    p.add_argument("--map", default="hailu2001",
+                   help="built-in map name or map file (default hailu2001)")
     p.add_argument("--out", default="results/baseline-ppo")
     p.set_defaults(handler=_baseline)
 
@@ -382,6 +386,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--trials", type=int, default=20)
     p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--seed", type=int, default=100)
+    p.add_argument("--map", default="hailu2001",
+                   help="built-in map name or map file (env.map; default hailu2001)")
     p.add_argument("--out", default="results/generalise")
     p.set_defaults(handler=_generalise)
     return parser

@@ -102,7 +102,7 @@ class RegionMapper(nn.Module):
         control loop's call (its poses come from the env, finite by construction)."""
         # (..., R, C): the coordinate each condition looks at; a condition holds where
         # sign * (value - threshold) > 0 (sign +1 for ">", -1 for "<"), padding always holds
-        values = xy[..., self.axis]
+        values = xy.index_select(-1, self.axis.view(-1)).unflatten(-1, self.axis.shape)
         holds = ((values - self.threshold) * self.sign > 0) | self.padding
         # First matching rule: argmax over a 0/1 integer tensor returns the first maximum.
         first = holds.all(dim=-1).to(torch.uint8).argmax(dim=-1)

@@ -105,12 +105,13 @@ class ExpertBank(nn.Module):
         """Winner (argmin distance = argmax activation) in each controller's ``expert`` for its
         input ``x`` (B, D), and the distance; (-1, inf) where that expert is empty."""
         row = self._row_base + expert
-        counts = self.count.view(-1)[row]
+        counts = self.count.take(row)
         n = int(counts.max())
         if n == 0:
             return torch.full_like(counts, -1), torch.full((self.batch,), torch.inf)
         batch, experts, capacity, dim = self.centres.shape
-        centres = self.centres.view(batch * experts, capacity, dim)[row, :n]  # (B, n, D)
+        flat = self.centres.view(batch * experts, capacity, dim)
+        centres = flat[:, :n].index_select(0, row)  # (B, n, D)
         d2 = (centres - x[:, None, :]).square_().sum(-1)
         d2.masked_fill_(self._arange[:n] >= counts[:, None], torch.inf)
         best = d2.min(dim=-1)
@@ -134,7 +135,8 @@ class ExpertBank(nn.Module):
     ) -> torch.Tensor:
         """Append one neuron to ``expert[i]`` of controller ``rows[i]`` (rows distinct); returns
         the new neurons' indices. Storage doubles when any expert is full."""
-        index = self.count[rows, expert]
+        row = self._row_base.index_select(0, rows) + expert  # (controller, expert) rows
+        index = self.count.take(row)
         if rows.numel() == 0:
             return index
         top = int(index.max())
@@ -146,13 +148,14 @@ class ExpertBank(nn.Module):
                     "raise it or the novelty radius"
                 )
             self._resize(min(2 * self.capacity, self.max_neurons))
-        self.centres[rows, expert, index] = centre.to(self.centres.dtype)
-        self.actions[rows, expert, index] = action.to(torch.float64)
-        self.utilities[rows, expert, index] = utility.to(torch.float64)
-        self.means[rows, expert, index] = 0.0
-        self.taken[rows, expert, index] = 0.0
-        self.used[rows, expert, index] = False
-        self.count[rows, expert] = index + 1
+        flat = row * self.capacity + index
+        self.centres.view(-1, self.dim).index_copy_(0, flat, centre.to(self.centres.dtype))
+        self.actions.view(-1).index_copy_(0, flat, action.to(torch.float64))
+        self.utilities.view(-1).index_copy_(0, flat, utility.to(torch.float64))
+        for name in ("means", "taken"):
+            getattr(self, name).view(-1).index_fill_(0, flat, 0.0)
+        self.used.view(-1).index_fill_(0, flat, False)
+        self.count.view(-1).index_copy_(0, row, index + 1)
         return index
 
     # -- end of trial ---------------------------------------------------------------------

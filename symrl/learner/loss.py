@@ -130,15 +130,15 @@ class TeseoLoss(LossModule):
             winner[new] = bank.add(new, expert[new], x[new], proto[new], u0)
             grown += novel.long()
         index = bank.flat_index(expert, winner)  # after any growth: the capacity may change
-        bank.taken.view(-1)[index] = td[k.taken]
-        bank.used.view(-1)[index] = True
+        bank.taken.view(-1).index_copy_(0, index, td[k.taken])
+        bank.used.view(-1).index_fill_(0, index, True)
 
         # 2. the utility of the state reached
         terminated = nxt[k.terminated].view(-1)
         truncated = nxt[k.truncated].view(-1)
-        u_prev = bank.utilities.view(-1)[index]
+        u_prev = bank.utilities.take(index)
         seen = policy.perceive(nxt[k.sonar], nxt[k.odometry], nxt[k.goal])
-        u_seen = bank.utilities.view(-1)[bank.flat_index(seen.expert, seen.winner.clamp(min=0))]
+        u_seen = bank.utilities.take(bank.flat_index(seen.expert, seen.winner.clamp(min=0)))
         # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
         u_trunc = torch.where(seen.winner >= 0, u_seen, u_prev)
         u_next = torch.where(seen.novel, r, u_seen)
@@ -157,16 +157,16 @@ class TeseoLoss(LossModule):
         keep = ~split
         # TD(0) and REINFORCE on the rows that did not split (a split row keeps its values)
         step = delta.masked_fill(split, 0.0)
-        bank.utilities.view(-1)[index] = u_prev + update.eta * step
-        mu = bank.means.view(-1)[index]
-        bank.means.view(-1)[index] = mu + update.beta * step * (td[k.xi] - mu)
+        bank.utilities.view(-1).index_copy_(0, index, u_prev + update.eta * step)
+        mu = bank.means.take(index)
+        bank.means.view(-1).index_copy_(0, index, mu + update.beta * step * (td[k.xi] - mu))
         shift = keep & (delta > 0)
         if bool(shift.any()):
             a = shift.nonzero().flatten()
-            batch_, experts, capacity, dim = bank.centres.shape
-            flat = bank.centres.view(-1, dim)
-            c = flat[index[a]]
-            flat[index[a]] = c.lerp(x[a], update.kappa)
+            rows = index.index_select(0, a)
+            flat = bank.centres.view(-1, bank.dim)
+            moved = flat.index_select(0, rows).lerp_(x.index_select(0, a), update.kappa)
+            flat.index_copy_(0, rows, moved)
         return TensorDict(td_error=delta, grown=grown, neurons=bank.count.sum(-1),
                           batch_size=[batch])  # fmt: skip
 

@@ -93,18 +93,18 @@ class SubgoalOptions(nn.Module):
         """The signed angle (left positive) from each odometry heading to the point the reflex
         should aim at in ``region``; also the option in force (B,) and whether it was chosen
         at this step (the region's first entry in the trial) (B,) bool."""
-        rows = torch.arange(region.shape[0])
-        chosen = self.choice[rows, region]
+        column = region.unsqueeze(1)
+        chosen = self.choice.gather(1, column).squeeze(1)
         entered = chosen < 0
         if bool(entered.any()):
             for b in entered.nonzero().flatten().tolist():
                 self.choice[b, region[b]] = self._choose(b, int(region[b]), greedy)
-            chosen = self.choice[rows, region]
+            chosen = self.choice.gather(1, column).squeeze(1)
         # a new visit of a region aims at its sub-goal again
         self.stage.masked_fill_(region != self.visit, 0)
         self.visit.copy_(region)
         xy = odometry[:, :2].to(torch.float64)
-        point = self.points[region, chosen]
+        point = self.points.view(-1, 2).index_select(0, region * self.points.shape[1] + chosen)
         reached = torch.linalg.vector_norm(point - xy, dim=-1) < self.config.reach  # type: ignore[attr-defined]
         self.stage.masked_fill_(reached, _GOAL_STAGE)
         target = torch.where((self.stage == _GOAL_STAGE)[:, None], self._goal, point)

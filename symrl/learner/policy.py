@@ -226,14 +226,14 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             bank = self.experts
             index = bank.flat_index(per.expert, per.winner.clamp(min=0))
             known = ~per.novel
-            p = torch.where(known, bank.actions.view(-1)[index], proto)
-            mu = torch.where(known, bank.means.view(-1)[index], zero)
+            p = torch.where(known, bank.actions.take(index), proto)
+            mu = torch.where(known, bank.means.take(index), zero)
             if greedy:
                 xi = mu
             else:
                 # a novel state's neuron is born with u = r(state): the reward of arriving here
                 u_new = td.get("state_reward").view(-1).to(torch.float64)
-                u = torch.where(known, bank.utilities.view(-1)[index], u_new)
+                u = torch.where(known, bank.utilities.take(index), u_new)
                 sigma = self.temperature / (1.0 + u.clamp(max=60.0).exp())
                 xi = mu + sigma * z
             alpha = (base + p + xi).clamp_(-_PI, _PI)

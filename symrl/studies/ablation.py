@@ -25,7 +25,6 @@ import numpy as np
 
 from symrl.runs import read_trials_csv
 from symrl.studies.repeatability import (
-    OTHER_STARTS,
     PAPER_TABLE1,
     StudyResult,
     write_study,
@@ -70,12 +69,13 @@ def summary_markdown(summary: dict[str, dict[str, Any]], last: int = LAST) -> st
             f"| {_pm(s['collisions_all_trials'])} |"
         )
     p = PAPER_TABLE1
-    lines.append(
-        f"| *paper, Table 1 (last trial)* | 10 × 20 | - | - | {p['steps']['mean']} "
-        f"(var {p['steps']['variance']}) | {p['total_reinforcement']['mean']} "
-        f"(var {p['total_reinforcement']['variance']}) | {p['neurons']['mean']} "
-        f"(var {p['neurons']['variance']}) | - | - |"
-    )
+    if summary.get("_map", "hailu2001") == "hailu2001":  # the paper's numbers: its world only
+        lines.append(
+            f"| *paper, Table 1 (last trial)* | 10 × 20 | - | - | {p['steps']['mean']} "
+            f"(var {p['steps']['variance']}) | {p['total_reinforcement']['mean']} "
+            f"(var {p['total_reinforcement']['variance']}) | {p['neurons']['mean']} "
+            f"(var {p['neurons']['variance']}) | - | - |"
+        )
     opt = summary.get("_optimum")
     if opt:
         lines.append(f"| *optimum (`symrl plan`)* | - | - | - | {opt['steps']} | - | - | 0 | 0 |")
@@ -90,23 +90,32 @@ def run_ablation(
     workers: int | None = 1,
     out: Path | str | None = "results/ablate",
     figures: bool = True,
-    starts: Sequence[tuple[float, float, float]] = OTHER_STARTS,
+    starts: Sequence[tuple[float, float, float]] | None = None,
+    map: str = "hailu2001",
 ) -> dict[str, Any]:
-    """Run every recipe's study on the same seeds; return (and write) the summary."""
+    """Run every recipe's study on the same seeds in ``map`` (name or file; each recipe trained
+    with ``env.map=map``); return (and write) the summary. ``starts``: where the final
+    controllers are also driven from (default: the paper's four on its world, the map's own or
+    derived poses elsewhere, ``symrl.studies.placement.study_starts``)."""
     if sets < 1 or trials < 1:
         raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
     if not recipes:
         raise ValueError("run_ablation: no recipes given")
     from symrl.about import provenance
+    from symrl.studies.placement import study_starts
+    from symrl.world import load_map
 
     t0 = time.perf_counter()
     code = provenance()
-    opt = optimum()
+    world = load_map(map)
+    if starts is None:
+        starts = study_starts(world)
+    opt = optimum(map)
     summary: dict[str, Any] = {}
     studies: dict[str, StudyResult] = {}
     for recipe in recipes:
         r0 = time.perf_counter()
-        sets_r = run_sets(recipe, sets, trials, seed, (), starts, workers)
+        sets_r = run_sets(recipe, sets, trials, seed, [f"env.map={map}"], starts, workers)
         rows = [r for s in sets_r for r in s.rows]
         table = table1(rows)
         table.update(paper=PAPER_TABLE1, optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1])
@@ -114,15 +123,15 @@ def run_ablation(
         table["provenance"] = code
         wall_r = time.perf_counter() - r0
         table["wall_time_s"] = round(wall_r, 1)
-        from symrl.world import load_map
-
+        table["map"] = world.name
         study = StudyResult(recipe, sets_r, table, Path(out) / recipe if out else None, wall_r,
-                            load_map("hailu2001"))  # fmt: skip
+                            world)  # fmt: skip
         studies[recipe] = study
         summary[recipe] = summarise(rows)
         summary[recipe]["wall_time_s"] = round(wall_r, 1)
     wall = time.perf_counter() - t0
     summary["_optimum"] = opt
+    summary["_map"] = world.name
     summary["_seeds"] = [seed, seed + sets - 1]
     summary["_wall_time_s"] = round(wall, 1)
     if out is not None:
@@ -157,7 +166,8 @@ def _merge(
     runs: list[dict[str, Any]] = []
     if old_path.is_file():
         old = json.loads(old_path.read_text())
-        same = old.get("_seeds") == summary["_seeds"]
+        same = old.get("_seeds") == summary["_seeds"] and old.get(
+            "_map", "hailu2001") == summary.get("_map", "hailu2001")
         runs = [
             r for r in old.get("_runs", [])
             if same and not set(r["recipes"]) <= {k for k in summary if not k.startswith("_")}
@@ -181,7 +191,8 @@ def _merge(
 def ablate_command(args: argparse.Namespace) -> int:
     """`symrl ablate`: run, print the summary table and the wall time."""
     recipes = tuple(r.strip() for r in args.recipes.split(",")) if args.recipes else RECIPES
-    summary = run_ablation(recipes, args.sets, args.trials, args.seed, args.workers, args.out)
+    summary = run_ablation(recipes, args.sets, args.trials, args.seed, args.workers, args.out,
+                           map=args.map)
     print(summary_markdown(summary))
     print(f"wrote {args.out}/ (summary.md, summary.json, comparison.png, one folder per recipe); "
           f"wall time {summary['_wall_time_s']:.1f} s")

@@ -10,6 +10,11 @@ measurements, each beside the reflex alone (``reflex_only``) on the same seeds:
    (a 0.5 m box on the learned route) via ``WorldMap.with_obstacle``.
 3. **Noise**: learning itself under more odometry drift (``env.rotation_noise_deg``) and more
    sonar noise (``env.sonar_noise_std``): the ablation summary per level.
+
+``STARTS`` and ``OBSTACLE`` are the paper's world's. On any other map (``map=``, ``--map``) the
+start poses are the map's ``starts:`` or four derived in the start's region and its neighbours
+plus four in the other regions, and the obstacle is a box on the shortest path about a third of
+the way (``symrl.studies.placement``).
 """
 
 from __future__ import annotations
@@ -27,8 +32,8 @@ import numpy as np
 from symrl.studies.repeatability import OTHER_STARTS
 from symrl.studies.runner import evaluate_states, resolve_config, run_sets, summarise
 
-__all__ = ["STARTS", "OBSTACLE", "NOISE_LEVELS", "transfer", "run_generalisation",
-           "generalise_command"]
+__all__ = ["STARTS", "OBSTACLE", "NOISE_LEVELS", "starts_for", "obstacle_for", "transfer",
+           "run_generalisation", "generalise_command"]
 
 STARTS: tuple[tuple[float, float, float], ...] = OTHER_STARTS + (
     (-1.1, -2.1, 0.0),  # the concave corner's far end
@@ -54,18 +59,48 @@ NOISE_LEVELS: tuple[tuple[str, list[str]], ...] = (
 """(label, config overrides) of the noise sweep."""
 
 
-def transfer(recipe: str, sets: int, trials: int, seed: int, workers: int | None = 1
-             ) -> list[dict[str, Any]]:
-    """Train ``recipe`` and take the reflex alone (set k: seed + k); drive both from STARTS, from
-    the usual start, and past the new obstacle. One dict per set."""
+def starts_for(world) -> list[tuple[tuple[float, float, float], bool]]:
+    """(pose, near the learned route) of every other start pose: ``STARTS`` on the paper's
+    world; elsewhere the map's ``starts:`` (near: in the start's region or one next to it) or
+    four derived near poses and up to four far ones."""
+    from symrl.studies.placement import derived_starts, near_start
+
+    if world.name == "hailu2001":
+        return [(p, k < NEAR) for k, p in enumerate(STARTS)]
+    if world.starts:
+        poses = [(p.x, p.y, p.heading) for p in world.starts]
+        return [(p, near_start(world, p)) for p in poses]
+    return [(p, True) for p in derived_starts(world, 4)] + [
+        (p, False) for p in derived_starts(world, 4, near=False)
+    ]
+
+
+def obstacle_for(world) -> list[list[float]]:
+    """The new obstacle: ``OBSTACLE`` on the paper's world, else one placed from the map."""
+    from symrl.studies.placement import derived_obstacle
+
+    if world.name == "hailu2001":
+        return OBSTACLE
+    box = derived_obstacle(world)
+    if box is None:
+        raise ValueError(f"map {world.name!r}: no place on the shortest path for a new obstacle "
+                         "that leaves the goal reachable")
+    return box
+
+
+def transfer(recipe: str, sets: int, trials: int, seed: int, workers: int | None = 1,
+             map: str = "hailu2001") -> list[dict[str, Any]]:
+    """Train ``recipe`` and take the reflex alone (set k: seed + k) in ``map``; drive both from
+    its other start poses, from the usual start, and past the new obstacle. One dict per set."""
     from symrl.world import load_map
 
-    world = load_map("hailu2001")
-    blocked = world.with_obstacle(OBSTACLE)
+    world = load_map(map)
+    STARTS = [p for p, _ in starts_for(world)]  # noqa: N806 (the map's own STARTS)
+    blocked = world.with_obstacle(obstacle_for(world))
     home = world_start(world)
     out: list[dict[str, Any]] = [{"set": k, "seed": seed + k} for k in range(sets)]
     for name, n in ((recipe, trials), ("reflex_only", 1)):
-        config = resolve_config(name, [f"run.trials={n}"])
+        config = resolve_config(name, [f"run.trials={n}", f"env.map={map}"])
         states = [s.controller for s in run_sets(config, sets, n, seed, workers=workers)]
         pairs = [(k, j) for k in range(sets) for j in range(len(STARTS))]
         starts = evaluate_states(
@@ -110,30 +145,35 @@ def run_generalisation(
     workers: int | None = 1,
     out: Path | str | None = "results/generalise",
     noise_levels: Sequence[tuple[str, list[str]]] = NOISE_LEVELS,
+    map: str = "hailu2001",
 ) -> dict[str, Any]:
-    """All three measurements; writes ``generalise.json``/``.md`` and figures into ``out``."""
+    """All three measurements in ``map`` (name or file); writes ``generalise.json``/``.md`` and
+    figures into ``out``."""
     if sets < 1 or trials < 1:
         raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
     from symrl.about import provenance
+    from symrl.world import load_map
 
     t0 = time.perf_counter()
     code = provenance()
-    moved = transfer(recipe, sets, trials, seed, workers)
-    noisy = [run_sets(recipe, sets, trials, seed, overrides, (), workers)
+    world = load_map(map)
+    poses = starts_for(world)
+    moved = transfer(recipe, sets, trials, seed, workers, map)
+    noisy = [run_sets(recipe, sets, trials, seed, [*overrides, f"env.map={map}"], (), workers)
              for _, overrides in noise_levels]  # fmt: skip
     report: dict[str, Any] = {
         "recipe": recipe, "sets": sets, "trials": trials, "seeds": [seed, seed + sets - 1],
-        "provenance": code,
-        "obstacle": OBSTACLE, "starts": [], "noise": [],
+        "provenance": code, "map": world.name, "start": list(world_start(world)),
+        "obstacle": obstacle_for(world), "starts": [], "noise": [],
     }
     for who in ("learned", "reflex_only"):
         report[f"home_{who}"] = _rate([t[who]["home"] for t in moved])
         report[f"obstacle_{who}"] = _rate([t[who]["obstacle"] for t in moved])
-    for k, start in enumerate(STARTS):
+    for k, (start, near) in enumerate(poses):
         report["starts"].append(
             {
                 "start": list(start),
-                "near_learned_route": k < NEAR,
+                "near_learned_route": near,
                 "learned": _rate([t["learned"]["starts"][k] for t in moved]),
                 "reflex_only": _rate([t["reflex_only"]["starts"][k] for t in moved]),
             }
@@ -147,7 +187,7 @@ def run_generalisation(
         out.mkdir(parents=True, exist_ok=True)
         (out / "generalise.json").write_text(json.dumps(report, indent=2) + "\n")
         (out / "generalise.md").write_text(markdown(report))
-        _figures(moved, out)
+        _figures(moved, out, world, report["obstacle"])
     return report
 
 
@@ -158,14 +198,21 @@ def _frac(r: dict[str, Any]) -> str:
 
 def markdown(report: dict[str, Any]) -> str:
     """The three tables of the generalisation study."""
+    x0, y0, h0 = report.get("start", (0.0, 0.0, 0.0))
+    box = np.asarray(report.get("obstacle", OBSTACLE), dtype=float)
+    (bx0, by0), (bx1, by1) = box.min(axis=0), box.max(axis=0)
+    what = (f"{bx1 - bx0:.2g} m box at ({(bx0 + bx1) / 2:.2f}, {(by0 + by1) / 2:.2f})"
+            if abs((bx1 - bx0) - (by1 - by0)) < 1e-6 else "polygon")  # fmt: skip
     lines = [
+        f"Map `{report.get('map', 'hailu2001')}`. "
         f"Recipe `{report['recipe']}`, {report['sets']} sets x {report['trials']} trials, seeds "
         f"{report['seeds'][0]}-{report['seeds'][1]}, code `{report.get('code', '?')}`; greedy "
         "runs with noise on. Cells: reached the goal / runs (mean actions when reached).",
         "",
         "| start pose | near the learned route | learned controller | reflex alone |",
         "| --- | --- | ---: | ---: |",
-        f"| usual start (0, 0, 0) | yes | {_frac(report['home_learned'])} "
+        f"| usual start ({x0:g}, {y0:g}, {math.degrees(h0):.0f} deg) | yes "
+        f"| {_frac(report['home_learned'])} "
         f"| {_frac(report['home_reflex_only'])} |",
     ]
     for s in report["starts"]:
@@ -178,7 +225,7 @@ def markdown(report: dict[str, Any]) -> str:
     lo, ro = report["obstacle_learned"], report["obstacle_reflex_only"]
     lines += [
         "",
-        "| new obstacle (0.5 m box at (2.0, -0.35)) | reached | mean collisions |",
+        f"| new obstacle ({what}) | reached | mean collisions |",
         "| --- | ---: | ---: |",
         f"| learned controller | {_frac(lo)} | {lo['mean_collisions']:.1f} |",
         f"| reflex alone | {_frac(ro)} | {ro['mean_collisions']:.1f} |",
@@ -200,11 +247,9 @@ def markdown(report: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _figures(transfer: list[dict[str, Any]], out: Path) -> None:
+def _figures(transfer: list[dict[str, Any]], out: Path, world, obstacle) -> None:
     from symrl.figures import plot_paths
-    from symrl.world import load_map
 
-    world = load_map("hailu2001")
     t0 = transfer[0]
     plot_paths(
         world,
@@ -215,7 +260,7 @@ def _figures(transfer: list[dict[str, Any]], out: Path) -> None:
         out / "starts.png",
         columns=2,
     )
-    blocked = world.with_obstacle(OBSTACLE)
+    blocked = world.with_obstacle(obstacle)
     plot_paths(
         blocked,
         [
@@ -231,7 +276,7 @@ def _figures(transfer: list[dict[str, Any]], out: Path) -> None:
 def generalise_command(args: argparse.Namespace) -> int:
     """`symrl generalise`: run, print the tables and the wall time."""
     report = run_generalisation(
-        args.recipe, args.sets, args.trials, args.seed, args.workers, args.out
+        args.recipe, args.sets, args.trials, args.seed, args.workers, args.out, map=args.map
     )
     print(markdown(report))
     print(f"wrote {args.out}/ (generalise.md, generalise.json, starts.png, obstacle.png); "

@@ -72,8 +72,9 @@ def first_reliable(reached: list[bool], window: int = 20, level: float = 0.8) ->
     return int(hits[0] + window) if len(hits) else None
 
 
-def make_env(seed: int):
-    """The world env through TorchRL's ``GymEnv`` with the flat observation PPO reads."""
+def make_env(seed: int, map: str = "hailu2001"):
+    """The world env (``map``: name or file) through TorchRL's ``GymEnv`` with the flat
+    observation PPO reads."""
     import torch
     from torchrl.data import Categorical
     from torchrl.envs import (
@@ -90,7 +91,7 @@ def make_env(seed: int):
 
     import symrl
 
-    base = GymEnv(symrl.ENV_ID, noise=True)
+    base = GymEnv(symrl.ENV_ID, noise=True, map=map)
     # the info's collision flag is a bool per step (a spec, else TorchRL assumes float32)
     collision = Categorical(2, (), dtype=torch.bool)
     base.set_info_dict_reader(default_info_dict_reader(["collision"], spec=[collision]))
@@ -143,7 +144,8 @@ def make_modules(env, hidden: int):
 
 
 def run_ppo(
-    seed: int = 100, episodes: int = 20, log_path: str | None = None, **overrides: Any
+    seed: int = 100, episodes: int = 20, log_path: str | None = None, map: str = "hailu2001",
+    **overrides: Any,
 ) -> dict[str, Any]:
     """Train PPO for ``episodes`` episodes; per-episode rows and the reliability summary.
 
@@ -164,7 +166,7 @@ def run_ppo(
     torch.manual_seed(seed)
     np.random.seed(seed)
     t0 = time.perf_counter()
-    env = make_env(seed)
+    env = make_env(seed, map)
     actor, critic = make_modules(env, cfg.hidden)
     gae = GAE(gamma=cfg.gamma, lmbda=cfg.lmbda, value_network=critic, average_gae=True)
     loss = ClipPPOLoss(
@@ -243,6 +245,7 @@ def run_ppo(
     reached = [r["reached_goal"] for r in rows]
     return {
         "seed": seed,
+        "map": map,
         "config": asdict(cfg),
         "rows": rows,
         "episodes": len(rows),
@@ -290,7 +293,8 @@ def baseline_command(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     jobs = [
-        {"seed": s, "episodes": args.episodes, "log_path": str(out / f"episodes-seed{s}.csv")}
+        {"seed": s, "episodes": args.episodes, "log_path": str(out / f"episodes-seed{s}.csv"),
+         "map": args.map}
         for s in seeds
     ]
     results = run_jobs(run_ppo, jobs, workers=None, desc="ppo")
@@ -306,7 +310,8 @@ def baseline_command(args: argparse.Namespace) -> int:
     (out / "summary.md").write_text(md)
     from symrl.figures import plot_baseline
 
-    plot_baseline(results, out / "ppo.png", "PPO (TorchRL) on symrl/Hailu2001-v0")
+    plot_baseline(results, out / "ppo.png",
+                  f"PPO (TorchRL) on symrl/Hailu2001-v0, map {args.map}")
     print(md)
     print(f"wrote {out}/ (episodes.csv, summary.json, summary.md, ppo.png); wall time {wall} s")
     return 0

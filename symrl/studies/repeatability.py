@@ -57,8 +57,12 @@ TABLE_KEYS = (
 )
 
 
-def table1_markdown(recipe: str, table: dict[str, Any], opt: dict[str, Any] | None) -> str:
-    """Table 1 beside the paper's numbers and the optimum, as Markdown."""
+def table1_markdown(recipe: str, table: dict[str, Any], opt: dict[str, Any] | None,
+                    paper: bool = True) -> str:
+    """Table 1 beside the paper's numbers (``paper``: only meaningful on its world) and the
+    optimum, as Markdown."""
+    if not paper:
+        return _table_own_world(recipe, table, opt)
     lines = [
         f"Table 1 - `{recipe}`: {table['sets']} sets, last trial ({table['trial']}); "
         "variance = sample variance over sets",
@@ -79,6 +83,27 @@ def table1_markdown(recipe: str, table: dict[str, Any], opt: dict[str, Any] | No
             f"| {key.replace('_', ' ')} | {t['mean']:.2f} | {t['variance']:.3f} | "
             f"{t['min']:.4g} to {t['max']:.4g} | {paper.get('mean', '')} "
             f"| {paper.get('variance', '')} | {best} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _table_own_world(recipe: str, table: dict[str, Any], opt: dict[str, Any] | None) -> str:
+    """Table 1 on a map other than the paper's: ours and the map's optimum only."""
+    lines = [
+        f"Table 1 - `{recipe}` on `{table.get('map', '?')}`: {table['sets']} sets, last trial "
+        f"({table['trial']}); variance = sample variance over sets",
+        "",
+        "| quantity | ours mean | ours variance | ours min-max | optimum |",
+        "| --- | ---: | ---: | ---: | ---: |",
+    ]
+    for key in TABLE_KEYS:
+        if key not in table:
+            continue
+        t = table[key]
+        best = f"{opt['steps']} ({opt['length_m']} m)" if opt and key == "steps" else ""
+        lines.append(
+            f"| {key.replace('_', ' ')} | {t['mean']:.2f} | {t['variance']:.3f} | "
+            f"{t['min']:.4g} to {t['max']:.4g} | {best} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -117,13 +142,15 @@ def run_study(
 ) -> StudyResult:
     """Run ``sets`` sets of ``trials`` trials (set k: seed + k) and write the results folder."""
     from symrl.about import provenance
+    from symrl.studies.placement import study_starts
     from symrl.studies.runner import resolve_config
     from symrl.world import load_map
 
     t0 = time.perf_counter()
     config = resolve_config(recipe, overrides)
-    if starts is None:  # the paper's other starts lie in its room; other maps: none by default
-        starts = OTHER_STARTS if config.env.map == "hailu2001" else ()
+    world = load_map(config.env.map)
+    if starts is None:  # the paper's other starts lie in its room; other maps: from the map
+        starts = OTHER_STARTS if config.env.map == "hailu2001" else study_starts(world)
     keep = Path(out) / "sets" if out is not None else None  # finished sets, kept for a re-run
     results = run_sets(config, sets, trials, seed, (), starts, workers, progress=progress,
                        keep=keep)  # fmt: skip
@@ -144,7 +171,7 @@ def run_study(
     wall = time.perf_counter() - t0
     table["wall_time_s"] = round(wall, 2)
     study = StudyResult(config.recipe, results, table, Path(out) if out else None, wall,
-                        load_map(config.env.map))  # fmt: skip
+                        world)  # fmt: skip
     if out is not None:
         write_study(study, figures=figures)
     return study
@@ -156,8 +183,11 @@ def write_study(study: StudyResult, figures: bool = True) -> None:
     assert out is not None
     out.mkdir(parents=True, exist_ok=True)
     write_trials_csv(out / "trials.csv", study.rows)
+    own = study.world is not None and study.world.name != "hailu2001"
+    if own:
+        study.table["map"] = study.world.name
     (out / "table1.json").write_text(json.dumps(study.table, indent=2) + "\n")
-    md = table1_markdown(study.recipe, study.table, study.table.get("optimum"))
+    md = table1_markdown(study.recipe, study.table, study.table.get("optimum"), paper=not own)
     starts = study.table.get("other_starts", [])
     if starts:
         md += "\nFinal controller (greedy) from other start poses: " + "; ".join(
@@ -176,11 +206,13 @@ def write_figures(study: StudyResult) -> None:
     assert out is not None
     rows = study.rows
     world = study.world
-    ref = {
-        "neurons:paper 82.5": 82.5,
-        "steps:paper 27.7": 27.7,
-        "total_reinforcement:paper -6.24": -6.24,
-    }
+    ref: dict[str, float] = {}
+    if world is None or world.name == "hailu2001":  # the paper's numbers are of its world only
+        ref = {
+            "neurons:paper 82.5": 82.5,
+            "steps:paper 27.7": 27.7,
+            "total_reinforcement:paper -6.24": -6.24,
+        }
     opt = study.table.get("optimum")
     if opt:
         ref[f"steps:optimum {opt['steps']}"] = opt["steps"]

@@ -41,10 +41,11 @@ __all__ = [
     "WorldMap",
     "load_map",
     "builtin_maps",
+    "reaches_goal",
 ]
 
 _COND = re.compile(r"^\s*([xy])\s*([<>])\s*([A-Za-z_][A-Za-z0-9_]*)\s*$")
-_TOP_KEYS = {"name", "boundary", "obstacles", "segments", "start", "goal", "regions"}
+_TOP_KEYS = {"name", "boundary", "obstacles", "segments", "start", "goal", "regions", "starts"}
 MAX_COORD = 1e4
 """Largest magnitude (metres, radians) a map number may have: beyond it a value is a typo."""
 BODY_RADIUS = 0.26
@@ -130,6 +131,9 @@ class WorldMap:
     goal: Goal
     regions: RegionSpec
     source: str = field(default="<dict>")
+    starts: tuple[Pose, ...] = ()
+    """Optional extra start poses (the map's ``starts:``) for driving a learned controller from
+    elsewhere; empty: the studies derive some from the walls."""
 
     @property
     def segments(self) -> np.ndarray:
@@ -185,6 +189,7 @@ class WorldMap:
             self.goal,
             self.regions,
             self.source,
+            self.starts,
         )
 
 
@@ -254,14 +259,17 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
     obstacles = tuple(_polygon(p, f"obstacles[{i}]") for i, p in enumerate(obstacles_raw))
     segments = _segments(data.get("segments") or [])
     start = _pose(data["start"])
+    starts = _starts(data.get("starts") or [])
     goal = _goal(data["goal"])
     regions_raw = data.get("regions", "auto")
     if regions_raw == "auto":  # no hand-written rules: find rooms and doors from the walls
         regions_raw = auto_regions(boundary, obstacles, segments)
     regions = _regions(regions_raw)
 
-    world = WorldMap(name, boundary, obstacles, segments, start, goal, regions, source)
-    for label, (px, py) in (("start", (start.x, start.y)), ("goal", (goal.x, goal.y))):
+    world = WorldMap(name, boundary, obstacles, segments, start, goal, regions, source, starts)
+    points = [("start", (start.x, start.y)), ("goal", (goal.x, goal.y))]
+    points += [(f"starts[{i}]", (p.x, p.y)) for i, p in enumerate(starts)]
+    for label, (px, py) in points:
         if not bool(world.in_free_area(px, py)):
             raise MapError(f"field {label!r}: the point ({px}, {py}) is not in the free area")
     _check_meaning(world, source)
@@ -353,6 +361,21 @@ def _pose(value: Any) -> Pose:
         _number(value["y"], "start.y"),
         _number(value.get("heading", 0.0), "start.heading"),
     )
+
+
+def _starts(value: Any) -> tuple[Pose, ...]:
+    """``starts:``, a list of ``[x, y, heading_deg]`` (heading in degrees, optional: 0)."""
+    if not isinstance(value, list):
+        raise MapError(f"field 'starts' must be a list of [x, y, heading_deg], got {value!r}")
+    out = []
+    for i, item in enumerate(value):
+        if not isinstance(item, (list, tuple)) or len(item) not in (2, 3):
+            raise MapError(f"field 'starts[{i}]' must be [x, y, heading_deg], got {item!r}")
+        x = _number(item[0], f"starts[{i}].x")
+        y = _number(item[1], f"starts[{i}].y")
+        deg = _number(item[2], f"starts[{i}].heading_deg") if len(item) == 3 else 0.0
+        out.append(Pose(x, y, math.radians(deg)))
+    return tuple(out)
 
 
 def _goal(value: Any) -> Goal:
@@ -472,30 +495,47 @@ def _check_meaning(world: WorldMap, source: str) -> None:
             f"covers the start ({start.x}, {start.y}); a trial would end before it begins"
         )
     walls = MultiLineString([[(a, b), (c, d)] for a, b, c, d in world.segments])
-    clearance = walls.distance(Point(start.x, start.y))
-    if clearance < BODY_RADIUS:
-        raise MapError(
-            f"{where} 'start': ({start.x}, {start.y}) is {clearance:.3f} m from the nearest wall, "
-            f"closer than the robot's body radius {BODY_RADIUS} m"
-        )
-    # where the body's centre may be: the free area shrunk by the radius around every wall
+    poses = [("start", start)] + [(f"starts[{i}]", p) for i, p in enumerate(world.starts)]
+    for label, pose in poses[1:]:
+        if math.hypot(pose.x - goal.x, pose.y - goal.y) <= goal.radius:
+            raise MapError(f"{where} {label!r}: ({pose.x}, {pose.y}) is inside the goal disc")
+    for label, pose in poses:
+        clearance = walls.distance(Point(pose.x, pose.y))
+        if clearance < BODY_RADIUS:
+            raise MapError(
+                f"{where} {label!r}: ({pose.x}, {pose.y}) is {clearance:.3f} m from the nearest "
+                f"wall, closer than the robot's body radius {BODY_RADIUS} m"
+            )
+    for label, pose in poses:
+        if not reaches_goal(world, (pose.x, pose.y)):
+            raise MapError(
+                f"{where} 'goal': the goal disc (centre ({goal.x}, {goal.y}), radius "
+                f"{goal.radius}) cannot be reached from the {label.replace('s[', ' pose [')} "
+                f"({pose.x}, {pose.y}) by the robot's body (radius {BODY_RADIUS} m): a passage "
+                "on the way is too narrow or closed"
+            )
+    _check_regions(world, source, outer)
+
+
+def reaches_goal(world: WorldMap, start: tuple[float, float] | None = None) -> bool:
+    """Whether the robot's body can get from ``start`` (default: the map's start) into the goal
+    disc: the free area shrunk by the body radius around every wall (boundary inward, obstacles
+    and thin walls outward) is cut into pieces; the start's piece must come closer to the goal
+    than its radius."""
+    x, y = (world.start.x, world.start.y) if start is None else start
+    goal = world.goal
     grown = [Polygon(p).buffer(BODY_RADIUS) for p in world.obstacles]
     grown += [
         LineString([(a, b), (c, d)]).buffer(BODY_RADIUS) for a, b, c, d in world.extra_segments
     ]
-    room = outer.buffer(-BODY_RADIUS)
+    room = Polygon(world.boundary).buffer(-BODY_RADIUS)
     if grown:
         room = room.difference(unary_union(grown))
-    here = Point(start.x, start.y)
-    pieces = getattr(room, "geoms", [room])
-    piece = None if room.is_empty else min(pieces, key=here.distance)
-    if piece is None or not piece.distance(Point(goal.x, goal.y)) < goal.radius:
-        raise MapError(
-            f"{where} 'goal': the goal disc (centre ({goal.x}, {goal.y}), radius {goal.radius}) "
-            f"cannot be reached from the start ({start.x}, {start.y}) by the robot's body "
-            f"(radius {BODY_RADIUS} m): a passage on the way is too narrow or closed"
-        )
-    _check_regions(world, source, outer)
+    if room.is_empty:
+        return False
+    here = Point(x, y)
+    piece = min(getattr(room, "geoms", [room]), key=here.distance)
+    return bool(piece.distance(Point(goal.x, goal.y)) < goal.radius)
 
 
 def _check_regions(world: WorldMap, source: str, outer: Polygon) -> None:
