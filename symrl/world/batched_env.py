@@ -63,12 +63,7 @@ class BatchedWorldEnv(EnvBase):
     ) -> None:
         if isinstance(size, bool) or not isinstance(size, int) or size < 1:
             raise ValueError(f"BatchedWorldEnv: size must be a positive integer, got {size!r}")
-        if robot is None:
-            robot = RobotConfig()
-        elif isinstance(robot, dict):
-            robot = RobotConfig.from_dict(robot)
-        elif not isinstance(robot, RobotConfig):
-            raise ValueError(f"robot must be a RobotConfig or a dict of its fields, got {robot!r}")
+        robot = RobotConfig.coerce(robot)
         if not isinstance(noise, (bool, np.bool_)):
             raise ValueError(f"noise must be True or False, got {noise!r}")
         super().__init__(device="cpu", batch_size=torch.Size([size]))

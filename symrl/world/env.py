@@ -136,13 +136,8 @@ class Hailu2001Env(gymnasium.Env):
         max_actions: int = 200,
     ) -> None:
         self.world: WorldMap = map if isinstance(map, WorldMap) else load_map(map)
-        if robot is None:
-            robot = RobotConfig()
-        elif isinstance(robot, dict):
-            robot = RobotConfig.from_dict(robot)
-        elif not isinstance(robot, RobotConfig):
-            raise ValueError(f"robot must be a RobotConfig or a dict of its fields, got {robot!r}")
-        self.robot: RobotConfig = robot
+        self.robot: RobotConfig = RobotConfig.coerce(robot)
+        robot = self.robot
         if not isinstance(noise, (bool, np.bool_)):
             raise ValueError(f"noise must be True or False, got {noise!r}")
         self.noise = bool(noise)

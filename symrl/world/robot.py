@@ -104,6 +104,17 @@ class RobotConfig:
             raise ValueError(f"RobotConfig: unknown field(s) {unknown}; allowed: {sorted(known)}")
         return cls(**values)
 
+    @classmethod
+    def coerce(cls, robot: RobotConfig | dict[str, Any] | None) -> RobotConfig:
+        """A RobotConfig from None (the defaults), a dict of its fields, or itself."""
+        if robot is None:
+            return cls()
+        if isinstance(robot, dict):
+            return cls.from_dict(robot)
+        if not isinstance(robot, RobotConfig):
+            raise ValueError(f"robot must be a RobotConfig or a dict of its fields, got {robot!r}")
+        return robot
+
     @property
     def ir_collision_distance(self) -> float:
         """Rim distance below which the reflectance exceeds the threshold (0.056 m by default)."""
