@@ -142,7 +142,7 @@ def region_pieces(world: WorldMap) -> list[tuple[str, shapely.Geometry]]:
         cell = box(lo_hi[0][0], lo_hi[1][0], lo_hi[0][1], lo_hi[1][1])
         cells[rule.region].append(cell if taken is None else cell.difference(taken))
         taken = cell if taken is None else taken.union(cell)
-    out = []
+    out: list[tuple[str, shapely.Geometry]] = []
     for name in world.regions.names:
         area = free.intersection(unary_union(cells[name]))
         parts = [g for g in getattr(area, "geoms", [area]) if g.area > 1e-9]
@@ -282,7 +282,7 @@ def routes(world: WorldMap, passages: list[Passage]) -> tuple[dict[str, set[int]
                 used.update(keys)
         return used
 
-    ahead = {name: set() for name in world.regions.names}
+    ahead: dict[str, set[int]] = {name: set() for name in world.regions.names}
     for i, (name, _) in enumerate(pieces):
         ahead[name] |= crossed_from(i)
     return ahead, crossed_from(_nearest_piece(pieces, world.start.x, world.start.y))

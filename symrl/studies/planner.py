@@ -225,10 +225,10 @@ def shortest_path(
 
     # targets: rim points where the rim meets the grown walls, and the rim cut of every leg
     # that points at the goal centre (from the start, and from tangents of the goal centre)
-    targets = []
-    for t in _rim_targets(chk, g, rg):
+    targets: list[tuple[str, int]] = []
+    for rim_point in _rim_targets(chk, g, rg):
         key = ("T", len(targets))
-        pos[key] = t
+        pos[key] = rim_point
         targets.append(key)
 
     def add_leg_to_centre(u: object) -> None:
@@ -304,7 +304,7 @@ def shortest_path(
         clearance=r,
         step=step,
         points=points,
-        waypoints=[tuple(map(float, pos[k])) for k in route],
+        waypoints=[(float(pos[k][0]), float(pos[k][1])) for k in route],
     )
 
 
@@ -390,7 +390,7 @@ def replay_in_env(world_name: str, poses: np.ndarray, heading: float) -> dict | 
         turn = math.remainder(want - h, 2 * math.pi)
         _, reward, term, trunc, info = env.step(np.array([turn], dtype=np.float32))
         total += float(reward)
-        h = float(env.unwrapped.true_pose[2])
+        h = float(env.unwrapped.true_pose[2])  # type: ignore[attr-defined]
         n += 1
         collisions += int(bool(info["collision"]))
         if term or trunc:

@@ -57,7 +57,7 @@ def _math_map(fn: Callable[..., float], a: np.ndarray, b: np.ndarray | float) ->
 
 def _columns(x: np.ndarray, y: np.ndarray, h: np.ndarray, dtype: type = np.float64) -> np.ndarray:
     """A new (k, 3) array of the three columns (cheaper than ``np.stack`` at small k)."""
-    out = np.empty((len(x), 3), dtype)
+    out: np.ndarray = np.empty((len(x), 3), dtype)
     out[:, 0] = x
     out[:, 1] = y
     out[:, 2] = h
@@ -138,7 +138,7 @@ class RobotBatch:
             m = robot.sonar_cone_rays
             half = 0.5 * math.radians(robot.sonar_cone_deg)
             sub = np.linspace(-half, half, m) if m > 1 else np.zeros(1)
-            self._sonar_offsets = (axes[:, None] + sub[None, :]).ravel()
+            self._sonar_offsets: np.ndarray = (axes[:, None] + sub[None, :]).ravel()
         else:
             m = 1
             self._sonar_offsets = axes
@@ -278,8 +278,8 @@ class RobotBatch:
         f1 = self._f1(sonar, np.zeros(len(rows), dtype=bool))
         angle = self._goal_angle(x, y)
         f2 = -np.abs(_wrap(h - angle)) / _PI
-        no = [np.zeros(len(rows), dtype=bool) for _ in range(5)]
-        return self._readings(sonar, refl, x, y, h, x, y, h, f1, f2, *no, angle)
+        no = np.zeros(len(rows), dtype=bool)  # no collision, no goal, no truncation
+        return self._readings(sonar, refl, x, y, h, x, y, h, f1, f2, no, no, no, no, no, angle)
 
     def step(self, alpha: np.ndarray, rngs: Sequence[np.random.Generator]) -> Readings:
         """Every robot takes one action: rotate by ``alpha[b]`` (radians, clipped to [-pi, pi];
@@ -298,6 +298,8 @@ class RobotBatch:
             raise ValueError(f"step: the action of robot {b} must be finite, got {float(alpha[b])}")
         alpha = np.minimum(np.maximum(alpha, -_PI), _PI)
         x0, y0, h0 = self._x, self._y, self._h
+        rot_err: np.ndarray | float
+        trans_err: np.ndarray | float
         if self._noisy:  # one draw per robot and step: rotation, translation, the n sonars
             z = np.empty((self.size, self.n_sensors + 2))
             for b, rng in enumerate(rngs):

@@ -104,8 +104,8 @@ def draw_regions(ax: Any, world: WorldMap, color: str = "tab:blue", names: bool 
 def region_label_points(world: WorldMap, grid: int = 40) -> dict[str, tuple[float, float]]:
     """A free point inside each region, near the middle of its free area (for labels)."""
     xmin, xmax, ymin, ymax = world.bounds
-    xs, ys = np.meshgrid(np.linspace(xmin, xmax, grid), np.linspace(ymin, ymax, grid))
-    xs, ys = xs.ravel(), ys.ravel()
+    grid_x, grid_y = np.meshgrid(np.linspace(xmin, xmax, grid), np.linspace(ymin, ymax, grid))
+    xs, ys = grid_x.ravel(), grid_y.ravel()
     free = world.in_free_area(xs, ys)
     points: dict[str, list[tuple[float, float]]] = {}
     for x, y in zip(xs[free].tolist(), ys[free].tolist(), strict=True):
@@ -156,7 +156,7 @@ def draw_path(
 
 
 def draw_robot(
-    ax: Any, pose: Sequence[float], radius: float = 0.26, color: str = "tab:orange"
+    ax: Any, pose: Sequence[float] | np.ndarray, radius: float = 0.26, color: str = "tab:orange"
 ) -> None:
     """Draw the robot disc at ``pose`` (x, y, heading) with a heading line."""
     from matplotlib.patches import Circle
@@ -168,7 +168,7 @@ def draw_robot(
 
 def draw_sonar(
     ax: Any,
-    pose: Sequence[float],
+    pose: Sequence[float] | np.ndarray,
     readings: np.ndarray,
     radius: float = 0.26,
     color: str = "tab:purple",
@@ -264,7 +264,7 @@ class EnvRenderer:
         draw_sonar(ax, pose, sonar_rim, self.robot.radius)
         draw_robot(ax, pose, self.robot.radius)
         self.fig.canvas.draw()
-        frame = np.asarray(self.fig.canvas.buffer_rgba())[:, :, :3]
+        frame = np.asarray(self.fig.canvas.buffer_rgba())[:, :, :3]  # type: ignore[attr-defined]
         # even width and height (H.264 video needs them): repeat the last row / column
         h, w = frame.shape[:2]
         frame = np.pad(frame, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
@@ -279,4 +279,4 @@ class EnvRenderer:
             import matplotlib.pyplot as plt
 
             plt.close(self.fig)
-        self.fig = None
+        self.fig = None  # type: ignore[assignment]

@@ -282,14 +282,15 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
 def _number(value: Any, field_name: str) -> float:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
         raise MapError(f"field {field_name!r} must be a number, got {value!r}")
-    if not math.isfinite(value):
+    number = float(value)
+    if not math.isfinite(number):
         raise MapError(f"field {field_name!r} must be finite, got {value!r}")
-    if abs(value) > MAX_COORD:
+    if abs(number) > MAX_COORD:
         raise MapError(
             f"field {field_name!r}: {value!r} is absurdly large (a map spans at most "
             f"|value| <= {MAX_COORD:g} m)"
         )
-    return float(value)
+    return number
 
 
 def _point(value: Any, field_name: str) -> tuple[float, float]:
