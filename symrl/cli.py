@@ -106,8 +106,7 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
     import numpy as np
 
     from symrl.learner.config import config_from_dict, config_to_dict, describe_keys, load_config
-    from symrl.runs import RunWriter, load_resume
-    from symrl.train import train_batch
+    from symrl.runs import load_resume, run_one
     from symrl.world.worldmap import load_map
 
     if args.help_keys:
@@ -143,7 +142,6 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
 
         world = load_checkpoint(os.path.join(args.resume, "checkpoint.pt"))[0].world
         logdir = args.resume
-        writer = RunWriter(logdir, config, world, resume_rows=state["trials"])
     else:
         if args.recipe is None:
             raise ValueError("train: a RECIPE is needed (e.g. `symrl train paper`)")
@@ -158,37 +156,15 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
         stamp = time.strftime("%Y%m%d-%H%M%S") + f"-{time.time_ns() // 1000 % 1_000_000:06d}"
         logdir = args.logdir or f"runs/{config.recipe}__s{config.run.seed}__{stamp}-{os.getpid()}"
         world = load_map(config.env.map)
-        from symrl.train import check_memory
 
-        check_memory(config, 1, world)
-        writer = RunWriter(logdir, config, world, overwrite=args.overwrite)
-
-    every = args.checkpoint_every or 1
-    latest: list = [None, 0]  # the last snapshot, and whether it is on disk
-
-    def on_trial(b: int, record: dict, policy) -> None:
-        writer.trial(record, last=record["trial"] == config.run.trials)
-
-    def on_snapshot(snapshot: dict) -> None:
-        latest[:] = [snapshot, 0]
-        n = len(snapshot["trials"])
-        if n % every == 0 and n < config.run.trials:
-            writer.snapshot(None, seed, snapshot)
-            latest[1] = 1
-
-    try:
-        (result,) = train_batch(
-            config, [seed], progress=True, on_trial=on_trial, world=world,
-            on_snapshot=on_snapshot, resume=state, stop=lambda: bool(signalled),
-        )  # fmt: skip
-    finally:
-        writer.close()
+    result = run_one(
+        config, logdir, world=world, overwrite=args.overwrite, resume=state, seed=seed,
+        checkpoint_every=args.checkpoint_every or 1, stop=lambda: bool(signalled),
+    )  # fmt: skip
     trials = result.trials
     if result.timings.get("stopped"):
         name = signal.Signals(signalled[0]).name
-        if latest[0] is not None and not latest[1]:
-            writer.snapshot(None, seed, latest[0])
-        if latest[0] is None and state is None:
+        if not trials and state is None:
             saved = "no trial finished, nothing to resume"
         else:
             saved = f"saved in {logdir}/; go on with: symrl train --resume {logdir}"
@@ -198,7 +174,6 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
             file=sys.stderr,
         )
         return 128 + int(signalled[0])
-    writer.finish(result.policy, seed, state=latest[0])
     last = trials[-5:]
     print(
         f"{config.recipe} (seed {seed}): {len(trials)} trials, "
@@ -278,6 +253,12 @@ def _generalise(args: argparse.Namespace) -> int:
     from symrl.studies.generalisation import generalise_command
 
     return generalise_command(args)
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from symrl.studies.sweep import sweep_command
+
+    return sweep_command(args)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -390,6 +371,27 @@ def build_parser() -> argparse.ArgumentParser:
                    help="built-in map name or map file (env.map; default hailu2001)")
     p.add_argument("--out", default="results/generalise")
     p.set_defaults(handler=_generalise)
+
+    p = sub.add_parser(
+        "sweep",
+        help="a grid of runs: recipes x seeds x maps, one run folder each, one merged table",
+        description="Train every recipe x seed x map (the key=value overrides apply to all) "
+        "into OUT/runs/RECIPE__MAP__sSEED/ as `symrl train` writes it; runs already finished "
+        "there are kept. Writes OUT/summary.md, summary.json and comparison.png.",
+    )
+    _one_line_errors(p)
+    p.add_argument("--recipes", required=True, help="comma-separated recipes (paper,reflex_only)")
+    p.add_argument("--seeds", required=True, help="seeds: a range 100-102 and/or a list 100,105")
+    p.add_argument("--maps", default="hailu2001",
+                   help="comma-separated built-in maps or map files (default hailu2001)")
+    p.add_argument("--trials", type=int, default=20, help="trials per run (default 20)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="parallel runs (default: 1 local, every CPU with ray)")
+    p.add_argument("--backend", choices=["local", "ray"], default="local",
+                   help='local process pool (default) or Ray tasks (pip install "symrl[ray]")')
+    p.add_argument("--out", required=True, help="sweep folder")
+    p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides for all")
+    p.set_defaults(handler=_sweep)
     return parser
 
 

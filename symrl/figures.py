@@ -33,6 +33,7 @@ __all__ = [
     "plot_paths",
     "plot_curves",
     "plot_comparison",
+    "plot_map_comparison",
     "plot_baseline",
 ]
 
@@ -182,14 +183,11 @@ def plot_curves(
     plt.close(fig)
 
 
-def plot_comparison(
-    curves: dict[str, dict[str, np.ndarray]], path: Path | str, quantities: Sequence[str]
-) -> None:
-    """All recipes on one figure: per quantity, each recipe's mean over sets (shaded min-max)."""
-    n = len(quantities)
-    fig, axes = plt.subplots(1, n, figsize=(4.4 * n, 3.6), squeeze=False)
+def _comparison_row(axes: Sequence[Any], curves: dict[str, dict[str, np.ndarray]],
+                    quantities: Sequence[str]) -> None:
+    """Per quantity (one axis each), each recipe's mean over sets (shaded min-max)."""
     n_recipes = len(curves)
-    for ax, q in zip(axes[0], quantities, strict=False):
+    for ax, q in zip(axes, quantities, strict=False):
         for i, (recipe, per_q) in enumerate(curves.items()):
             v = np.asarray(per_q[q], dtype=float)
             # a small offset per recipe: recipes whose curves coincide stay visible
@@ -201,7 +199,33 @@ def plot_comparison(
         ax.set_xlabel("trial")
         ax.set_ylabel(q.replace("_", " "))
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    axes[0][0].legend(fontsize=7)
+    axes[0].legend(fontsize=7)
+
+
+def plot_comparison(
+    curves: dict[str, dict[str, np.ndarray]], path: Path | str, quantities: Sequence[str]
+) -> None:
+    """All recipes on one figure: per quantity, each recipe's mean over sets (shaded min-max)."""
+    n = len(quantities)
+    fig, axes = plt.subplots(1, n, figsize=(4.4 * n, 3.6), squeeze=False)
+    _comparison_row(axes[0], curves, quantities)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def plot_map_comparison(
+    curves: dict[str, dict[str, dict[str, np.ndarray]]],
+    path: Path | str,
+    quantities: Sequence[str],
+) -> None:
+    """One row per map (``curves[map][recipe][quantity]``, sets x trials): the recipes' mean
+    curves on that map, as :func:`plot_comparison` draws them."""
+    n, rows = len(quantities), len(curves)
+    fig, axes = plt.subplots(rows, n, figsize=(4.4 * n, 3.4 * rows), squeeze=False)
+    for row, (name, per_recipe) in zip(axes, curves.items(), strict=True):
+        _comparison_row(row, per_recipe, quantities)
+        row[0].set_title(name, loc="left", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
