@@ -104,6 +104,11 @@ def plan_sweep(
                 folder = Path(out) / "runs" / f"{config.recipe}__{_map_label(name)}__s{seed}"
                 grid.append(SweepRun(config.recipe, name, int(seed), config_to_dict(config),
                                      str(folder)))  # fmt: skip
+    folders = [r.logdir for r in grid]
+    if len(set(folders)) < len(folders):
+        same = next(f for f in folders if folders.count(f) > 1)
+        raise ValueError(f"two runs of the grid would share the folder {same!r} "
+                         "(recipes or maps with the same name)")  # fmt: skip
     return grid
 
 

@@ -4,16 +4,19 @@ the finished runs, the merged table covers every recipe and map, bad inputs are 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
 import symrl.studies.sweep as sweep
+import symrl.world
 from symrl.cli import main
 from symrl.runs import read_trials_csv
 
 GRID = ["--recipes", "paper,reflex_only", "--seeds", "40-41", "--trials", "2"]
 RUNS = ["paper__hailu2001__s40", "paper__hailu2001__s41",
         "reflex_only__hailu2001__s40", "reflex_only__hailu2001__s41"]  # fmt: skip
+TWO_DOORS_FILE = str(Path(symrl.world.__file__).parent / "maps" / "two_doors.yaml")
 
 
 @pytest.fixture(scope="module")
@@ -87,6 +90,8 @@ def test_rerun_keeps_finished_runs(swept, monkeypatch, capsys):
         (["--recipes", "paper", "--seeds", "1", "--trials", "0"], "--trials 0"),
         (["--recipes", "paper", "--seeds", "1", "--workers", "0"], "--workers 0"),
         (["--recipes", "paper", "--seeds", "1", "update.nosuch=1"], "nosuch"),
+        (["--recipes", "paper", "--seeds", "1", "--maps", f"two_doors,{TWO_DOORS_FILE}"],
+         "share the folder"),
     ],
 )
 def test_bad_inputs_are_one_line_errors(tmp_path, capsys, argv, message):
