@@ -157,7 +157,7 @@ def _run_ray(jobs: list[dict[str, Any]], workers: int | None) -> list[Any]:
                  runtime_env={"env_vars": {"PYTHONPATH": path}})  # fmt: skip
     try:
         task = ray.remote(num_cpus=1)(train_run)
-        return list(ray.get([task.remote(**job) for job in jobs]))
+        return list(ray.get([task.remote(job["config"], job["logdir"]) for job in jobs]))
     finally:
         if started:
             ray.shutdown()
@@ -205,7 +205,8 @@ def summary_tables(
     cells: dict[tuple[str, str], list[SweepRun]] = {}
     for r in grid:
         cells.setdefault((r.recipe, r.map), []).append(r)
-    results, figure = [], {}
+    results: list[dict[str, Any]] = []
+    figure: dict[str, dict[str, dict[str, np.ndarray]]] = {}
     for (recipe, name), runs in cells.items():
         merged = [{**row, "set": r.seed, "seed": r.seed} for r in runs for row in rows[r.logdir]]
         results.append({"recipe": recipe, "map": name, "seeds": [r.seed for r in runs],
