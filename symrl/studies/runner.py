@@ -65,7 +65,7 @@ def resolve_config(recipe: str | RunConfig, overrides: Sequence[str] = ()) -> Ru
             return recipe
         from symrl.learner.config import apply_overrides
 
-        return apply_overrides(recipe, overrides)
+        return apply_overrides(recipe, list(overrides))
     return load_config(recipe, list(overrides))
 
 
@@ -325,7 +325,7 @@ def curves(rows: Sequence[dict[str, Any]], key: str) -> np.ndarray:
     return out
 
 
-def mean_std(values: Sequence[float]) -> dict[str, float]:
+def mean_std(values: Sequence[float]) -> dict[str, Any]:
     """Mean and sample standard deviation, plus a 95 % bootstrap interval of the mean."""
     v = np.asarray(values, dtype=float)
     if v.size == 0:
@@ -359,8 +359,8 @@ def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any
             firsts.append(first)
         tail = trials[-last:]
         success += [float(bool(r["reached_goal"])) for r in tail]
-        steps.append(np.mean([float(r["steps"]) for r in tail]))
-        reinf.append(np.mean([float(r["total_reinforcement"]) for r in tail]))
+        steps.append(float(np.mean([float(r["steps"]) for r in tail])))
+        reinf.append(float(np.mean([float(r["total_reinforcement"]) for r in tail])))
         neurons.append(float(trials[-1]["neurons"]))
         coll_last.append(float(trials[-1]["collisions"]))
         coll_all.append(sum(float(r["collisions"]) for r in trials))
