@@ -117,12 +117,6 @@ class ExpertBank(nn.Module):
         best = d2.min(dim=-1)
         return best.indices.masked_fill_(counts == 0, -1), best.values.sqrt_()
 
-    def activations(self, row: int, expert: int, x: torch.Tensor, width: float) -> torch.Tensor:
-        """phi_j(x) = exp(-||x - c_j||^2 / width^2) over one expert's neurons (for plots)."""
-        n = int(self.count[row, expert])
-        d2 = (self.centres[row, expert, :n] - x).square().sum(-1)
-        return torch.exp(-d2 / width**2)
-
     # -- growth ---------------------------------------------------------------------------
     @torch.no_grad()
     def add(
