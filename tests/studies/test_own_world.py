@@ -50,6 +50,7 @@ def test_drive_train_and_study_run_on_the_map(name, tmp_path):
         assert study.world.name == name
     table = json.loads((out / "table1.json").read_text())
     assert table["optimum"]["steps"] == optimum(name)["steps"]
+    assert "paper" not in table and table["map"] == name  # the paper's numbers: its world only
     assert len(table["other_starts"]) == 4  # derived from the map, driven by every set
     assert (out / "trials.csv").is_file() and (out / "table1.md").is_file()
     assert "paper mean" not in (out / "table1.md").read_text()  # the paper's numbers: its world
@@ -115,6 +116,7 @@ def test_ablate_takes_a_map(tmp_path):
     assert summary["_optimum"]["steps"] == optimum("hailu2001_mirror")["steps"]
     assert "paper, Table 1" not in (out / "summary.md").read_text()
     table = json.loads((out / "reflex_only" / "table1.json").read_text())
+    assert "paper" not in table and table["map"] == "hailu2001_mirror"
     mirror = load_map("hailu2001_mirror")
     assert [s["start"] for s in table["other_starts"]] == [list(p) for p in study_starts(mirror)]
 

@@ -26,6 +26,7 @@ def test_study_writes_its_files_and_repeats_exactly(tmp_path):
     table = json.loads((tmp_path / "a" / "table1.json").read_text())
     assert table["sets"] == 2 and table["optimum"]["steps"] == 25
     assert table["neurons"]["mean"] == 0.0  # the reflex alone grows nothing
+    assert table["paper"]["steps"] == {"mean": 27.7, "variance": 1.9}  # its world: Table 1
     # same seeds -> the same trials table (wall times aside); the API without figures is cheaper
     run_study("reflex_only", sets=2, trials=2, workers=1, out=tmp_path / "b", figures=False)
     again = read_trials_csv(tmp_path / "b" / "trials.csv")
