@@ -190,14 +190,22 @@ def _corner_cuts(
     corners = np.unique(np.round(walls.reshape(-1, 2), 9), axis=0)
     corners = corners[np.lexsort((corners[:, 1], corners[:, 0]))]
     found: list[tuple[int, float, float, float]] = []
+    # the walls near a corner or along a ray come from a search tree (a 3000-point boundary)
+    tree = shapely.STRtree(shapely.linestrings(walls.reshape(-1, 2, 2)))
+    xmin, ymin, xmax, ymax = free.bounds
+    reach = 2.0 * float(np.hypot(xmax - xmin, ymax - ymin))
 
     def segment(axis: int, c: float, a: float, b: float) -> np.ndarray:
         lo, hi = min(a, b), max(a, b)
         return np.array([c, lo, c, hi] if axis == 0 else [lo, c, hi, c])
 
+    def near(geometry) -> np.ndarray:
+        """The walls and cuts so far whose boxes meet ``geometry``."""
+        static = walls[tree.query(geometry, predicate="dwithin", distance=1e-6)]
+        return np.concatenate([static, *[segment(*k)[None] for k in cuts + found]])
+
     for p in corners:
-        every = np.concatenate([walls, *[segment(*k)[None] for k in cuts + found]])
-        for lo, hi in _open_sectors(free, p, every):
+        for lo, hi in _open_sectors(free, p, near(shapely.Point(p))):
             if hi - lo <= np.pi + 1e-9:
                 continue
             # axis directions strictly inside the sector, with their chords
@@ -206,7 +214,8 @@ def _corner_cuts(
                 angle = k * np.pi / 2
                 if angle - lo < 1e-9 or hi - angle < 1e-9:
                     continue
-                length, far = _chord(every, p, angle)
+                ray = LineString([p, p + reach * np.array([np.cos(angle), np.sin(angle)])])
+                length, far = _chord(near(ray), p, angle)
                 options.append((length, angle, far))
             options.sort(key=lambda o: (o[0], o[1]))
             taken: list[tuple[float, float, np.ndarray]] = []
