@@ -433,23 +433,10 @@ def _preload(command: str) -> None:
         gc.enable()
 
 
-def _end_process(code: int) -> None:
-    """End a command's process: flush, run the atexit handlers, then exit without the
-    interpreter's teardown of torch's thousands of modules and objects (one to two CPU
-    seconds here, after the work is done and every file is closed)."""
-    import atexit
-    import os
-
-    sys.stdout.flush()
-    sys.stderr.flush()
-    atexit._run_exitfuncs()
-    os._exit(code)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; ``argv`` None: this process is the command (``symrl ...``), which
     then also keeps Ray out (unless it is ``sweep``), imports what the command needs with the
-    garbage collector paused and skips the interpreter's teardown at the end."""
+    garbage collector paused."""
     command_line = argv is None
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
@@ -469,8 +456,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         # Configuration and input errors: one clear line, no deep traceback.
         print(f"symrl {args.command}: error: {err}", file=sys.stderr)
         code = 2
-    if command_line:
-        _end_process(code)
     return code
 
 
