@@ -256,7 +256,7 @@ def _corner_cuts(
         static = walls[tree.query(geometry, predicate="dwithin", distance=1e-6)]
         return np.concatenate([static, *[segment(*k)[None] for k in cuts + found]])
 
-    for p in corners:
+    for p in corners[_concave(free, walls, tree, corners)]:
         for lo, hi in _open_sectors(free, p, near(shapely.Point(p))):
             if hi - lo <= np.pi + 1e-9:
                 continue
@@ -286,6 +286,45 @@ def _corner_cuts(
                 a, b = sorted((float(p[1 - axis]), float(far[1 - axis])))
                 found.append((axis, c, round(a, 6), round(b, 6)))
     return found
+
+
+def _concave(free, walls: np.ndarray, tree, corners: np.ndarray) -> np.ndarray:
+    """Which corners have a free sector wider than 180 degrees between the walls alone.
+
+    ``_open_sectors`` for all corners at once, without the cuts: a cut through or to a corner
+    only splits its free sectors, so a corner whose sectors are at most 180 degrees here needs no
+    chord, and only the few others get the corner-by-corner search (a 3000-point boundary has a
+    corner per point)."""
+    corner, wall = tree.query(shapely.points(corners), predicate="dwithin", distance=1e-6)
+    p, a, b = corners[corner], walls[wall, :2], walls[wall, 2:]
+    d = b - a
+    length = np.hypot(d[:, 0], d[:, 1])
+    t = ((p - a) * d).sum(1) / np.maximum(length**2, 1e-300)
+    cross = d[:, 0] * (p[:, 1] - a[:, 1]) - d[:, 1] * (p[:, 0] - a[:, 0])
+    off = np.abs(cross) / np.maximum(length, 1e-300)
+    on = (off < 1e-6) & (t > -1e-6) & (t < 1 + 1e-6) & (length > 1e-12)
+    toward_b, toward_a = on & (t < 1 - 1e-6), on & (t > 1e-6)
+    at = np.concatenate([corner[toward_b], corner[toward_a]])
+    ends = np.concatenate([b[toward_b], a[toward_a]]) - corners[at]
+    angle = np.round(np.mod(np.arctan2(ends[:, 1], ends[:, 0]), 2 * np.pi), 12)
+    order = np.lexsort((angle, at))
+    at, angle = at[order], angle[order]
+    keep = np.ones(len(at), dtype=bool)
+    keep[1:] = (at[1:] != at[:-1]) | (angle[1:] != angle[:-1])
+    at, angle = at[keep], angle[keep]
+    # each angle to the next one round the same corner (the last to the first plus 2 pi)
+    last = np.ones(len(at), dtype=bool)
+    last[:-1] = at[1:] != at[:-1]
+    first = np.flatnonzero(np.r_[True, at[1:] != at[:-1]])
+    nxt = np.empty_like(angle)
+    nxt[:-1] = angle[1:]
+    nxt[last] = angle[first] + 2 * np.pi
+    mid = 0.5 * (angle + nxt)
+    q = corners[at] + 1e-4 * np.stack([np.cos(mid), np.sin(mid)], axis=1)
+    wide = (nxt - angle > np.pi + 1e-9) & shapely.contains_xy(free, q[:, 0], q[:, 1])
+    out = np.zeros(len(corners), dtype=bool)
+    out[at[wide]] = True
+    return out
 
 
 def _resolved(lo: float, hi: float, angles: list[float]) -> bool:
