@@ -256,7 +256,14 @@ def _corner_cuts(
         static = walls[tree.query(geometry, predicate="dwithin", distance=1e-6)]
         return np.concatenate([static, *[segment(*k)[None] for k in cuts + found]])
 
-    for p in corners[_concave(free, walls, tree, corners)]:
+    concave = corners[_concave(free, walls, tree, corners)]
+    # a corner whose axis chords all run past ``short`` between the walls, with no cut that
+    # near, can only need a chord longer than ``max_cut``: it is left whole
+    short = config.max_cut + config.tie + 0.01
+    near_wall = _short_chord(walls, tree, concave, short)
+    for p, close in zip(concave, near_wall, strict=True):
+        if not close and not _cut_within(p, cuts + found, short):
+            continue
         for lo, hi in _open_sectors(free, p, near(shapely.Point(p))):
             if hi - lo <= np.pi + 1e-9:
                 continue
@@ -325,6 +332,42 @@ def _concave(free, walls: np.ndarray, tree, corners: np.ndarray) -> np.ndarray:
     out = np.zeros(len(corners), dtype=bool)
     out[at[wide]] = True
     return out
+
+
+def _short_chord(walls: np.ndarray, tree, corners: np.ndarray, short: float) -> np.ndarray:
+    """Whether any of a corner's four axis chords meets a wall within ``short`` (as ``_chord``
+    computes it, for all corners and directions at once)."""
+    if len(corners) == 0:
+        return np.zeros(0, dtype=bool)
+    steps = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+    p = np.repeat(corners, 4, axis=0)
+    d = np.tile(steps, (len(corners), 1))
+    rays = shapely.linestrings(np.stack([p, p + short * d], axis=1))
+    ray, wall = tree.query(rays, predicate="dwithin", distance=1e-6)
+    p, d, a = p[ray], d[ray], walls[wall, :2]
+    e = walls[wall, 2:] - a
+    det = d[:, 0] * -e[:, 1] + d[:, 1] * e[:, 0]
+    rel = a - p
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (rel[:, 0] * -e[:, 1] + rel[:, 1] * e[:, 0]) / det
+        u = (d[:, 0] * rel[:, 1] - d[:, 1] * rel[:, 0]) / det
+    crossing = (np.abs(det) > 1e-12) & (u >= -1e-9) & (u <= 1 + 1e-9) & (t > 1e-7) & (t <= short)
+    line = (np.abs(det) <= 1e-12) & (np.abs(rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]) < 1e-9)
+    ends = np.stack([(rel * d).sum(1), ((rel + e) * d).sum(1)], axis=1)
+    along = line & ((ends > 1e-7) & (ends <= short)).any(1)
+    out = np.zeros(len(corners), dtype=bool)
+    out[ray[crossing | along] // 4] = True
+    return out
+
+
+def _cut_within(p: np.ndarray, cuts: list[tuple[int, float, float, float]], reach: float) -> bool:
+    """Whether a cut ``(axis, c, a, b)`` comes within ``reach`` of point ``p``."""
+    for axis, c, a, b in cuts:
+        across, along = (p[0], p[1]) if axis == 0 else (p[1], p[0])
+        gap = max(a - along, 0.0, along - b)
+        if np.hypot(across - c, gap) <= reach:
+            return True
+    return False
 
 
 def _resolved(lo: float, hi: float, angles: list[float]) -> bool:
