@@ -71,21 +71,25 @@ def _free(boundary: np.ndarray, obstacles: list[np.ndarray], segments: np.ndarra
     return free.difference(unary_union(solid)) if solid else free
 
 
-def _stretches(free, axis: int, c: float, lo: float, hi: float) -> list[tuple[float, float]]:
-    """Free intervals along the line ``axis = c`` (x = c when axis is 0)."""
-    line = LineString([(c, lo), (c, hi)] if axis == 0 else [(lo, c), (hi, c)])
-    cut = line.intersection(free)
+def _stretches(free, axis: int, at: list[float], lo: float, hi: float) -> list[list[tuple]]:
+    """Free intervals along each line ``axis = c`` for ``c`` in ``at`` (x = c when axis is 0),
+    sorted; one vectorised shapely intersection for all lines."""
+    ends = np.array([[c, lo, c, hi] if axis == 0 else [lo, c, hi, c] for c in at], np.float64)
+    cuts = shapely.intersection(shapely.linestrings(ends.reshape(-1, 2, 2)), free)
     out = []
-    for g in getattr(cut, "geoms", [cut]):
-        if g.is_empty or g.geom_type != "LineString":
-            continue
-        coords = np.asarray(g.coords)[:, 1 - axis]
-        out.append((float(coords.min()), float(coords.max())))
-    return sorted(out)
+    for cut in cuts:
+        intervals = []
+        for g in getattr(cut, "geoms", [cut]):
+            if g.is_empty or g.geom_type != "LineString":
+                continue
+            coords = np.asarray(g.coords)[:, 1 - axis]
+            intervals.append((float(coords.min()), float(coords.max())))
+        out.append(sorted(intervals))
+    return out
 
 
-def _width_at(free, axis: int, c: float, t: float, lo: float, hi: float) -> float:
-    for a, b in _stretches(free, axis, c, lo, hi):
+def _width_at(stretches: list[tuple[float, float]], t: float) -> float:
+    for a, b in stretches:
         if a <= t <= b:
             return b - a
     return 0.0
@@ -108,20 +112,23 @@ def _narrowings(
         lines = [(c, at) for c in coords[axis] for at in (c, c - 1e-3, c + 1e-3)]
         at_all = np.array([at for _, at in lines], dtype=np.float64)
         maybe = _may_hold_a_door(edges, axis, at_all, (lo, hi), config)
-        for (c, at), check in zip(lines, maybe, strict=True):
-            if not check:
-                continue
-            for a, b in _stretches(free, axis, at, lo, hi):
-                width = b - a
-                if not config.min_door <= width <= config.max_door:
-                    continue
-                mid = 0.5 * (a + b)
-                beside = [
-                    _width_at(free, axis, at + s, mid, lo, hi)
-                    for s in (-config.probe, config.probe)
-                ]
-                if min(beside) >= config.widen * width:
-                    found.add((axis, c, round(a, 6), round(b, 6)))
+        lines = [line for line, check in zip(lines, maybe, strict=True) if check]
+        doors = [
+            (c, at, a, b)
+            for (c, at), stretches in zip(
+                lines, _stretches(free, axis, [at for _, at in lines], lo, hi), strict=True
+            )
+            for a, b in stretches
+            if config.min_door <= b - a <= config.max_door
+        ]
+        # the free stretches ``probe`` metres to either side, through each door's middle
+        probes = [at + s for _, at, _, _ in doors for s in (-config.probe, config.probe)]
+        beside = _stretches(free, axis, probes, lo, hi)
+        for k, (c, _, a, b) in enumerate(doors):
+            mid = 0.5 * (a + b)
+            widths = [_width_at(beside[2 * k + j], mid) for j in (0, 1)]
+            if min(widths) >= config.widen * (b - a):
+                found.add((axis, c, round(a, 6), round(b, 6)))
     return sorted(found)
 
 
