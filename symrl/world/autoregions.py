@@ -71,21 +71,25 @@ def _free(boundary: np.ndarray, obstacles: list[np.ndarray], segments: np.ndarra
     return free.difference(unary_union(solid)) if solid else free
 
 
-def _stretches(free, axis: int, c: float, lo: float, hi: float) -> list[tuple[float, float]]:
-    """Free intervals along the line ``axis = c`` (x = c when axis is 0)."""
-    line = LineString([(c, lo), (c, hi)] if axis == 0 else [(lo, c), (hi, c)])
-    cut = line.intersection(free)
+def _stretches(free, axis: int, at: list[float], lo: float, hi: float) -> list[list[tuple]]:
+    """Free intervals along each line ``axis = c`` for ``c`` in ``at`` (x = c when axis is 0),
+    sorted; one vectorised shapely intersection for all lines."""
+    ends = np.array([[c, lo, c, hi] if axis == 0 else [lo, c, hi, c] for c in at], np.float64)
+    cuts = shapely.intersection(shapely.linestrings(ends.reshape(-1, 2, 2)), free)
     out = []
-    for g in getattr(cut, "geoms", [cut]):
-        if g.is_empty or g.geom_type != "LineString":
-            continue
-        coords = np.asarray(g.coords)[:, 1 - axis]
-        out.append((float(coords.min()), float(coords.max())))
-    return sorted(out)
+    for cut in cuts:
+        intervals = []
+        for g in getattr(cut, "geoms", [cut]):
+            if g.is_empty or g.geom_type != "LineString":
+                continue
+            coords = np.asarray(g.coords)[:, 1 - axis]
+            intervals.append((float(coords.min()), float(coords.max())))
+        out.append(sorted(intervals))
+    return out
 
 
-def _width_at(free, axis: int, c: float, t: float, lo: float, hi: float) -> float:
-    for a, b in _stretches(free, axis, c, lo, hi):
+def _width_at(stretches: list[tuple[float, float]], t: float) -> float:
+    for a, b in stretches:
         if a <= t <= b:
             return b - a
     return 0.0
@@ -101,23 +105,78 @@ def _narrowings(
     beside must be wider on both sides, so the mouth of a long narrow lane is no door."""
     xmin, ymin, xmax, ymax = bounds
     spans = ((ymin - 1, ymax + 1), (xmin - 1, xmax + 1))
+    edges = _ring_edges(free)
     found = set()
     for axis in (0, 1):
         lo, hi = spans[axis]
-        for c in coords[axis]:
-            for at in (c, c - 1e-3, c + 1e-3):
-                for a, b in _stretches(free, axis, at, lo, hi):
-                    width = b - a
-                    if not config.min_door <= width <= config.max_door:
-                        continue
-                    mid = 0.5 * (a + b)
-                    beside = [
-                        _width_at(free, axis, at + s, mid, lo, hi)
-                        for s in (-config.probe, config.probe)
-                    ]
-                    if min(beside) >= config.widen * width:
-                        found.add((axis, c, round(a, 6), round(b, 6)))
+        lines = [(c, at) for c in coords[axis] for at in (c, c - 1e-3, c + 1e-3)]
+        at_all = np.array([at for _, at in lines], dtype=np.float64)
+        maybe = _may_hold_a_door(edges, axis, at_all, (lo, hi), config)
+        lines = [line for line, check in zip(lines, maybe, strict=True) if check]
+        doors = [
+            (c, at, a, b)
+            for (c, at), stretches in zip(
+                lines, _stretches(free, axis, [at for _, at in lines], lo, hi), strict=True
+            )
+            for a, b in stretches
+            if config.min_door <= b - a <= config.max_door
+        ]
+        # the free stretches ``probe`` metres to either side, through each door's middle
+        probes = [at + s for _, at, _, _ in doors for s in (-config.probe, config.probe)]
+        beside = _stretches(free, axis, probes, lo, hi)
+        for k, (c, _, a, b) in enumerate(doors):
+            mid = 0.5 * (a + b)
+            widths = [_width_at(beside[2 * k + j], mid) for j in (0, 1)]
+            if min(widths) >= config.widen * (b - a):
+                found.add((axis, c, round(a, 6), round(b, 6)))
     return sorted(found)
+
+
+def _ring_edges(free) -> np.ndarray:
+    """The free area's outline (the thin walls' slits included) as segments ``(x0, y0, x1, y1)``."""
+    rings = shapely.get_rings(shapely.get_parts(free))
+    xy, ring = shapely.get_coordinates(rings, return_index=True)
+    same = ring[:-1] == ring[1:]
+    return np.concatenate([xy[:-1][same], xy[1:][same]], axis=1)
+
+
+def _may_hold_a_door(
+    edges: np.ndarray,
+    axis: int,
+    at: np.ndarray,
+    span: tuple[float, float],
+    config: AutoRegionConfig,
+) -> np.ndarray:
+    """Which lines ``axis = at`` can have a free stretch of door width, found without shapely.
+
+    A stretch begins and ends where its line meets the outline, so a line on which no two such
+    points lie ``min_door..max_door`` apart (give or take a rounding margin) has none; the others
+    get the exact shapely intersection. One vectorised pass over all lines and edges replaces
+    a polygon intersection per line (the cost of a 3000-point boundary)."""
+    across, along = edges[:, [axis, axis + 2]], edges[:, [1 - axis, 3 - axis]]
+    # the edges whose extent across the line reaches it (a search tree of their boxes)
+    lo, hi = span
+    ends = np.stack([at, np.full_like(at, lo), at, np.full_like(at, hi)], axis=1)
+    ends = ends if axis == 0 else ends[:, [1, 0, 3, 2]]
+    lines = shapely.linestrings(ends.reshape(-1, 2, 2))
+    line_of, edge = shapely.STRtree(shapely.linestrings(edges.reshape(-1, 2, 2))).query(lines)
+    a0, a1 = across[edge, 0], across[edge, 1]
+    v0, v1 = along[edge, 0], along[edge, 1]
+    flat = a0 == a1  # an edge lying on the line: both its ends
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = np.where(flat, v0, v0 + (at[line_of] - a0) * (v1 - v0) / (a1 - a0))
+    line_of = np.concatenate([line_of, line_of[flat]])
+    v = np.concatenate([v, v1[flat]])
+    margin = 1e-6 * max(1.0, hi - lo)
+    # one sorted key for all lines, each line's points far from the next line's
+    key = line_of * (2.0 * (hi - lo) + config.max_door + 1.0) + (v - lo)
+    order = np.argsort(key)
+    key, line_of = key[order], line_of[order]
+    first = np.searchsorted(key, key + config.min_door - margin, side="left")
+    last = np.searchsorted(key, key + config.max_door + margin, side="right")
+    out = np.zeros(len(at), dtype=bool)
+    out[line_of[last > first]] = True
+    return out
 
 
 def _walls(boundary: np.ndarray, obstacles: list[np.ndarray], segments: np.ndarray) -> np.ndarray:
@@ -204,7 +263,14 @@ def _corner_cuts(
         static = walls[tree.query(geometry, predicate="dwithin", distance=1e-6)]
         return np.concatenate([static, *[segment(*k)[None] for k in cuts + found]])
 
-    for p in corners:
+    concave = corners[_concave(free, walls, tree, corners)]
+    # a corner whose axis chords all run past ``short`` between the walls, with no cut that
+    # near, can only need a chord longer than ``max_cut``: it is left whole
+    short = config.max_cut + config.tie + 0.01
+    near_wall = _short_chord(walls, tree, concave, short)
+    for p, close in zip(concave, near_wall, strict=True):
+        if not close and not _cut_within(p, cuts + found, short):
+            continue
         for lo, hi in _open_sectors(free, p, near(shapely.Point(p))):
             if hi - lo <= np.pi + 1e-9:
                 continue
@@ -234,6 +300,81 @@ def _corner_cuts(
                 a, b = sorted((float(p[1 - axis]), float(far[1 - axis])))
                 found.append((axis, c, round(a, 6), round(b, 6)))
     return found
+
+
+def _concave(free, walls: np.ndarray, tree, corners: np.ndarray) -> np.ndarray:
+    """Which corners have a free sector wider than 180 degrees between the walls alone.
+
+    ``_open_sectors`` for all corners at once, without the cuts: a cut through or to a corner
+    only splits its free sectors, so a corner whose sectors are at most 180 degrees here needs no
+    chord, and only the few others get the corner-by-corner search (a 3000-point boundary has a
+    corner per point)."""
+    corner, wall = tree.query(shapely.points(corners), predicate="dwithin", distance=1e-6)
+    p, a, b = corners[corner], walls[wall, :2], walls[wall, 2:]
+    d = b - a
+    length = np.hypot(d[:, 0], d[:, 1])
+    t = ((p - a) * d).sum(1) / np.maximum(length**2, 1e-300)
+    cross = d[:, 0] * (p[:, 1] - a[:, 1]) - d[:, 1] * (p[:, 0] - a[:, 0])
+    off = np.abs(cross) / np.maximum(length, 1e-300)
+    on = (off < 1e-6) & (t > -1e-6) & (t < 1 + 1e-6) & (length > 1e-12)
+    toward_b, toward_a = on & (t < 1 - 1e-6), on & (t > 1e-6)
+    at = np.concatenate([corner[toward_b], corner[toward_a]])
+    ends = np.concatenate([b[toward_b], a[toward_a]]) - corners[at]
+    angle = np.round(np.mod(np.arctan2(ends[:, 1], ends[:, 0]), 2 * np.pi), 12)
+    order = np.lexsort((angle, at))
+    at, angle = at[order], angle[order]
+    keep = np.ones(len(at), dtype=bool)
+    keep[1:] = (at[1:] != at[:-1]) | (angle[1:] != angle[:-1])
+    at, angle = at[keep], angle[keep]
+    # each angle to the next one round the same corner (the last to the first plus 2 pi)
+    last = np.ones(len(at), dtype=bool)
+    last[:-1] = at[1:] != at[:-1]
+    first = np.flatnonzero(np.r_[True, at[1:] != at[:-1]])
+    nxt = np.empty_like(angle)
+    nxt[:-1] = angle[1:]
+    nxt[last] = angle[first] + 2 * np.pi
+    mid = 0.5 * (angle + nxt)
+    q = corners[at] + 1e-4 * np.stack([np.cos(mid), np.sin(mid)], axis=1)
+    wide = (nxt - angle > np.pi + 1e-9) & shapely.contains_xy(free, q[:, 0], q[:, 1])
+    out = np.zeros(len(corners), dtype=bool)
+    out[at[wide]] = True
+    return out
+
+
+def _short_chord(walls: np.ndarray, tree, corners: np.ndarray, short: float) -> np.ndarray:
+    """Whether any of a corner's four axis chords meets a wall within ``short`` (as ``_chord``
+    computes it, for all corners and directions at once)."""
+    if len(corners) == 0:
+        return np.zeros(0, dtype=bool)
+    steps = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+    p = np.repeat(corners, 4, axis=0)
+    d = np.tile(steps, (len(corners), 1))
+    rays = shapely.linestrings(np.stack([p, p + short * d], axis=1))
+    ray, wall = tree.query(rays, predicate="dwithin", distance=1e-6)
+    p, d, a = p[ray], d[ray], walls[wall, :2]
+    e = walls[wall, 2:] - a
+    det = d[:, 0] * -e[:, 1] + d[:, 1] * e[:, 0]
+    rel = a - p
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (rel[:, 0] * -e[:, 1] + rel[:, 1] * e[:, 0]) / det
+        u = (d[:, 0] * rel[:, 1] - d[:, 1] * rel[:, 0]) / det
+    crossing = (np.abs(det) > 1e-12) & (u >= -1e-9) & (u <= 1 + 1e-9) & (t > 1e-7) & (t <= short)
+    line = (np.abs(det) <= 1e-12) & (np.abs(rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]) < 1e-9)
+    ends = np.stack([(rel * d).sum(1), ((rel + e) * d).sum(1)], axis=1)
+    along = line & ((ends > 1e-7) & (ends <= short)).any(1)
+    out = np.zeros(len(corners), dtype=bool)
+    out[ray[crossing | along] // 4] = True
+    return out
+
+
+def _cut_within(p: np.ndarray, cuts: list[tuple[int, float, float, float]], reach: float) -> bool:
+    """Whether a cut ``(axis, c, a, b)`` comes within ``reach`` of point ``p``."""
+    for axis, c, a, b in cuts:
+        across, along = (p[0], p[1]) if axis == 0 else (p[1], p[0])
+        gap = max(a - along, 0.0, along - b)
+        if np.hypot(across - c, gap) <= reach:
+            return True
+    return False
 
 
 def _resolved(lo: float, hi: float, angles: list[float]) -> bool:

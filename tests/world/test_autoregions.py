@@ -3,12 +3,16 @@ deterministic, valid rules, and on the paper's map the hand partition up to the 
 
 from __future__ import annotations
 
+import hashlib
+import json
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from shapely.geometry import Polygon, box
+from shapely.ops import unary_union
 
 from symrl.knowledge.subgoals import build_subgoals, find_passages
 from symrl.world import load_map
@@ -162,3 +166,92 @@ def test_auto_regions_give_the_paper_door_as_sub_goals():
 def test_bad_regions_value_names_auto():
     with pytest.raises(ValueError, match="'regions' must be 'auto' or a mapping"):
         load_map(_auto("hailu2001") | {"regions": "automatic"})
+
+
+def _grid_value(rng, lo: float, hi: float) -> float:
+    """A coordinate on a 10 cm grid, so widths hit the thresholds (0.52 m, 1.5 m) exactly."""
+    return round(float(rng.integers(round(lo * 10), round(hi * 10) + 1)) / 10, 1)
+
+
+def _random_map(seed: int) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
+    """A room split by thin walls with gaps, an orthogonal union of boxes with pillars, or a
+    star-shaped polygon (seed modulo 3): the walls of a map, from the seed."""
+    rng = np.random.default_rng(seed)
+    kind = seed % 3
+    obstacles: list[np.ndarray] = []
+    segments: list[list[float]] = []
+    if kind == 0:
+        w, h = _grid_value(rng, 4, 10), _grid_value(rng, 3, 8)
+        boundary = np.array([[0, 0], [w, 0], [w, h], [0, h]], float)
+        for _ in range(rng.integers(1, 4)):
+            gap = float(rng.choice([0.4, 0.52, 0.8, 1.0, 1.2, 1.5, 1.6, 2.0, 2.5]))
+            if rng.random() < 0.5:
+                x, at = _grid_value(rng, 1, w - 1), _grid_value(rng, 0, max(0.0, h - gap))
+                segments += [[x, 0, x, at], [x, round(at + gap, 1), x, h]]
+            else:
+                y, at = _grid_value(rng, 1, h - 1), _grid_value(rng, 0, max(0.0, w - gap))
+                segments += [[0, y, at, y], [round(at + gap, 1), y, w, y]]
+        segments = [s for s in segments if (s[0], s[1]) != (s[2], s[3])]
+    elif kind == 1:
+        shape = box(0, 0, _grid_value(rng, 2, 5), _grid_value(rng, 1.5, 3))
+        for _ in range(rng.integers(1, 4)):
+            x0, y0 = _grid_value(rng, 0, 6), _grid_value(rng, 0, 6)
+            part = box(x0, y0, round(x0 + _grid_value(rng, 1, 4), 1),
+                       round(y0 + _grid_value(rng, 1, 4), 1))  # fmt: skip
+            if shape.intersection(part).area > 0.5:
+                shape = unary_union([shape, part])
+        shape = shape.simplify(0)
+        if shape.geom_type != "Polygon" or len(shape.interiors):
+            shape = box(0, 0, 6, 4)
+        boundary = np.asarray(shape.exterior.coords)[:-1]
+        inner = Polygon(boundary).buffer(-0.6)
+        for _ in range(rng.integers(0, 3)):
+            x0, y0 = _grid_value(rng, 0, 9), _grid_value(rng, 0, 9)
+            pillar = box(x0, y0, round(x0 + _grid_value(rng, 0.2, 1.0), 1),
+                         round(y0 + _grid_value(rng, 0.2, 1.0), 1))  # fmt: skip
+            if inner.contains(pillar) and not any(
+                Polygon(o).intersects(pillar.buffer(0.3)) for o in obstacles
+            ):
+                obstacles.append(np.asarray(pillar.exterior.coords)[:-1])
+    else:
+        n = int(rng.integers(6, 16))
+        t = np.sort(rng.uniform(0, 2 * np.pi, n))
+        r = rng.uniform(3.5, 5, n)
+        boundary = np.round(np.stack([r * np.cos(t), r * np.sin(t)], 1), 3)
+        if not Polygon(boundary).is_valid:
+            boundary = np.round(np.stack([4 * np.cos(t), 3 * np.sin(t)], 1), 3)
+        if rng.random() < 0.5:
+            pillar = box(-0.3, -0.3, 0.3, 0.3)
+            if Polygon(boundary).buffer(-0.5).contains(pillar):
+                obstacles.append(np.asarray(pillar.exterior.coords)[:-1])
+    return boundary, obstacles, np.asarray(segments, float).reshape(-1, 4)
+
+
+def _digest(regions: dict) -> str:
+    return hashlib.sha256(json.dumps(regions, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _pinned_cases() -> dict[str, tuple[np.ndarray, list[np.ndarray], np.ndarray]]:
+    cases = {}
+    for path in sorted(MAPS.glob("*.yaml")):
+        world = load_map(path)
+        cases[path.stem] = (world.boundary, list(world.obstacles), world.extra_segments)
+    for seed in range(150):
+        cases[f"random-{seed}"] = _random_map(seed)
+    return cases
+
+
+PINNED = Path(__file__).with_name("auto_regions_pinned.json")
+
+
+def test_found_regions_are_the_pinned_ones_on_shipped_and_random_maps():
+    """The regions found on every shipped map and on 150 random ones are those of the first,
+    slow implementation (one shapely intersection per candidate line), pinned as digests of
+    the ``regions`` mapping: a faster search must find exactly the same rules."""
+    pinned = json.loads(PINNED.read_text())
+    cases = _pinned_cases()
+    assert sorted(pinned) == sorted(cases)
+    kinds = {len(auto_regions(*cases[f"random-{s}"])["names"]) for s in range(0, 150, 7)}
+    assert len(kinds) > 2  # the random maps give partitions of several sizes
+    wrong = [name for name, walls in cases.items() if _digest(auto_regions(*walls)) != pinned[name]]
+    assert wrong == []
