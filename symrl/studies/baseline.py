@@ -291,7 +291,20 @@ def train_baseline(
     """Train one baseline for ``episodes`` trials; write its run folder ``logdir`` (if given).
 
     ``settings`` override the algorithm's defaults (``SACConfig`` / ``PPOConfig`` fields).
-    Returns the trial rows, the summaries at 20 trials and at the end, and timings."""
+    Returns the trial rows, the summaries at 20 trials and at the end, and timings. Runs on
+    one torch thread (small networks: as fast, and it shares the machine)."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        return _train_baseline(algorithm, seed, episodes, priors, map, envs, logdir, progress,
+                               overwrite, settings)  # fmt: skip
+    finally:
+        torch.set_num_threads(threads)
+
+
+def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | None, map: str,
+                    envs: int | None, logdir: str | Path | None, progress: bool,
+                    overwrite: bool, settings: dict[str, Any]) -> dict[str, Any]:  # fmt: skip
     from tqdm.auto import tqdm
 
     from symrl.runs import BASE_COLUMNS, RunWriter
@@ -461,6 +474,11 @@ def baseline_command(args: argparse.Namespace) -> int:
                        desc=f"{args.algorithm} {priors.label()}")  # fmt: skip
     wall = round(time.perf_counter() - t0, 1)
     summary = [{k: v for k, v in r.items() if k != "rows"} for r in results]
+    before = out / "summary.json"  # runs of other seeds in the same folder are kept
+    if before.is_file():
+        kept = [r for r in json.loads(before.read_text()).get("runs", [])
+                if r.get("seed") not in seeds]  # fmt: skip
+        summary = sorted(kept + summary, key=lambda r: r["seed"])
     (out / "summary.json").write_text(json.dumps({"runs": summary, "wall_time_s": wall},
                                                  indent=2))  # fmt: skip
     md = summary_markdown(results)
