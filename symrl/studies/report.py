@@ -183,7 +183,15 @@ def baseline_runs(folder: Path) -> list[dict[str, Any]]:
     runs = []
     for csv in sorted(folder.glob("seed-*/trials.csv")) + sorted(folder.glob("runs/*/trials.csv")):
         seed = int(re.findall(r"\d+$", csv.parent.name)[0])  # seed-100, paper__MAP__s100
-        runs.append({"seed": seed, "rows": read_trials_csv(csv), "wall": timing.get(seed)})
+        wall = timing.get(seed)
+        start, end = csv.parent / "config.yaml", csv.parent / "checkpoint.pt"
+        if wall is None and start.is_file() and end.is_file():
+            # no summary entry (a sweep's run, or a command stopped after this seed): from its
+            # files, config.yaml written at the start and checkpoint.pt at the end
+            rows = read_trials_csv(csv)
+            span = round(end.stat().st_mtime - start.stat().st_mtime, 1)
+            wall = (span if len(rows) <= 20 else None, span)
+        runs.append({"seed": seed, "rows": read_trials_csv(csv), "wall": wall})
     return runs
 
 

@@ -238,3 +238,15 @@ def test_a_run_folder_is_never_overwritten_silently(tmp_path, capsys):
     capsys.readouterr()
     assert main(argv) == 2
     assert "--overwrite" in capsys.readouterr().err
+
+
+def test_the_report_compares_every_learner_it_finds(tmp_path):
+    from symrl.studies.report import baseline_table
+
+    train_baseline("ppo", seed=2, episodes=3, priors=Priors(residual=True), progress=False,
+                   logdir=tmp_path / "ppo-residual" / "seed-2", **TINY["ppo"])  # fmt: skip
+    table, curves = baseline_table(tmp_path)
+    row = next(line for line in table.splitlines() if line.startswith("| PPO residual |"))
+    assert "| 3 | 1 |" in row  # 3 trials, 1 seed
+    assert "| SAC residual | *not run*" in table and list(curves) == ["PPO residual"]
+    assert len(curves["PPO residual"][0]) == 3
