@@ -280,19 +280,24 @@ def plot_learning_curves(
 ) -> None:
     """Learners on one axis per quantity, trials on a log scale: ``curves[label]`` is one trial
     table (rows with ``steps``, ``total_reinforcement``, ``reached_goal``) per seed; drawn is
-    the mean over seeds per trial (beyond trial 20, over log-spaced bins of trials)."""
+    the mean over the seeds that ran each trial (beyond trial 20, over log-spaced bins)."""
     quantities = (("steps", "actions per trial"),
                   ("total_reinforcement", "total reinforcement per trial"),
                   ("reached_goal", "reached the goal (fraction of seeds)"))  # fmt: skip
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.0))
     for i, (label, runs) in enumerate(curves.items()):
-        n = min(len(r) for r in runs)
+        lengths = sorted({len(r) for r in runs})
+        seeds = f"{len(runs)} seeds" + "".join(
+            f"; {sum(len(r) >= n for r in runs)} to trial {n}" for n in lengths[1:]
+        )
         for ax, (key, _) in zip(axes, quantities, strict=True):
-            v = np.array([[float(row[key]) for row in run[:n]] for run in runs])
-            x, y = _log_binned(v.mean(axis=0))
+            v = np.full((len(runs), lengths[-1]), np.nan)
+            for k, run in enumerate(runs):  # a seed that ran fewer trials is missing after
+                v[k, : len(run)] = [float(row[key]) for row in run]
+            x, y = _log_binned(np.nanmean(v, axis=0))
             ax.plot(x, y, marker=_MARKERS[i % len(_MARKERS)], ms=3, lw=1.2,
                     ls=_STYLES[i % len(_STYLES)], color=f"C{i}",
-                    label=f"{label} ({len(runs)} seeds)")  # fmt: skip
+                    label=f"{label} ({seeds})")  # fmt: skip
     for ax, (_, name) in zip(axes, quantities, strict=True):
         ax.set_xscale("log")
         ax.axvline(20, ls=":", lw=1, color="0.5")

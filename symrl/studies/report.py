@@ -154,6 +154,9 @@ def _section_ablate(results: Path, figures: Path) -> list[str]:
 BASELINE_VARIANTS = (
     ("paper-20", "paper learner (`paper`)", "symrl sweep --recipes paper --seeds 100-104 "
      "--trials 20 --out results/baselines/paper-20"),
+    ("reflex-20", "reference: the shielded reflex alone (no learning)", "symrl sweep --recipes "
+     "paper --seeds 100-104 --trials 20 --out results/baselines/reflex-20 "
+     "experts.learning=false options.enabled=false"),
     ("sac-scratch", "SAC from scratch", "symrl baseline sac --episodes {n} --seeds 100-104 "
      "--out results/baselines/sac-scratch"),
     ("sac-residual", "SAC residual", "symrl baseline sac --residual --episodes {n} "
@@ -230,12 +233,15 @@ def baseline_table(results: Path) -> tuple[str, dict[str, list[list[dict[str, An
             lines.append(f"| {label} | *not run* | | | | | | | | |")
             continue
         curves[label] = [r["rows"] for r in runs]
-        budget = min(len(r["rows"]) for r in runs)
-        for n in sorted({min(20, budget), budget}):
-            s = [summarise(r["rows"], n) for r in runs]
-            walls = [r["wall"][0 if n == 20 else 1] for r in runs if r["wall"]]
+        lengths = [len(r["rows"]) for r in runs]
+        # 20 trials, the budget every seed ran, and the longest (on the seeds that ran it)
+        for n in sorted({min(20, min(lengths)), min(lengths), max(lengths)}):
+            done = [r for r in runs if len(r["rows"]) >= n]
+            s = [summarise(r["rows"], n) for r in done]
+            walls = [r["wall"][0] if n == 20 else r["wall"][1] if len(r["rows"]) == n else None
+                     for r in done if r["wall"]]  # fmt: skip
             lines.append(
-                f"| {label} | {n} | {len(runs)} | {_first([x['first_success'] for x in s])} "
+                f"| {label} | {n} | {len(done)} | {_first([x['first_success'] for x in s])} "
                 f"| {_first([x['first_reliable'] for x in s])} "
                 f"| {_mean_sd([x['last5_actions'] for x in s])} "
                 f"| {_mean_sd([x['last5_total'] for x in s], 2)} "
@@ -262,8 +268,12 @@ def _section_baselines(results: Path, figures: Path) -> list[str]:
     for name, label, command in BASELINE_VARIANTS:
         runs = baseline_runs(folder / name)
         if runs:
-            n = min(len(r["rows"]) for r in runs)
-            out.append(f"- {label}: `{command.format(n=n)}`")
+            for n in sorted({len(r["rows"]) for r in runs}):
+                seeds = [r["seed"] for r in runs if len(r["rows"]) == n]
+                text = command.format(n=n)
+                if len(seeds) < len(runs):
+                    text = text.replace("100-104", ",".join(map(str, seeds)))
+                out.append(f"- {label}: `{text}`")
     out += ["", table]
     figures.mkdir(parents=True, exist_ok=True)
     plot_learning_curves(curves, folder / "comparison.png",
