@@ -181,20 +181,21 @@ def baseline_runs(folder: Path) -> list[dict[str, Any]]:
     data = _load(folder / "summary.json")
     timing = {}
     if data is not None and "runs" in data and data["runs"] and "at20" in data["runs"][0]:
-        timing = {r["seed"]: (r["at20"]["wall_time_s"], r["end"]["wall_time_s"])
+        timing = {(r["seed"], r["end"]["trials"]): (r["at20"]["wall_time_s"],
+                                                     r["end"]["wall_time_s"])
                   for r in data["runs"]}  # fmt: skip
     runs = []
     for csv in sorted(folder.glob("seed-*/trials.csv")) + sorted(folder.glob("runs/*/trials.csv")):
         seed = int(re.findall(r"\d+$", csv.parent.name)[0])  # seed-100, paper__MAP__s100
-        wall = timing.get(seed)
+        rows = read_trials_csv(csv)
+        wall = timing.get((seed, len(rows)))  # the summary's entry for this very run
         start, end = csv.parent / "config.yaml", csv.parent / "checkpoint.pt"
         if wall is None and start.is_file() and end.is_file():
             # no summary entry (a sweep's run, or a command stopped after this seed): from its
             # files, config.yaml written at the start and checkpoint.pt at the end
-            rows = read_trials_csv(csv)
             span = round(end.stat().st_mtime - start.stat().st_mtime, 1)
             wall = (span if len(rows) <= 20 else None, span)
-        runs.append({"seed": seed, "rows": read_trials_csv(csv), "wall": wall})
+        runs.append({"seed": seed, "rows": rows, "wall": wall})
     return runs
 
 
