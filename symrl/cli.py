@@ -199,14 +199,24 @@ def _evaluate(args: argparse.Namespace) -> int:
     _at_least("--seed", args.seed, 0)
     if args.out and Path(args.out).exists() and not Path(args.out).is_dir():
         raise ValueError(f"--out {args.out!r}: exists and is not a folder")
-    policy, config = load_checkpoint(args.checkpoint)
+    from symrl.studies.baseline import load_baseline
+
+    baseline = load_baseline(args.checkpoint)  # a baseline's checkpoint, else None
+    if baseline is None:
+        policy, config = load_checkpoint(args.checkpoint)
+    else:
+        policy = baseline
     world = None
     if args.map is not None:
         from symrl.world.worldmap import load_map
 
         world = load_map(args.map)
     with _naming_start(args.start):
-        (record,) = evaluate(policy, config, starts=[args.start], seed=args.seed, world=world)
+        if baseline is not None:
+            (record,) = baseline.evaluate([args.start], seed=args.seed, world=world)
+        else:
+            (record,) = evaluate(policy, config, starts=[args.start], seed=args.seed,
+                                 world=world)  # fmt: skip
     out = Path(args.out) if args.out else Path(args.checkpoint).parent
     out.mkdir(parents=True, exist_ok=True)
     title = f"greedy: {record['steps']} actions, total {record['total_reinforcement']:.2f}"
@@ -244,7 +254,7 @@ def _plan(args: argparse.Namespace) -> int:
 
 
 def _baseline(args: argparse.Namespace) -> int:
-    from symrl.studies.ppo import baseline_command
+    from symrl.studies.baseline import baseline_command
 
     return baseline_command(args)
 
@@ -313,7 +323,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("evaluate", help="drive a saved controller greedily and save its path")
     _one_line_errors(p)
-    p.add_argument("checkpoint", help="checkpoint file written by `symrl train`")
+    p.add_argument("checkpoint",
+                   help="checkpoint file written by `symrl train` or `symrl baseline`")
     p.add_argument("--start", type=parse_pose, default=None, help=START_HELP)
     p.add_argument("--seed", type=int, default=0, help="random seed for the world's noise")
     p.add_argument("--map", default=None, help="drive in another map (default: its own)")
@@ -350,13 +361,41 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="results/plan")
     p.set_defaults(handler=_plan)
 
-    p = sub.add_parser("baseline", help="baselines on the same env (ppo)")
-    p.add_argument("algorithm", choices=["ppo"])
-    p.add_argument("--episodes", type=int, default=20, help="training budget in episodes")
-    p.add_argument("--seeds", default="100", help="comma-separated seeds")
+    p = sub.add_parser(
+        "baseline",
+        help="deep-RL baselines (SAC, PPO from TorchRL) on the same task, optionally given the "
+        "paper's prior knowledge",
+        description="Train SAC or PPO (TorchRL) on the paper's world, one run folder per seed "
+        "(OUT/seed-S: config.yaml, trials.csv, tb/, checkpoint.pt for `symrl evaluate`). "
+        "From scratch by default; --residual and --regions hand it the paper's priors. "
+        "SAC defaults (Stable-Baselines3 / Haarnoja et al. 2018): buffer 1e6, batch 256, "
+        "100 random steps first, Adam 3e-4, gamma 0.99, tau 0.005, 1 gradient step per "
+        "transition, learned temperature, 2x256 ReLU, 1 env. PPO defaults (CleanRL): 2048 "
+        "transitions per update from 8 envs, 10 epochs, minibatch 64, Adam 3e-4, gamma 0.99, "
+        "GAE 0.95, clip 0.2, 2x64 tanh.",
+    )
+    _one_line_errors(p)
+    p.add_argument("algorithm", choices=["sac", "ppo"])
+    p.add_argument("--episodes", type=int, default=20,
+                   help="training budget in episodes (= trials; default 20, the paper's)")
+    p.add_argument("--seeds", default="100", help="seeds: a range 100-104 and/or a list 100,105")
+    p.add_argument("--residual", action="store_true",
+                   help="act as the shielded fuzzy reflex (steering toward the goal) plus a "
+                   "learned correction of at most --correction * pi")
+    p.add_argument("--correction", type=float, default=0.25,
+                   help="largest residual correction as a fraction of pi (default 0.25: 45 deg)")
+    p.add_argument("--regions", action="store_true",
+                   help="append the region id (one-hot, from the odometry pose) to the "
+                   "observation")
+    p.add_argument("--envs", type=int, default=None,
+                   help="robots stepped together (default: sac 1, ppo 8)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="seeds trained in parallel processes (default 1)")
     p.add_argument("--map", default="hailu2001",
                    help="built-in map name or map file (default hailu2001)")
-    p.add_argument("--out", default="results/baseline-ppo")
+    p.add_argument("--out", default=None,
+                   help="results folder (default results/baseline-ALGO-VARIANT)")
+    p.add_argument("--overwrite", action="store_true", help="replace runs already in --out")
     p.set_defaults(handler=_baseline)
 
     p = sub.add_parser(

@@ -37,6 +37,7 @@ __all__ = [
     "plot_comparison",
     "plot_map_comparison",
     "plot_baseline",
+    "plot_learning_curves",
 ]
 
 _MARKERS = "osD^vP*Xh<>"
@@ -255,4 +256,60 @@ def plot_baseline(results: list[dict[str, Any]], path: Path | str, title: str) -
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _log_binned(values: np.ndarray, exact: int = 20, ratio: float = 1.3):
+    """Trials 1..``exact`` as they are, then means over bins growing by ``ratio`` (x: the
+    bin's middle trial): a curve of thousands of trials stays readable on a log axis."""
+    n = len(values)
+    xs = list(np.arange(1, min(exact, n) + 1, dtype=float))
+    ys = list(values[: min(exact, n)])
+    lo = exact
+    while lo < n:
+        hi = min(n, max(lo + 1, int(round(lo * ratio))))
+        xs.append(float(np.sqrt((lo + 1) * hi)))
+        ys.append(float(np.mean(values[lo:hi])))
+        lo = hi
+    return np.array(xs), np.array(ys)
+
+
+def plot_learning_curves(
+    curves: dict[str, Sequence[Sequence[dict[str, Any]]]],
+    path: Path | str,
+    title: str = "",
+    optimum: float | None = None,
+) -> None:
+    """Learners on one axis per quantity, trials on a log scale: ``curves[label]`` is one trial
+    table (rows with ``steps``, ``total_reinforcement``, ``reached_goal``) per seed; drawn is
+    the mean over the seeds that ran each trial (beyond trial 20, over log-spaced bins)."""
+    quantities = (("steps", "actions per trial"),
+                  ("total_reinforcement", "total reinforcement per trial"),
+                  ("reached_goal", "reached the goal (fraction of seeds)"))  # fmt: skip
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.0))
+    for i, (label, runs) in enumerate(curves.items()):
+        lengths = sorted({len(r) for r in runs})
+        seeds = f"{len(runs)} seeds" + "".join(
+            f"; {sum(len(r) >= n for r in runs)} to trial {n}" for n in lengths[1:]
+        )
+        for ax, (key, _) in zip(axes, quantities, strict=True):
+            v = np.full((len(runs), lengths[-1]), np.nan)
+            for k, run in enumerate(runs):  # a seed that ran fewer trials is missing after
+                v[k, : len(run)] = [float(row[key]) for row in run]
+            x, y = _log_binned(np.nanmean(v, axis=0))
+            ax.plot(x, y, marker=_MARKERS[i % len(_MARKERS)], ms=3, lw=1.2,
+                    ls=_STYLES[i % len(_STYLES)], color=f"C{i}",
+                    label=f"{label} ({seeds})")  # fmt: skip
+    for ax, (_, name) in zip(axes, quantities, strict=True):
+        ax.set_xscale("log")
+        ax.axvline(20, ls=":", lw=1, color="0.5")
+        ax.set(xlabel="trial (log scale; dotted: the paper's 20)", ylabel=name)
+    if optimum is not None:
+        axes[0].axhline(optimum, ls="--", lw=1, color="0.4", label=f"optimum ({optimum:g})")
+    axes[2].set_ylim(-0.05, 1.05)
+    axes[0].legend(fontsize=7)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)

@@ -33,6 +33,7 @@ from symrl.learner.config import ConfigError, RunConfig, config_from_dict, confi
 
 __all__ = [
     "RunWriter",
+    "BASE_COLUMNS",
     "trial_columns",
     "expert_names",
     "write_trials_csv",
@@ -51,6 +52,19 @@ _BASE_COLUMNS = (
     "trial", "steps", "total_reinforcement", "collisions", "shielded", "reached_goal",
     "neurons", "temperature", "replaced", "improved", "mean_abs_td_error", "path_length",
 )  # fmt: skip
+
+
+_SCALARS = (
+    ("trial/steps", "steps"), ("trial/total_reinforcement", "total_reinforcement"),
+    ("trial/collisions", "collisions"), ("trial/shielded", "shielded"),
+    ("trial/reached_goal", "reached_goal"), ("network/neurons", "neurons"),
+    ("explore/temperature", "temperature"), ("learn/mean_abs_td_error", "mean_abs_td_error"),
+    ("learn/replaced_actions", "replaced"),
+)  # fmt: skip
+"""TensorBoard tag of each trial column logged per trial."""
+
+BASE_COLUMNS: tuple[str, ...] = _BASE_COLUMNS
+"""The columns every trial table starts with (a learner fills those it has)."""
 
 
 class CheckpointError(ValueError):
@@ -266,9 +280,15 @@ class RunWriter:
         world: Any,
         overwrite: bool = False,
         resume_rows: list[dict[str, Any]] | None = None,
+        *,
+        columns: list[str] | None = None,
+        settings: dict[str, Any] | None = None,
     ):
         """``resume_rows``: go on with the run already in ``logdir`` whose finished trials are
-        these rows (the trial table is rewritten with them, then appended to)."""
+        these rows (the trial table is rewritten with them, then appended to). ``columns``: the
+        trial table's columns (default :func:`trial_columns`); ``settings``: what
+        ``config.yaml``, the TensorBoard text and HParams record (default the whole config) --
+        a learner other than the paper's (the baselines) names only the settings it uses."""
         from torchrl.record.loggers import TensorboardLogger
 
         from symrl.about import provenance
@@ -300,9 +320,10 @@ class RunWriter:
         self.world = world
         self.expert_names = expert_names(config, world)
         self.provenance = provenance()
-        meta = {**config_to_dict(config), "provenance": self.provenance}
+        self.settings = config_to_dict(config) if settings is None else settings
+        meta = {**self.settings, "provenance": self.provenance}
         (self.dir / "config.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
-        self.columns = trial_columns(config, world)
+        self.columns = trial_columns(config, world) if columns is None else list(columns)
         self._csv = open(self.dir / "trials.csv", "w", newline="")  # noqa: SIM115 - kept open
         self._writer = csv.DictWriter(self._csv, fieldnames=self.columns, extrasaction="ignore")
         self._writer.writeheader()
@@ -311,7 +332,7 @@ class RunWriter:
         self._csv.flush()
         self.logger = TensorboardLogger(exp_name="tb", log_dir=str(self.dir))
         rows = ["| key | value |", "| --- | --- |"]
-        rows += [f"| {k} | {v} |" for k, v in _flat(config_to_dict(config)).items()]
+        rows += [f"| {k} | {v} |" for k, v in _flat(self.settings).items()]
         self.logger.experiment.add_text("config", "\n".join(rows), 0)
         self.trials: list[dict[str, Any]] = [dict(r) for r in resume_rows or []]
         self.snapshots = 0
@@ -328,19 +349,13 @@ class RunWriter:
         self.trials.append(record)
         self._writer.writerow({k: _fmt(record[k]) for k in self.columns if k in record})
         self._csv.flush()
-        n, log = record["trial"], self.logger.log_scalar
-        log("trial/steps", record["steps"], step=n)
-        log("trial/total_reinforcement", record["total_reinforcement"], step=n)
-        log("trial/collisions", record["collisions"], step=n)
-        log("trial/shielded", record["shielded"], step=n)
-        log("trial/reached_goal", float(record["reached_goal"]), step=n)
-        log("network/neurons", record["neurons"], step=n)
-        for name in self.expert_names:
-            log(f"network/neurons/{name}", record[f"neurons_{name}"], step=n)
-        log("explore/temperature", record["temperature"], step=n)
-        log("learn/mean_abs_td_error", record["mean_abs_td_error"], step=n)
-        log("learn/replaced_actions", record["replaced"], step=n)
-        if last or n == 1 or n % self.config.run.image_every == 0:
+        n = record["trial"]
+        scalars = [(tag, key) for tag, key in _SCALARS if key in record]
+        if "neurons" in record:
+            scalars += [(f"network/neurons/{e}", f"neurons_{e}") for e in self.expert_names]
+        for tag, key in scalars:  # the columns a learner has (a baseline has no neurons)
+            self.logger.log_scalar(tag, float(record[key]), step=n)
+        if "path" in record and (last or n == 1 or n % self.config.run.image_every == 0):
             from symrl.figures import trajectory_figure
 
             fig = trajectory_figure(self.world, record)
@@ -352,8 +367,9 @@ class RunWriter:
         import matplotlib.pyplot as plt
 
         self._csv.close()
-        save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed, resume=state,
-                        provenance=self.provenance)  # fmt: skip
+        if policy is not None:  # None: the caller writes its own checkpoint (the baselines)
+            save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed,
+                            resume=state, provenance=self.provenance)  # fmt: skip
         if self.trials:
             from symrl.figures import trajectory_figure
 
@@ -370,7 +386,7 @@ class RunWriter:
             }
             hparams = {
                 k: (v if isinstance(v, (int, float, str, bool)) else str(v))
-                for k, v in _flat(config_to_dict(self.config)).items()
+                for k, v in _flat(self.settings).items()
             }
             self.logger.experiment.add_hparams(hparams, metrics, run_name=".")
         self.logger.experiment.flush()

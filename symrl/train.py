@@ -106,8 +106,11 @@ class TrialRecorder:
         self.td_error += td_error.abs().numpy()
         self.reached = nxt.get("reached_goal").reshape(-1)
         self._poses.append(nxt.get("true_pose")[:, :2].numpy().copy())
-        expert, winner = td.get("expert").numpy(), td.get("winner").numpy()
-        self._winners.append(expert * 1_000_003 + winner)
+        expert, winner = td.get("expert", None), td.get("winner", None)
+        if expert is None:  # a controller without neurons (the baselines): no ghosts
+            self._winners.append(np.zeros(self.batch, dtype=np.int64))
+        else:
+            self._winners.append(expert.numpy() * 1_000_003 + winner.numpy())
         return nxt.get("done").reshape(-1).numpy().copy()
 
     def finish(self, b: int) -> dict[str, Any]:

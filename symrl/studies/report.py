@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import shutil
 from pathlib import Path
 from typing import Any
@@ -19,15 +20,10 @@ COMMANDS = {
     "plan": "symrl plan --out results/plan",
     "study": "symrl ablate --recipes paper --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
-    "ppo": "symrl baseline ppo --episodes {episodes} --seeds 100,101,102 "
-    "--out results/baseline-ppo",
     "generalise": "symrl generalise --recipe {recipe} --sets 10 --trials 20 --seed 100 "
     "--workers 2 --out results/generalise-{recipe}",
 }
-"""The commands whose folders this report reads (the PPO budget is read from its summary)."""
-
-PPO_EPISODES = 2000
-"""The PPO budget that was started (used when the run was cut short and wrote no summary)."""
+"""The commands whose folders this report reads (the baselines': ``BASELINE_VARIANTS``)."""
 
 INTERPRETATION = Path(__file__).with_name("results_discussion.md")
 """Hand-written discussion appended to the generated report (what reproduces and what not)."""
@@ -155,83 +151,139 @@ def _section_ablate(results: Path, figures: Path) -> list[str]:
     return out
 
 
-def _section_ppo(results: Path, figures: Path) -> list[str]:
-    folder = results / "baseline-ppo"
+BASELINE_VARIANTS = (
+    ("paper-20", "paper learner (`paper`)", "symrl sweep --recipes paper --seeds 100-104 "
+     "--trials 20 --out results/baselines/paper-20"),
+    ("reflex-20", "reference: the shielded reflex alone (no learning)", "symrl sweep --recipes "
+     "paper --seeds 100-104 --trials 20 --out results/baselines/reflex-20 "
+     "experts.learning=false options.enabled=false"),
+    ("sac-scratch", "SAC from scratch", "symrl baseline sac --episodes {n} --seeds 100-104 "
+     "--out results/baselines/sac-scratch"),
+    ("sac-residual", "SAC residual", "symrl baseline sac --residual --episodes {n} "
+     "--seeds 100-104 --out results/baselines/sac-residual"),
+    ("sac-residual+regions", "SAC residual + regions", "symrl baseline sac --residual "
+     "--regions --episodes {n} --seeds 100-104 --out results/baselines/sac-residual+regions"),
+    ("ppo-scratch", "PPO from scratch", "symrl baseline ppo --episodes {n} --seeds 100-104 "
+     "--out results/baselines/ppo-scratch"),
+    ("ppo-residual", "PPO residual", "symrl baseline ppo --residual --episodes {n} "
+     "--seeds 100-104 --out results/baselines/ppo-residual"),
+    ("ppo-residual+regions", "PPO residual + regions", "symrl baseline ppo --residual "
+     "--regions --episodes {n} --seeds 100-104 --out results/baselines/ppo-residual+regions"),
+)  # fmt: skip
+"""Folder under ``results/baselines``, label and command of each learner compared."""
+
+
+def baseline_runs(folder: Path) -> list[dict[str, Any]]:
+    """Per seed: its trial rows and, for a baseline, its wall times at 20 trials and at the end
+    (a ``symrl baseline`` folder has ``seed-S/``, a ``symrl sweep`` folder ``runs/*/``)."""
+    from symrl.runs import read_trials_csv
+
     data = _load(folder / "summary.json")
-    episodes = data["runs"][0]["config"]["episodes"] if data else PPO_EPISODES
-    out = ["## Baseline: PPO from TorchRL (`symrl baseline ppo`)", "",
-           f"Command: `{COMMANDS['ppo'].format(episodes=episodes)}`", ""]
-    if data is None:
-        return out + [_ppo_partial(folder, figures)]
-    cfg = data["runs"][0]["config"]
-    out += [
-        f"Settings: {cfg['frames_per_batch']} frames per update, {cfg['epochs']} epochs, "
-        f"minibatch {cfg['minibatch']}, Adam lr {cfg['lr']}, gamma {cfg['gamma']}, GAE lambda "
-        f"{cfg['lmbda']}, clip {cfg['clip']}, entropy {cfg['entropy_coef']}, "
-        f"2x{cfg['hidden']} tanh MLPs, TanhNormal actor on [-pi, pi]; observation = 24 sonars "
-        "+ goal (distance/5, angle/pi). Budget: "
-        f"{cfg['episodes']} episodes (= trials). Wall time {data['wall_time_s']} s.",
-        "",
-        (folder / "summary.md").read_text(),
-        _ppo_first20(folder),
-        "",
-        _fig(folder / "ppo.png", figures, "ppo.png"),
-        "",
-    ]
-    return out
-
-
-def _ppo_first20(folder: Path) -> str:
-    """Successes in the first 20 episodes (our learner's budget), collisions early and late."""
-    from symrl.runs import read_trials_csv
-
-    rows = read_trials_csv(folder / "episodes.csv")
-    out = []
-    for seed in sorted({r["seed"] for r in rows}):
-        mine = [r for r in rows if r["seed"] == seed]
-        first, last = mine[:100], mine[-100:]
-        out.append(
-            f"Seed {int(seed)}: {sum(bool(r['reached_goal']) for r in mine[:20])}/20 reached the "
-            f"goal in the first 20 episodes (our learner's budget); mean collisions per episode "
-            f"{sum(r['collisions'] for r in first) / len(first):.2f} in the first 100 episodes, "
-            f"{sum(r['collisions'] for r in last) / len(last):.2f} in the last 100."
-        )
-    return " ".join(out)
-
-
-def _ppo_partial(folder: Path, figures: Path) -> str:
-    """Summary (and learning-curve figure) of an unfinished PPO run from its per-episode logs."""
-    from symrl.figures import plot_baseline
-    from symrl.runs import read_trials_csv
-    from symrl.studies.ppo import first_reliable
-
-    logs = sorted(folder.glob("episodes-seed*.csv"))
-    if not logs:
-        return "*Not run yet.*\n"
-    lines = ["*The run did not finish before the deadline; from its per-episode log:*", ""]
+    timing = {}
+    if data is not None and "runs" in data and data["runs"] and "at20" in data["runs"][0]:
+        timing = {(r["seed"], r["end"]["trials"]): (r["at20"]["wall_time_s"],
+                                                     r["end"]["wall_time_s"])
+                  for r in data["runs"]}  # fmt: skip
     runs = []
-    for log in logs:
-        rows = read_trials_csv(log)
-        runs.append({"seed": int(rows[0]["seed"]) if rows else 0, "rows": rows})
-        reached = [bool(r["reached_goal"]) for r in rows]
-        last = rows[-20:]
-        first = next((int(r["episode"]) for r in rows if r["reached_goal"]), None)
-        lines.append(
-            f"- {log.name}: {len(rows)} episodes ({int(rows[-1]['frames']) if rows else 0} env "
-            f"steps), {sum(reached)} reached the goal; first success: {first or 'never'}; "
-            f"first reliable (>= 80% of 20): {first_reliable(reached) or 'never'}; last 20: "
-            f"{sum(bool(r['reached_goal']) for r in last)}/{len(last)} reached, mean steps "
-            f"{sum(r['steps'] for r in last) / max(len(last), 1):.1f}, mean total reinforcement "
-            f"{sum(r['total_reinforcement'] for r in last) / max(len(last), 1):.2f}. "
-            f"In its first 20 episodes (our learner's budget): "
-            f"{sum(reached[:20])}/{min(20, len(rows))} reached the goal."
-        )
-    if any(r["rows"] for r in runs):
-        figures.mkdir(parents=True, exist_ok=True)
-        plot_baseline([r for r in runs if r["rows"]], figures / "ppo.png",
-                      "PPO (TorchRL) on symrl/Hailu2001-v0")
-        lines += ["", "![ppo.png](docs/figures/ppo.png)"]
-    return "\n".join(lines) + "\n"
+    for csv in sorted(folder.glob("seed-*/trials.csv")) + sorted(folder.glob("runs/*/trials.csv")):
+        seed = int(re.findall(r"\d+$", csv.parent.name)[0])  # seed-100, paper__MAP__s100
+        rows = read_trials_csv(csv)
+        wall = timing.get((seed, len(rows)))  # the summary's entry for this very run
+        start, end = csv.parent / "config.yaml", csv.parent / "checkpoint.pt"
+        if wall is None and start.is_file() and end.is_file():
+            # no summary entry (a sweep's run, or a command stopped after this seed): from its
+            # files, config.yaml written at the start and checkpoint.pt at the end
+            span = round(end.stat().st_mtime - start.stat().st_mtime, 1)
+            wall = (span if len(rows) <= 20 else None, span)
+        runs.append({"seed": seed, "rows": rows, "wall": wall})
+    return runs
+
+
+def _mean_sd(values: list[float], digits: int = 1) -> str:
+    import numpy as np
+
+    if not values:
+        return "-"
+    v = np.asarray(values, dtype=float)
+    return f"{v.mean():.{digits}f} ± {v.std(ddof=1) if len(v) > 1 else 0.0:.{digits}f}"
+
+
+def _first(values: list[int | None]) -> str:
+    hit = [v for v in values if v is not None]
+    never = len(values) - len(hit)
+    if not hit:
+        return f"never ({never})"
+    return f"{_mean_sd([float(v) for v in hit])} ({never})"
+
+
+def baseline_table(results: Path) -> tuple[str, dict[str, list[list[dict[str, Any]]]]]:
+    """The comparison table (every learner at 20 trials and at the end of its budget) and the
+    trial tables per learner for the figure."""
+    from symrl.studies.baseline import summarise
+
+    lines = [
+        "| learner | trials | seeds | first success (never) | first reliable, >= 80 % of 20 "
+        "(never) | last-5 actions | last-5 total reinf. | collisions per run | env steps per run "
+        "| wall time per run (s) |",
+        "| --- | ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    curves: dict[str, list[list[dict[str, Any]]]] = {}
+    for name, label, _ in BASELINE_VARIANTS:
+        runs = baseline_runs(results / name)
+        if not runs:
+            lines.append(f"| {label} | *not run* | | | | | | | | |")
+            continue
+        curves[label] = [r["rows"] for r in runs]
+        lengths = [len(r["rows"]) for r in runs]
+        # 20 trials, the budget every seed ran, and the longest (on the seeds that ran it)
+        for n in sorted({min(20, min(lengths)), min(lengths), max(lengths)}):
+            done = [r for r in runs if len(r["rows"]) >= n]
+            s = [summarise(r["rows"], n) for r in done]
+            walls = [r["wall"][0] if n == 20 else r["wall"][1] if len(r["rows"]) == n else None
+                     for r in done if r["wall"]]  # fmt: skip
+            lines.append(
+                f"| {label} | {n} | {len(done)} | {_first([x['first_success'] for x in s])} "
+                f"| {_first([x['first_reliable'] for x in s])} "
+                f"| {_mean_sd([x['last5_actions'] for x in s])} "
+                f"| {_mean_sd([x['last5_total'] for x in s], 2)} "
+                f"| {_mean_sd([x['collisions'] for x in s])} "
+                f"| {_mean_sd([x['env_steps'] for x in s], 0)} "
+                f"| {_mean_sd([w for w in walls if w is not None]) if walls else '-'} |"
+            )
+    return "\n".join(lines) + "\n", curves
+
+
+BASELINE_NOTES = Path(__file__).with_name("baselines_discussion.md")
+"""Hand-written reading of the baseline comparison (settings, budgets, who wins)."""
+
+
+def _section_baselines(results: Path, figures: Path) -> list[str]:
+    from symrl.figures import plot_learning_curves
+
+    folder = results / "baselines"
+    out = ["## Modern baselines given the same prior knowledge (`symrl baseline`)", ""]
+    table, curves = baseline_table(folder)
+    if not curves:
+        return out + ["*Not run yet.*", ""]
+    out += ["Commands (seeds 100-104, never tuned on; budgets as in the table):", ""]
+    for name, label, command in BASELINE_VARIANTS:
+        runs = baseline_runs(folder / name)
+        if runs:
+            for n in sorted({len(r["rows"]) for r in runs}):
+                seeds = [r["seed"] for r in runs if len(r["rows"]) == n]
+                text = command.format(n=n)
+                if len(seeds) < len(runs):
+                    text = text.replace("100-104", ",".join(map(str, seeds)))
+                out.append(f"- {label}: `{text}`")
+    out += ["", table]
+    figures.mkdir(parents=True, exist_ok=True)
+    plot_learning_curves(curves, folder / "comparison.png",
+                         "The paper's learner and SAC / PPO (TorchRL), seeds 100-104",
+                         optimum=25)  # fmt: skip
+    out += [_fig(folder / "comparison.png", figures, "baselines.png"), ""]
+    if BASELINE_NOTES.is_file():
+        out += [BASELINE_NOTES.read_text(), ""]
+    return out
 
 
 def _section_generalise(results: Path, figures: Path) -> list[str]:
@@ -286,7 +338,7 @@ def build(results: Path = Path("results"), figures: Path = Path("docs/figures"))
         "",
     ]
     lines += [_provenance(), ""]
-    for section in (_section_plan, _section_study, _section_ablate, _section_ppo,
+    for section in (_section_plan, _section_study, _section_ablate, _section_baselines,
                     _section_generalise):
         lines += section(results, figures)
     if INTERPRETATION.is_file():
@@ -300,7 +352,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--results", default="results")
     parser.add_argument("--figures", default="docs/figures")
     parser.add_argument("--out", default="RESULTS.md")
+    parser.add_argument("--only", choices=["baselines"], default=None,
+                        help="print one section only (RESULTS.md is left alone)")
     args = parser.parse_args(argv)
+    if args.only == "baselines":
+        print("\n".join(_section_baselines(Path(args.results), Path(args.figures))))
+        return 0
     text = build(Path(args.results), Path(args.figures))
     Path(args.out).write_text(text)
     print(f"wrote {args.out} ({len(text.splitlines())} lines), figures in {args.figures}/")

@@ -114,19 +114,6 @@ def test_env_specs():
     env.close()
 
 
-def test_ppo_env_specs():
-    from torchrl.envs.utils import check_env_specs
-
-    from symrl.studies.ppo import make_env as make_ppo_env
-
-    env = make_ppo_env(0)
-    check_env_specs(env, seed=0)
-    assert env.observation_spec["collision"].dtype == torch.bool
-    rollout = env.rollout(3)
-    assert rollout["next", "collision"].dtype == torch.bool
-    env.close()
-
-
 # -- checkpoints ----------------------------------------------------------------------------
 
 

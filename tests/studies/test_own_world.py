@@ -134,14 +134,15 @@ def test_generalise_takes_a_map(tmp_path):
 
 def test_baseline_and_generalise_parsers_take_a_map():
     from symrl.cli import build_parser
-    from symrl.studies.ppo import make_env
+    from symrl.studies.baseline import make_env, run_config
+    from symrl.studies.priors import Priors
 
     parser = build_parser()
     for argv in (["baseline", "ppo"], ["generalise"], ["ablate"]):
         assert parser.parse_args(argv).map == "hailu2001"
         assert parser.parse_args([*argv, "--map", "maze"]).map == "maze"
-    env = make_env(0, "two_doors")  # the PPO env is built on the map it is given
+    env = make_env(run_config("two_doors"), Priors(), [0])  # the baselines' env: its map
     try:
-        assert env.base_env._env.unwrapped.world.name == "two_doors"
+        assert env.base_env.world.name == "two_doors"
     finally:
         env.close()

@@ -8,7 +8,6 @@ import pytest
 
 from symrl.runs import read_trials_csv, write_trials_csv
 from symrl.studies.ablation import summarise, summary_markdown
-from symrl.studies.ppo import first_reliable
 from symrl.studies.repeatability import table1_markdown
 from symrl.studies.runner import table1
 
@@ -62,9 +61,3 @@ def test_trials_csv_round_trip(tmp_path):
     assert table1(back)["steps"]["mean"] == 28.0
 
 
-def test_first_reliable_window():
-    assert first_reliable([False] * 30) is None
-    reached = [False] * 10 + [True] * 16 + [False] * 4
-    # window of 20 ending at episode 26 holds 16 successes (80%) for the first time
-    assert first_reliable(reached, window=20, level=0.8) == 26
-    assert first_reliable([True] * 5, window=20) is None

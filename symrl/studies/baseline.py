@@ -1,0 +1,493 @@
+"""The deep-RL baselines' common part (``symrl baseline {ppo,sac}``): env, loop, run folder.
+
+A baseline is an *agent* (:mod:`symrl.studies.sac`, :mod:`symrl.studies.ppo`): a TorchRL actor
+that writes ``control`` in [-1, 1] and an update that learns from batches of transitions.
+Everything else is shared and is symrl's own:
+
+    env    = TransformedEnv(BatchedWorldEnv(B robots), PriorObservation)   observation [+priors]
+    td = env.reset()
+    loop:
+        agent.act(td); PriorAction(td)               control -> action (residual: reflex + c)
+        td, next_td = env.step_and_maybe_reset(td)   TorchRL's stepping primitive
+        recorder.step(td); agent.observe(td)         the trial table; the update
+        ended trials -> RunWriter.trial (trials.csv, TensorBoard)
+        td = next_td
+
+The world is the paper's (``paper`` recipe's env, reflex and shield sections: the same robot,
+noise on, 200-action trials, reward f1 + f2). A *trial* is one episode; with B robots the
+trials are numbered in the order they end (robots in index order within a step). A run is
+deterministic given its seed: robot k's world draws from ``seed`` (k = 0) or ``seed * 1000 + k``,
+the networks and their sampling from ``torch.manual_seed(seed)``. A run of N trials is the
+first N trials of a longer run with the same seed (nothing depends on the budget).
+
+A run folder is a symrl run folder (:class:`symrl.runs.RunWriter`): ``config.yaml`` (the
+settings the baseline uses), ``trials.csv`` (the trial table's base columns; the paper
+learner's own ones -- neurons, temperature, ... -- stay empty), ``tb/`` and ``checkpoint.pt``,
+which ``symrl evaluate`` drives (:func:`load_baseline`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase
+
+from symrl.learner.config import RunConfig, config_to_dict, load_config
+from symrl.studies.priors import PriorAction, PriorObservation, Priors
+
+__all__ = [
+    "Agent",
+    "make_env",
+    "make_actor",
+    "run_config",
+    "train_baseline",
+    "summarise",
+    "first_reliable",
+    "BaselineController",
+    "load_baseline",
+    "baseline_command",
+    "CHECKPOINT_KIND",
+]
+
+CHECKPOINT_KIND = "baseline"
+RELIABLE_WINDOW, RELIABLE_LEVEL = 20, 0.8
+
+
+class Agent(Protocol):
+    """What the loop needs of an algorithm."""
+
+    actor: Any
+    """TorchRL actor: reads ``observation``, writes ``control`` (checkpointed)."""
+    actor_spec: dict[str, Any]
+    """``make_actor`` arguments that rebuild ``actor`` (cells, activation)."""
+
+    def act(self, td: TensorDictBase) -> TensorDictBase:
+        """Write ``control`` for every robot (exploring)."""
+        ...
+
+    def observe(self, td: TensorDictBase) -> None:
+        """Learn from one batch [B] of transitions (root + ``next``)."""
+        ...
+
+
+# ---------------------------------------------------------------------------------------------
+# Env and networks
+
+
+def run_config(map: str = "hailu2001", seed: int = 100, episodes: int = 20) -> RunConfig:
+    """The paper recipe's env, reflex and shield (the world and knowledge the paper's learner
+    gets), with this run's map, seed and budget."""
+    return load_config("paper", [f"env.map={map}", f"run.seed={seed}", f"run.trials={episodes}",
+                                 f"run.image_every={max(episodes // 4, 1)}"])  # fmt: skip
+
+
+def robot_seeds(seed: int, envs: int) -> list[int]:
+    """Robot k's world seed: ``seed`` for k = 0 (the robot of ``symrl train --seed seed``)."""
+    return [seed] + [seed * 1000 + k for k in range(1, envs)]
+
+
+def make_env(config: RunConfig, priors: Priors, seeds: Sequence[int], world: Any = None):
+    """``BatchedWorldEnv`` (one robot per seed) with the :class:`PriorObservation` transform."""
+    from torchrl.envs import TransformedEnv
+
+    from symrl.train import make_env as make_world
+    from symrl.world.worldmap import load_map
+
+    world = world if world is not None else load_map(config.env.map)
+    base = make_world(config, list(seeds), world=world)
+    return TransformedEnv(base, PriorObservation(priors, config, world))
+
+
+def make_actor(n_obs: int, cells: Sequence[int], activation: str):
+    """TanhNormal actor on [-1, 1] over ``observation``, writing ``control`` and its log-prob."""
+    from tensordict.nn import NormalParamExtractor, TensorDictModule
+    from torch import nn
+    from torchrl.data import Bounded
+    from torchrl.modules import MLP, ProbabilisticActor, TanhNormal
+
+    act = {"relu": nn.ReLU, "tanh": nn.Tanh}[activation]
+    net = nn.Sequential(
+        MLP(in_features=n_obs, out_features=2, num_cells=list(cells), activation_class=act),
+        NormalParamExtractor(),
+    )
+    return ProbabilisticActor(
+        TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"]),
+        in_keys=["loc", "scale"],
+        out_keys=["control"],
+        spec=Bounded(-1.0, 1.0, (1,)),
+        distribution_class=TanhNormal,
+        distribution_kwargs={"low": -1.0, "high": 1.0},
+        return_log_prob=True,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Statistics of a trial table
+
+
+def first_reliable(
+    reached: Sequence[bool], window: int = RELIABLE_WINDOW, level: float = RELIABLE_LEVEL
+) -> int | None:
+    """First trial (1-based) from which ``window`` trials reach the goal at least ``level`` of
+    the time (trials k .. k + window - 1); None if no full window does."""
+    r = np.asarray(reached, dtype=float)
+    if len(r) < window:
+        return None
+    rate = np.convolve(r, np.ones(window), "valid") / window
+    hits = np.nonzero(rate >= level - 1e-12)[0]
+    return int(hits[0] + 1) if len(hits) else None
+
+
+def summarise(rows: Sequence[dict[str, Any]], budget: int) -> dict[str, Any]:
+    """The comparison's numbers for the first ``budget`` trials of a run: first success, first
+    reliable trial, last-5 actions and total reinforcement, collisions, env steps."""
+    rows = list(rows)[:budget]
+    reached = [bool(r["reached_goal"]) for r in rows]
+    last = rows[-5:]
+    return {
+        "trials": len(rows),
+        "first_success": next((i + 1 for i, ok in enumerate(reached) if ok), None),
+        "first_reliable": first_reliable(reached),
+        "successes": int(sum(reached)),
+        "last5_actions": float(np.mean([r["steps"] for r in last])) if last else math.nan,
+        "last5_total": (
+            float(np.mean([r["total_reinforcement"] for r in last])) if last else math.nan
+        ),
+        "collisions": int(sum(int(r["collisions"]) for r in rows)),
+        "env_steps": int(sum(int(r["steps"]) for r in rows)),
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# Checkpoints and greedy trials
+
+
+def save_baseline(path: Path, algorithm: str, agent: Agent, priors: Priors, config: RunConfig,
+                  world: Any, seed: int, n_obs: int) -> None:  # fmt: skip
+    """The actor, how to rebuild it, the priors, config and map content: self-contained."""
+    from symrl.about import provenance
+    from symrl.runs import CHECKPOINT_FORMAT, _atomic_save, _map_content
+
+    _atomic_save(
+        {
+            "format": CHECKPOINT_FORMAT,
+            "kind": CHECKPOINT_KIND,
+            "algorithm": algorithm,
+            "provenance": provenance(),
+            "priors": asdict(priors),
+            "actor_spec": {"n_obs": n_obs, **agent.actor_spec},
+            "config": config_to_dict(config),
+            "map": _map_content(world),
+            "seed": int(seed),
+            "actor": agent.actor.state_dict(),
+        },
+        path,
+    )
+
+
+class BaselineController(TensorDictModuleBase):
+    """A trained baseline as a controller of B robots: actor, then :class:`PriorAction`.
+
+    Has the two things :func:`symrl.evaluate.rollout` asks of a controller (``batch``,
+    ``begin_trial``); greedy under TorchRL's DETERMINISTIC exploration type (the actor's mode).
+    """
+
+    def __init__(self, actor: Any, priors: Priors, config: RunConfig, world: Any,
+                 algorithm: str, batch: int = 1) -> None:  # fmt: skip
+        super().__init__()
+        self.actor, self.priors, self.config, self.world = actor, priors, config, world
+        self.algorithm, self.batch = algorithm, batch
+        self.to_action = PriorAction(priors, config)
+        self.in_keys = ["observation", *self.to_action.in_keys[1:]]
+        self.out_keys = ["control", "action", "shielded"]
+
+    def begin_trial(self, rows: torch.Tensor) -> None:
+        """Nothing to forget between trials (no per-trial state)."""
+
+    @torch.no_grad()
+    def forward(self, td: TensorDictBase) -> TensorDictBase:
+        self.actor(td)
+        return self.to_action(td)
+
+    def evaluate(self, starts: Sequence[Any] | None = None, seed: int = 0,
+                 world: Any = None) -> list[dict[str, Any]]:  # fmt: skip
+        """One greedy trial from each start (radians; None: the map's start), noise on."""
+        from symrl.evaluate import rollout
+
+        starts = list(starts) if starts else [None]
+        world = world if world is not None else self.world
+        if self.priors.regions and len(world.regions.names) != len(self.world.regions.names):
+            raise ValueError(
+                f"--map {world.name}: {len(world.regions.names)} regions, the controller was "
+                f"trained with a one-hot of {len(self.world.regions.names)}"
+            )
+        env = make_env(self.config, self.priors, [seed + k for k in range(len(starts))], world)
+        if any(s is not None for s in starts):
+            home = (world.start.x, world.start.y, world.start.heading)
+            env.base_env.set_starts(np.array([s if s is not None else home for s in starts]))
+        self.batch = len(starts)
+        try:
+            return rollout(self, env)
+        finally:
+            env.close()
+
+
+def load_baseline(path: str | Path) -> BaselineController | None:
+    """The controller in a baseline checkpoint; None if the file is another kind (the paper
+    learner's, read by :func:`symrl.runs.load_checkpoint`). Faults: one-line CheckpointError."""
+    from symrl.learner.config import ConfigError, config_from_dict
+    from symrl.runs import CheckpointError
+    from symrl.world.worldmap import MapError, load_map
+
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception:  # noqa: BLE001 - load_checkpoint reports unreadable files
+        return None
+    if not isinstance(data, dict) or data.get("kind") != CHECKPOINT_KIND:
+        return None
+    try:
+        config = config_from_dict(dict(data["config"]), recipe="paper")
+        world = load_map(data["map"]) if data.get("map") else load_map(config.env.map)
+        priors = Priors(**data["priors"])
+        spec = dict(data["actor_spec"])
+        actor = make_actor(int(spec["n_obs"]), spec["cells"], spec["activation"])
+        actor.load_state_dict(data["actor"])
+    except (ConfigError, MapError) as err:
+        raise CheckpointError(f"checkpoint {str(path)!r}: {err}") from None
+    except (KeyError, TypeError, RuntimeError) as err:
+        detail = str(err).splitlines()[0][:160] if str(err) else type(err).__name__
+        raise CheckpointError(
+            f"checkpoint {str(path)!r}: not a usable baseline ({detail})"
+        ) from None
+    return BaselineController(actor, priors, config, world, str(data.get("algorithm")))
+
+
+# ---------------------------------------------------------------------------------------------
+# One run
+
+
+def train_baseline(
+    algorithm: str,
+    seed: int = 100,
+    episodes: int = 20,
+    priors: Priors | None = None,
+    map: str = "hailu2001",
+    envs: int | None = None,
+    logdir: str | Path | None = None,
+    progress: bool = True,
+    overwrite: bool = False,
+    **settings: Any,
+) -> dict[str, Any]:
+    """Train one baseline for ``episodes`` trials; write its run folder ``logdir`` (if given).
+
+    ``settings`` override the algorithm's defaults (``SACConfig`` / ``PPOConfig`` fields).
+    Returns the trial rows, the summaries at 20 trials and at the end, and timings. Runs on
+    one torch thread (small networks: as fast, and it shares the machine)."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        return _train_baseline(algorithm, seed, episodes, priors, map, envs, logdir, progress,
+                               overwrite, settings)  # fmt: skip
+    finally:
+        torch.set_num_threads(threads)
+
+
+def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | None, map: str,
+                    envs: int | None, logdir: str | Path | None, progress: bool,
+                    overwrite: bool, settings: dict[str, Any]) -> dict[str, Any]:  # fmt: skip
+    from tqdm.auto import tqdm
+
+    from symrl.runs import BASE_COLUMNS, RunWriter
+    from symrl.train import TrialRecorder
+    from symrl.world.worldmap import load_map
+
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"--episodes {episodes!r}: must be an integer >= 1")
+    priors = priors or Priors()
+    agent_cls, cfg_cls = _algorithms()[algorithm]
+    cfg = cfg_cls(**settings)
+    envs = cfg.envs if envs is None else envs
+    if isinstance(envs, bool) or not isinstance(envs, int) or envs < 1:
+        raise ValueError(f"--envs {envs!r}: must be an integer >= 1")
+    torch.manual_seed(seed)
+    t0, cpu0 = time.perf_counter(), time.process_time()
+    config = run_config(map, seed, episodes)
+    world = load_map(config.env.map)
+    env = make_env(config, priors, robot_seeds(seed, envs), world)
+    n_obs = env.observation_spec["observation"].shape[-1]
+    agent = agent_cls(cfg, n_obs, envs)
+    to_action = PriorAction(priors, config)
+    writer = None
+    if logdir is not None:
+        settings_out = {"baseline": algorithm, "priors": asdict(priors), "seed": seed,
+                        "episodes": episodes, "envs": envs, algorithm: asdict(cfg),
+                        **{k: config_to_dict(config)[k] for k in ("env", "reflex", "shield")}}
+        writer = RunWriter(logdir, config, world, overwrite=overwrite,
+                           columns=list(BASE_COLUMNS), settings=settings_out)  # fmt: skip
+    recorder = TrialRecorder(envs)
+    rows: list[dict[str, Any]] = []
+    frames, at20 = 0, None
+    bar = tqdm(total=episodes, desc=f"{algorithm} {priors.label()} seed {seed}", unit="trial",
+               disable=not progress, mininterval=5)  # fmt: skip
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+    try:
+        with set_exploration_type(ExplorationType.RANDOM):
+            td = env.reset()
+            while len(rows) < episodes:
+                agent.act(td)
+                to_action(td)
+                td, next_td = env.step_and_maybe_reset(td)
+                frames += envs
+                done = recorder.step(td, torch.zeros(envs))
+                agent.observe(td)
+                for b in np.flatnonzero(done):
+                    if len(rows) == episodes:
+                        break
+                    record = recorder.finish(int(b))
+                    del record["mean_abs_td_error"]  # the paper learner's column
+                    record.update(trial=len(rows) + 1, reached_goal=bool(recorder.reached[b]))
+                    rows.append(record)
+                    if writer is not None:
+                        writer.trial(record, last=len(rows) == episodes)
+                    if len(rows) == min(20, episodes):
+                        at20 = (round(time.perf_counter() - t0, 1), frames)
+                    bar.update()
+                if done.any():
+                    rate = np.mean([r["reached_goal"] for r in rows[-20:]]) if rows else 0.0
+                    bar.set_postfix(success20=f"{rate:.2f}")
+                td = next_td
+        if writer is not None:
+            save_baseline(writer.dir / "checkpoint.pt", algorithm, agent, priors, config,
+                          world, seed, n_obs)  # fmt: skip
+            writer.finish(None, seed)
+    finally:
+        bar.close()
+        if writer is not None:
+            writer.close()
+        env.close()
+    wall = round(time.perf_counter() - t0, 1)
+    return {
+        "algorithm": algorithm,
+        "variant": priors.label(),
+        "priors": asdict(priors),
+        "seed": seed,
+        "map": map,
+        "envs": envs,
+        "settings": asdict(cfg),
+        "rows": rows,
+        "at20": {**summarise(rows, 20), "wall_time_s": at20[0] if at20 else None,
+                 "frames": at20[1] if at20 else None},  # fmt: skip
+        "end": {**summarise(rows, episodes), "wall_time_s": wall, "frames": frames},
+        "cpu_time_s": round(time.process_time() - cpu0, 1),
+    }
+
+
+def _algorithms() -> dict[str, tuple[Any, Any]]:
+    from symrl.studies.ppo import PPOAgent, PPOConfig
+    from symrl.studies.sac import SACAgent, SACConfig
+
+    return {"sac": (SACAgent, SACConfig), "ppo": (PPOAgent, PPOConfig)}
+
+
+# ---------------------------------------------------------------------------------------------
+# The command
+
+
+def parse_seeds(text: str) -> list[int]:
+    """``100-104`` and/or ``100,105``; one-line ValueError naming --seeds otherwise."""
+    seeds: list[int] = []
+    try:
+        for part in str(text).split(","):
+            part = part.strip()
+            if "-" in part[1:]:
+                lo, hi = (int(p) for p in part.split("-", 1))
+                if hi < lo:
+                    raise ValueError
+                seeds += range(lo, hi + 1)
+            elif part:
+                seeds.append(int(part))
+    except ValueError:
+        raise ValueError(
+            f"--seeds {text!r}: expected seeds as a range 100-104 and/or a list 100,105"
+        ) from None
+    if not seeds or min(seeds) < 0:
+        raise ValueError(f"--seeds {text!r}: give at least one seed, each >= 0")
+    return seeds
+
+
+def summary_markdown(results: list[dict[str, Any]]) -> str:
+    """One row per seed and budget."""
+    lines = [
+        "| seed | trials | first success | first reliable (>= 80% of 20) | successes "
+        "| last-5 actions | last-5 total reinf. | collisions | env steps | wall time (s) |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for r in results:
+        for part in ("at20", "end") if r["end"]["trials"] > 20 else ("end",):
+            s = r[part]
+            lines.append(
+                f"| {r['seed']} | {s['trials']} | {s['first_success'] or 'never'} "
+                f"| {s['first_reliable'] or 'never'} | {s['successes']} "
+                f"| {s['last5_actions']:.1f} | {s['last5_total']:.2f} | {s['collisions']} "
+                f"| {s['env_steps']} | {s['wall_time_s']} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def baseline_command(args: argparse.Namespace) -> int:
+    """``symrl baseline ALGO``: one run folder per seed (``OUT/seed-S``), a summary table."""
+    from symrl.studies.runner import run_jobs
+
+    seeds = parse_seeds(args.seeds)
+    if args.episodes < 1:
+        raise ValueError(f"--episodes {args.episodes}: must be >= 1")
+    if args.envs is not None and args.envs < 1:
+        raise ValueError(f"--envs {args.envs}: must be >= 1")
+    if args.workers < 1:
+        raise ValueError(f"--workers {args.workers}: must be >= 1")
+    priors = Priors(residual=args.residual, regions=args.regions, correction=args.correction)
+    out = Path(args.out or f"results/baseline-{args.algorithm}-{priors.label()}")
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {str(out)!r}: exists and is not a folder")
+    runs = [out / f"seed-{s}" for s in seeds]
+    for run in runs:
+        if (run / "config.yaml").exists() and not args.overwrite:
+            raise FileExistsError(f"--out {str(out)!r}: {run.name} already holds a run "
+                                  "(pass --overwrite to replace it)")  # fmt: skip
+    t0 = time.perf_counter()
+    jobs = [{"algorithm": args.algorithm, "seed": s, "episodes": args.episodes,
+             "priors": priors, "map": args.map, "envs": args.envs, "logdir": str(run),
+             "overwrite": args.overwrite}
+            for s, run in zip(seeds, runs, strict=True)]  # fmt: skip
+    results = run_jobs(train_baseline, jobs, workers=args.workers,
+                       desc=f"{args.algorithm} {priors.label()}")  # fmt: skip
+    wall = round(time.perf_counter() - t0, 1)
+    summary = [{k: v for k, v in r.items() if k != "rows"} for r in results]
+    before = out / "summary.json"  # runs of other seeds in the same folder are kept
+    if before.is_file():
+        kept = [r for r in json.loads(before.read_text()).get("runs", [])
+                if r.get("seed") not in seeds]  # fmt: skip
+        summary = sorted(kept + summary, key=lambda r: r["seed"])
+    (out / "summary.json").write_text(json.dumps({"runs": summary, "wall_time_s": wall},
+                                                 indent=2))  # fmt: skip
+    md = summary_markdown(results)
+    (out / "summary.md").write_text(md)
+    from symrl.figures import plot_baseline
+
+    plot_baseline(results, out / "curves.png",
+                  f"{args.algorithm.upper()} ({priors.label()}), map {args.map}")
+    print(md)
+    print(f"wrote {out}/ (seed-*/ run folders, summary.md, summary.json, curves.png); "
+          f"wall time {wall} s")  # fmt: skip
+    return 0

@@ -1,0 +1,106 @@
+"""`symrl baseline sac`: Soft Actor-Critic from TorchRL on the paper's task.
+
+TorchRL's ``SACLoss`` (two Q-networks, target Q-networks by Polyak averaging with
+``SoftUpdate``, entropy temperature learned toward the target entropy -dim(A)), a uniform
+replay buffer, one gradient step per environment transition. The defaults are the ones the
+field runs SAC with (Haarnoja et al. 2018, as Stable-Baselines3 ships them): below. None was
+tuned on this task. The loop, env and run folder are :mod:`symrl.studies.baseline`'s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+from tensordict import TensorDictBase
+
+from symrl.studies.baseline import make_actor
+
+__all__ = ["SACConfig", "SACAgent"]
+
+_KEYS = ("observation", "control", ("next", "observation"), ("next", "reward"),
+         ("next", "done"), ("next", "terminated"))  # fmt: skip
+
+
+@dataclass
+class SACConfig:
+    """SAC hyper-parameters: Stable-Baselines3 ``SAC`` defaults (the values of Haarnoja et al.
+    2018), except ``learning_starts`` as there (100 random transitions before learning)."""
+
+    envs: int = 1
+    """Robots stepped together (SB3 default: one env). Each transition still gets
+    ``updates_per_step`` gradient steps, so more robots only save env overhead."""
+    buffer_size: int = 1_000_000
+    """Replay buffer capacity (transitions)."""
+    batch_size: int = 256
+    """Transitions per gradient step."""
+    learning_starts: int = 100
+    """Transitions with uniformly random control before the first update."""
+    lr: float = 3e-4
+    """Adam learning rate of actor, critics and temperature."""
+    gamma: float = 0.99
+    """Discount."""
+    tau: float = 0.005
+    """Polyak factor of the target Q-networks."""
+    updates_per_step: int = 1
+    """Gradient steps per environment transition (update-to-data ratio)."""
+    hidden: int = 256
+    """Units per hidden layer (2 layers, ReLU) of actor and critics."""
+    alpha_init: float = 1.0
+    """Initial entropy temperature (learned; target entropy -1 = -dim(action))."""
+
+
+class SACAgent:
+    """Acts with the TanhNormal actor (uniform control for the first ``learning_starts``
+    transitions), learns with ``SACLoss`` from the replay buffer."""
+
+    def __init__(self, cfg: SACConfig, n_obs: int, envs: int) -> None:
+        from torch import nn
+        from torchrl.data import Bounded, LazyTensorStorage, ReplayBuffer
+        from torchrl.modules import MLP, ValueOperator
+        from torchrl.objectives import SACLoss, SoftUpdate
+
+        self.cfg, self.envs = cfg, envs
+        cells = (cfg.hidden, cfg.hidden)
+        self.actor_spec: dict[str, Any] = {"cells": list(cells), "activation": "relu"}
+        self.actor = make_actor(n_obs, cells, "relu")
+        qvalue = ValueOperator(
+            MLP(in_features=n_obs + 1, out_features=1, num_cells=list(cells),
+                activation_class=nn.ReLU),
+            in_keys=["observation", "control"], out_keys=["state_action_value"],
+        )  # fmt: skip
+        self.loss = SACLoss(
+            self.actor, qvalue, num_qvalue_nets=2, loss_function="l2",
+            alpha_init=cfg.alpha_init, action_spec=Bounded(-1.0, 1.0, (1,)),
+        )  # fmt: skip
+        self.loss.set_keys(action="control")
+        self.loss.make_value_estimator(gamma=cfg.gamma)
+        self.target = SoftUpdate(self.loss, tau=cfg.tau)
+        self.optim = torch.optim.Adam(self.loss.parameters(), lr=cfg.lr)
+        self.buffer = ReplayBuffer(
+            storage=LazyTensorStorage(cfg.buffer_size), batch_size=cfg.batch_size
+        )
+        self.frames = 0
+        self.updates = 0
+
+    @torch.no_grad()
+    def act(self, td: TensorDictBase) -> TensorDictBase:
+        if self.frames < self.cfg.learning_starts:
+            td.set("control", torch.rand(self.envs, 1) * 2 - 1)
+            return td
+        return self.actor(td)
+
+    def observe(self, td: TensorDictBase) -> None:
+        self.buffer.extend(td.select(*_KEYS).clone())
+        self.frames += self.envs
+        if self.frames < self.cfg.learning_starts:
+            return
+        for _ in range(self.envs * self.cfg.updates_per_step):
+            out = self.loss(self.buffer.sample())
+            total = out["loss_actor"] + out["loss_qvalue"] + out["loss_alpha"]
+            self.optim.zero_grad()
+            total.backward()
+            self.optim.step()
+            self.target.step()
+            self.updates += 1

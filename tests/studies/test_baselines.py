@@ -1,0 +1,252 @@
+"""The deep-RL baselines: the priors they are handed, their run folders, their checkpoints."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import torch
+from tensordict import TensorDict
+
+from symrl.cli import main
+from symrl.learner.config import load_config
+from symrl.runs import BASE_COLUMNS, read_trials_csv
+from symrl.studies.baseline import (
+    first_reliable,
+    load_baseline,
+    make_env,
+    parse_seeds,
+    run_config,
+    summarise,
+    train_baseline,
+)
+from symrl.studies.priors import PriorAction, PriorObservation, Priors, observation_size
+from symrl.world.worldmap import load_map
+
+# tiny networks and budgets: these tests check the plumbing, not the learning
+TINY = {
+    "sac": {"hidden": 16, "batch_size": 16, "learning_starts": 20, "buffer_size": 1000},
+    "ppo": {"hidden": 16, "frames_per_batch": 32, "minibatch": 16, "epochs": 1, "envs": 2},
+}
+
+
+@pytest.fixture(scope="module")
+def config():
+    return load_config("paper")
+
+
+def _td(control, reflex=None, ir=None):
+    b = len(control)
+    data = {"control": torch.tensor(control, dtype=torch.float32).reshape(b, 1)}
+    if reflex is not None:
+        data["reflex_action"] = torch.tensor(reflex, dtype=torch.float32).reshape(b, 1)
+        data["ir"] = torch.zeros(b, 24) if ir is None else ir
+    return TensorDict(data, [b])
+
+
+def test_residual_action_is_reflex_plus_correction(config):
+    act = PriorAction(Priors(residual=True, correction=0.25), config)
+    control, reflex = [-1.0, -0.5, 0.0, 0.3, 1.0], [0.4, -1.2, 0.0, 1.0, -0.2]
+    td = act(_td(control, reflex))  # no wall within IR range: the shield keeps every action
+    want = torch.tensor([r + 0.25 * math.pi * u for u, r in zip(control, reflex, strict=True)],
+                        dtype=torch.float64)
+    torch.testing.assert_close(td["action"].squeeze(-1).double(), want, atol=1e-6, rtol=0)
+    assert not td["shielded"].any()
+
+
+def test_correction_is_clipped_to_its_range(config):
+    act = PriorAction(Priors(residual=True, correction=0.25), config)
+    td = act(_td([3.0, -7.0], [0.0, 0.0]))  # a control outside [-1, 1] moves at most c * pi
+    torch.testing.assert_close(td["action"].squeeze(-1), torch.tensor([0.25, -0.25]) * math.pi)
+    td = act(_td([1.0, -1.0], [0.9 * math.pi, -0.9 * math.pi]))  # the sum stays in [-pi, pi]
+    torch.testing.assert_close(td["action"].squeeze(-1), torch.tensor([math.pi, -math.pi]))
+
+
+def test_residual_action_is_shielded(config):
+    act = PriorAction(Priors(residual=True), config)
+    ir = torch.zeros(1, 24)
+    ir[0, 0] = 90.0  # a wall right ahead, closer than the margin
+    td = act(_td([0.0], [0.0], ir))
+    assert bool(td["shielded"][0]) and abs(float(td["action"][0, 0])) > 0.3
+
+
+def test_scratch_action_is_pi_times_control(config):
+    td = PriorAction(Priors(), config)(_td([-1.0, 0.5]))
+    torch.testing.assert_close(td["action"].squeeze(-1), torch.tensor([-math.pi, 0.5 * math.pi]))
+    assert not td["shielded"].any()
+
+
+def test_priors_reject_a_correction_out_of_range():
+    for bad in (0, -0.1, 1.5, True):
+        with pytest.raises(ValueError, match="correction"):
+            Priors(residual=True, correction=bad)
+
+
+def test_region_one_hot_names_the_odometry_region(config):
+    from symrl.knowledge.regions import RegionMapper
+
+    world = load_map("hailu2001")
+    transform = PriorObservation(Priors(regions=True), config, world)
+    poses = torch.tensor([[0.0, 0.0, 0.0], [2.0, -0.35, 0.0], [4.5, 2.0, 0.0], [5.0, -3.5, 0.0]])
+    td = TensorDict({"sonar": torch.rand(4, 24), "goal": torch.tensor([[2.5, 0.5]] * 4),
+                     "odometry": poses}, [4])  # fmt: skip
+    obs = transform(td)["observation"]
+    r = len(world.regions.names)
+    assert obs.shape == (4, observation_size(Priors(regions=True), 24, r)) == (4, 26 + r)
+    hot = obs[:, 26:]
+    ids = RegionMapper.from_map(world)(poses)
+    assert torch.equal(hot.argmax(-1), ids) and torch.equal(hot.sum(-1), torch.ones(4))
+    assert len(set(ids.tolist())) > 1  # the poses span several regions
+    torch.testing.assert_close(obs[:, 24], torch.full((4,), 2.5 / 5.0))
+    torch.testing.assert_close(obs[:, 25], torch.full((4,), 0.5 / math.pi))
+
+
+def test_residual_observation_carries_the_reflex_action(config):
+    from symrl.knowledge.reflex import FuzzyReflex
+
+    world = load_map("hailu2001")
+    td = TensorDict({"sonar": torch.rand(3, 24), "goal": torch.tensor([[2.0, 1.0]] * 3),
+                     "odometry": torch.zeros(3, 3)}, [3])  # fmt: skip
+    out = PriorObservation(Priors(residual=True), config, world)(td)
+    want = FuzzyReflex(config.reflex)(td["sonar"].double(), torch.ones(3, dtype=torch.float64))
+    want = want.float().double()
+    torch.testing.assert_close(out["reflex_action"].squeeze(-1).double(), want, atol=1e-6, rtol=0)
+    torch.testing.assert_close(out["observation"][:, -1], out["reflex_action"][:, 0] / math.pi)
+
+
+def test_the_env_passes_torchrl_spec_checks(config):
+    from torchrl.envs.utils import check_env_specs
+
+    env = make_env(run_config(), Priors(residual=True, regions=True), [0, 1])
+    check_env_specs(env, seed=0)
+    td = env.reset()
+    assert td["observation"].shape == (2, env.observation_spec["observation"].shape[-1])
+    env.close()
+
+
+def test_first_reliable_is_the_window_start():
+    assert first_reliable([False] * 30) is None
+    reached = [False] * 10 + [True] * 16 + [False] * 4
+    # trials 7..26 hold 16 successes (80 %) for the first time
+    assert first_reliable(reached, window=20, level=0.8) == 7
+    assert first_reliable([True] * 20) == 1
+    assert first_reliable([True] * 5) is None
+
+
+def test_summarise_counts_the_budget_only():
+    rows = [{"steps": 200, "total_reinforcement": -100.0, "collisions": 2, "reached_goal": False}]
+    rows += [{"steps": 30, "total_reinforcement": -10.0, "collisions": 0, "reached_goal": True}]
+    s = summarise(rows * 15, 20)
+    assert s["trials"] == 20 and s["first_success"] == 2 and s["successes"] == 10
+    assert s["collisions"] == 20 and s["env_steps"] == 10 * 230
+    assert s["last5_actions"] == (3 * 30 + 2 * 200) / 5
+
+
+def test_parse_seeds():
+    assert parse_seeds("100-104") == [100, 101, 102, 103, 104]
+    assert parse_seeds("100,105") == [100, 105]
+    for bad in ("", "x", "5-2", "-3"):
+        with pytest.raises(ValueError, match="--seeds"):
+            parse_seeds(bad)
+
+
+@pytest.mark.parametrize("algorithm", ["sac", "ppo"])
+def test_a_tiny_baseline_writes_a_symrl_run_folder(algorithm, tmp_path, capsys):
+    priors = Priors(residual=True, regions=True)
+    run = tmp_path / "run"
+    result = train_baseline(algorithm, seed=3, episodes=2, priors=priors, logdir=run,
+                            progress=False, **TINY[algorithm])  # fmt: skip
+    assert {"config.yaml", "trials.csv", "tb", "checkpoint.pt"} <= {p.name for p in run.iterdir()}
+    rows = read_trials_csv(run / "trials.csv")
+    assert len(rows) == 2 and "neurons" not in rows[0]  # the paper learner's columns stay empty
+    header = (run / "trials.csv").read_text().splitlines()[0].split(",")
+    assert header == list(BASE_COLUMNS)
+    assert [r["trial"] for r in rows] == [1, 2]
+    assert [r["steps"] for r in rows] == [r["steps"] for r in result["rows"]]
+    assert result["end"]["env_steps"] == sum(r["steps"] for r in rows)
+    assert any(p.name.startswith("events") for p in (run / "tb").rglob("*"))
+    controller = load_baseline(run / "checkpoint.pt")
+    assert controller is not None and controller.priors == priors
+    (record,) = controller.evaluate(seed=0)
+    assert record["steps"] >= 1 and isinstance(record["reached_goal"], bool)
+    assert main(["evaluate", str(run / "checkpoint.pt")]) == 0
+    assert "greedy trial from (0, 0, 0 deg)" in capsys.readouterr().out
+    assert (run / "evaluate.png").is_file()
+
+
+def test_tensorboard_gets_the_trial_scalars(tmp_path):
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    train_baseline("ppo", seed=1, episodes=2, priors=Priors(residual=True), logdir=tmp_path,
+                   progress=False, **TINY["ppo"])  # fmt: skip
+    events = EventAccumulator(str(tmp_path / "tb"))
+    events.Reload()
+    tags = set(events.Tags()["scalars"])
+    assert {"trial/steps", "trial/total_reinforcement", "trial/reached_goal",
+            "trial/collisions"} <= tags  # fmt: skip
+    assert not any(t.startswith("network/") for t in tags)
+
+
+@pytest.mark.parametrize("algorithm", ["sac", "ppo"])
+def test_a_run_is_deterministic_and_a_prefix_of_a_longer_one(algorithm):
+    def rows(n):
+        out = train_baseline(algorithm, seed=5, episodes=n, priors=Priors(residual=True),
+                             progress=False, **TINY[algorithm])  # fmt: skip
+        return [(r["steps"], r["total_reinforcement"], r["collisions"]) for r in out["rows"]]
+
+    assert rows(3)[:2] == rows(2)  # same seed, same trials; the budget changes nothing before
+
+
+def test_a_paper_checkpoint_is_not_a_baseline(tmp_path):
+    from symrl.runs import save_checkpoint
+    from symrl.train import train
+
+    config = load_config("paper", ["run.trials=1"])
+    result = train(config)
+    save_checkpoint(tmp_path / "c.pt", result.policy, config, 0)
+    assert load_baseline(tmp_path / "c.pt") is None
+    (tmp_path / "junk.pt").write_bytes(b"not a checkpoint")
+    assert load_baseline(tmp_path / "junk.pt") is None
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--episodes", "0"], "--episodes 0"),
+        (["--seeds", "a,b"], "--seeds"),
+        (["--residual", "--correction", "1.5"], "--correction"),
+        (["--envs", "0"], "--envs 0"),
+        (["--workers", "0"], "--workers 0"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(argv, message, capsys):
+    assert main(["baseline", "sac", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err
+
+
+def test_an_unknown_algorithm_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["baseline", "dqn"])
+    assert stop.value.code == 2 and len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_a_run_folder_is_never_overwritten_silently(tmp_path, capsys):
+    argv = ["baseline", "ppo", "--episodes", "1", "--seeds", "0", "--residual",
+            "--out", str(tmp_path)]  # fmt: skip
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert main(argv) == 2
+    assert "--overwrite" in capsys.readouterr().err
+
+
+def test_the_report_compares_every_learner_it_finds(tmp_path):
+    from symrl.studies.report import baseline_table
+
+    train_baseline("ppo", seed=2, episodes=3, priors=Priors(residual=True), progress=False,
+                   logdir=tmp_path / "ppo-residual" / "seed-2", **TINY["ppo"])  # fmt: skip
+    table, curves = baseline_table(tmp_path)
+    row = next(line for line in table.splitlines() if line.startswith("| PPO residual |"))
+    assert "| 3 | 1 |" in row  # 3 trials, 1 seed
+    assert "| SAC residual | *not run*" in table and list(curves) == ["PPO residual"]
+    assert len(curves["PPO residual"][0]) == 3
