@@ -153,6 +153,20 @@ class OptionsConfig(_Section):
     """Offer sub-goals on a region line itself; False: only the points 0.4 m past it."""
     subgoal_min_clearance: float = Field(0.0, ge=0)
     """Drop sub-goals closer than this to a wall (metres; 0 keeps all)."""
+    prior: Literal["none", "planner"] = "none"
+    """Order of the first tries: "none" the table's order; "planner" the goal first, then the
+    sub-goals by the length of the route through them (straight line from the robot to the
+    point plus the planner's shortest path from the point to the goal), shortest first."""
+    chooser: Literal["epsilon", "ucb"] = "epsilon"
+    """After the first tries: "epsilon" epsilon-greedy on the critic; "ucb" the highest
+    critic + ucb_c * sqrt(ln N / n) (N the region's trials, n the option's)."""
+    ucb_c: float = Field(2.0, ge=0)
+    """Exploration bonus scale of "ucb", in units of reinforcement."""
+    credit: Literal["all", "reached"] = "all"
+    """Which trials an option's critic averages: "all" every trial that chose it; "reached"
+    only those whose robot reached its sub-goal (the goal option always), so a trial in which
+    the reflex swerved through another passage does not count for the one it was sent to. An
+    option chosen but never reached has no critic value and is not chosen again."""
 
 
 class ShieldSection(_Section):
