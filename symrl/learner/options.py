@@ -148,16 +148,14 @@ class SubgoalOptions(nn.Module):
             if cfg.prior == "planner":  # type: ignore[attr-defined]
                 return int(untried[self._route_order(region, untried, xy)[0]])
             return int(untried[0])
-        q = torch.where(
-            (self.n[b, region] > 0) & self.valid[region], self.q[b, region], -math.inf
-        )
+        q = torch.where((self.n[b, region] > 0) & self.valid[region], self.q[b, region], -math.inf)
         if not greedy_only and cfg.chooser == "ucb":  # type: ignore[attr-defined]
             total = float(tries.sum())
             bonus = cfg.ucb_c * torch.sqrt(math.log(max(total, 1.0)) / tries.clamp_min(1))  # type: ignore[attr-defined]
             q = torch.where(tries > 0, q + bonus, math.inf if not cfg.try_untried else q)  # type: ignore[attr-defined]
-        elif not greedy_only and float(
-            torch.rand((), generator=gen, dtype=torch.float64)
-        ) < float(self.epsilon[b]):
+        elif not greedy_only and float(torch.rand((), generator=gen, dtype=torch.float64)) < float(
+            self.epsilon[b]
+        ):
             return int(options[int(torch.randint(options.numel(), (), generator=gen))])
         if bool(torch.isinf(q).all() & (q < 0).all()):
             return int(options[0])
