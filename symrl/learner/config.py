@@ -164,9 +164,14 @@ class OptionsConfig(_Section):
     """Exploration bonus scale of "ucb", in units of reinforcement."""
     credit: Literal["all", "reached"] = "all"
     """Which trials an option's critic averages: "all" every trial that chose it; "reached"
-    only those whose robot reached its sub-goal (the goal option always), so a trial in which
-    the reflex swerved through another passage does not count for the one it was sent to. An
-    option chosen but never reached has no critic value and is not chosen again."""
+    only those whose robot came within ``credit_radius`` of its sub-goal (the goal option
+    always), so a trial in which the reflex swerved through another passage does not count for
+    the one it was sent to. An option chosen but never reached has no critic value and is not
+    chosen again."""
+    credit_radius: float = Field(0.75, gt=0)
+    """How near (m, odometry) a robot must come to a sub-goal for "reached" credit: about a
+    door's half-width plus the sub-goal's 0.4 m past the line, less than the 1.75 m between the
+    two doors of ``two_door_room``."""
 
 
 class ShieldSection(_Section):

@@ -44,9 +44,9 @@ class SubgoalOptions(nn.Module):
     return-to-go, ``n`` (B, R, K) trials the critic counts per option, ``tries`` (B, R, K) trials
     that chose it (= ``n`` unless ``credit`` is "reached"), ``epsilon`` (B,), ``trials`` (B,)
     finished trials, and the per-trial ``choice`` (B, R) (-1: region not entered yet),
-    ``reached`` (B, R) (the chosen sub-goal was reached), ``stage`` (B,) and ``visit`` (B,) (the
-    region being visited). ``route_length`` (R, K) is the planner's length from each point to
-    the goal (``prior`` "planner"; 0 for the goal option).
+    ``closest`` (B, R) (how near the robot came to the chosen sub-goal, m), ``stage`` (B,)
+    and ``visit`` (B,) (the region being visited). ``route_length`` (R, K) is the planner's
+    length from each point to the goal (``prior`` "planner"; 0 for the goal option).
     """
 
     points: torch.Tensor
@@ -54,7 +54,7 @@ class SubgoalOptions(nn.Module):
     q: torch.Tensor
     n: torch.Tensor
     tries: torch.Tensor
-    reached: torch.Tensor
+    closest: torch.Tensor
     route_length: torch.Tensor
     epsilon: torch.Tensor
     trials: torch.Tensor
@@ -83,7 +83,7 @@ class SubgoalOptions(nn.Module):
         self.register_buffer("q", torch.zeros(batch, r, k, dtype=torch.float64))
         self.register_buffer("n", torch.zeros(batch, r, k, dtype=torch.long))
         self.register_buffer("tries", torch.zeros(batch, r, k, dtype=torch.long))
-        self.register_buffer("reached", torch.zeros(batch, r, dtype=torch.bool))
+        self.register_buffer("closest", torch.full((batch, r), math.inf, dtype=torch.float64))
         is_goal = [[label == "goal" for label in row] for row in self.labels]
         self.is_goal = torch.tensor(
             [row + [False] * (k - len(row)) for row in is_goal], dtype=torch.bool
@@ -124,10 +124,11 @@ class SubgoalOptions(nn.Module):
         self.visit.copy_(region)
         xy = odometry[:, :2].to(torch.float64)
         point = self.points.view(-1, 2).index_select(0, region * self.points.shape[1] + chosen)
-        reached = torch.linalg.vector_norm(point - xy, dim=-1) < self.config.reach  # type: ignore[attr-defined]
+        distance = torch.linalg.vector_norm(point - xy, dim=-1)
+        reached = distance < self.config.reach  # type: ignore[attr-defined]
         self.stage.masked_fill_(reached, _GOAL_STAGE)
-        rows = reached.nonzero().flatten()
-        self.reached[rows, region[rows]] = True
+        closest = self.closest.gather(1, column).squeeze(1)
+        self.closest.scatter_(1, column, torch.minimum(closest, distance).unsqueeze(1))
         target = torch.where((self.stage == _GOAL_STAGE)[:, None], self._goal, point)
         d = target - xy
         bearing = torch.atan2(d[:, 1], d[:, 0]) - odometry[:, 2].to(torch.float64)
@@ -172,7 +173,7 @@ class SubgoalOptions(nn.Module):
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the choices of controllers ``rows`` (their robots start a new trial)."""
         self.choice[rows] = -1
-        self.reached[rows] = False
+        self.closest[rows] = math.inf
         self.stage[rows] = 0
         self.visit[rows] = -1
 
@@ -189,7 +190,8 @@ class SubgoalOptions(nn.Module):
         self.tries[b, r, k] += 1
         if self.config.credit == "reached":  # type: ignore[attr-defined]
             goal_option = self.is_goal.gather(1, choice.clamp_min(0))
-            entered = entered & (self.reached[rows] | goal_option)
+            passed = self.closest[rows] <= self.config.credit_radius  # type: ignore[attr-defined]
+            entered = entered & (passed | goal_option)
             b = rows[:, None].expand_as(choice)[entered]
             r, k = regions[entered], choice[entered]
         ret = returns[entered]

@@ -223,26 +223,28 @@ def test_ucb_picks_the_highest_mean_plus_bonus():
 
 
 def test_reached_credit_ignores_trials_that_never_got_to_the_sub_goal():
-    opt = _options(epsilon=0.0, credit="reached", reach=0.25)
+    opt = _options(epsilon=0.0, credit="reached", reach=0.25, credit_radius=0.5)
     rows = torch.tensor([0])
     # trial 1: option 0 (the goal) counts without being reached
     opt.begin_trial(rows)
     opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
     opt.learn(rows, torch.tensor([[-10.0, -1.0]], dtype=torch.float64))
     assert opt.n[0, 0].tolist() == [1, 0, 0] and opt.tries[0, 0].tolist() == [1, 0, 0]
-    # trial 2: option 1, s1 (3.5, -0.5), never reached (the robot went elsewhere): tried, no credit
+    # trial 2: option 1, s1 (3.5, -0.5), never within 0.5 m (closest 0.6 m): tried, no credit
     opt.begin_trial(rows)
     _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
     assert int(option[0]) == 1
+    opt.steer(torch.tensor([0]), _odometry((3.5, 0.1, 0.0)), False)
+    assert float(opt.closest[0, 0]) == pytest.approx(0.6)
     opt.steer(torch.tensor([1]), _odometry((3.8, 0.5, 0.0)), False)
     opt.learn(rows, torch.tensor([[-30.0, -1.0]], dtype=torch.float64))
     assert opt.tries[0, 0].tolist() == [1, 1, 0] and opt.n[0, 0].tolist() == [1, 0, 0]
     assert float(opt.q[0, 0, 1]) == 0.0
-    # trial 3: option 2, s2 (3.9, -0.5), reached: credited
+    # trial 3: option 2, s2 (3.9, -0.5), passed 0.4 m from it: credited
     opt.begin_trial(rows)
     _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
     assert int(option[0]) == 2
-    opt.steer(torch.tensor([0]), _odometry((3.8, -0.5, 0.0)), False)
+    opt.steer(torch.tensor([0]), _odometry((3.5, -0.5, 0.0)), False)
     opt.learn(rows, torch.tensor([[-4.0, -1.0]], dtype=torch.float64))
     assert opt.n[0, 0].tolist() == [1, 0, 1] and float(opt.q[0, 0, 2]) == -4.0
     # with credit "all" the unreached trial would have counted -30 for option 1
