@@ -164,7 +164,8 @@ class OptionsConfig(_Section):
     """Exploration bonus scale of "ucb", in units of reinforcement."""
     credit: Literal["all", "reached"] = "all"
     """Which trials an option's critic averages: "all" every trial that chose it; "reached"
-    only those whose robot came within ``credit_radius`` of its sub-goal (the goal option
+    only those whose robot came within ``credit_radius`` of its sub-goal at any time of the
+    trial (the goal option
     always), so a trial in which the reflex swerved through another passage does not count for
     the one it was sent to. An option chosen but never reached has no critic value and is not
     chosen again."""

@@ -124,11 +124,14 @@ class SubgoalOptions(nn.Module):
         self.visit.copy_(region)
         xy = odometry[:, :2].to(torch.float64)
         point = self.points.view(-1, 2).index_select(0, region * self.points.shape[1] + chosen)
-        distance = torch.linalg.vector_norm(point - xy, dim=-1)
-        reached = distance < self.config.reach  # type: ignore[attr-defined]
+        reached = torch.linalg.vector_norm(point - xy, dim=-1) < self.config.reach  # type: ignore[attr-defined]
         self.stage.masked_fill_(reached, _GOAL_STAGE)
-        closest = self.closest.gather(1, column).squeeze(1)
-        self.closest.scatter_(1, column, torch.minimum(closest, distance).unsqueeze(1))
+        if self.config.credit == "reached":  # type: ignore[attr-defined]
+            # how near the robot has come, so far in the trial, to every region's chosen point
+            regions = torch.arange(self.points.shape[0])
+            chosen_points = self.points[regions, self.choice.clamp_min(0)]  # (B, R, 2)
+            near = torch.linalg.vector_norm(chosen_points - xy[:, None], dim=-1)
+            torch.minimum(self.closest, near, out=self.closest)
         target = torch.where((self.stage == _GOAL_STAGE)[:, None], self._goal, point)
         d = target - xy
         bearing = torch.atan2(d[:, 1], d[:, 0]) - odometry[:, 2].to(torch.float64)

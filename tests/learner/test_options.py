@@ -231,6 +231,7 @@ def test_reached_credit_ignores_trials_that_never_got_to_the_sub_goal():
     opt.learn(rows, torch.tensor([[-10.0, -1.0]], dtype=torch.float64))
     assert opt.n[0, 0].tolist() == [1, 0, 0] and opt.tries[0, 0].tolist() == [1, 0, 0]
     # trial 2: option 1, s1 (3.5, -0.5), never within 0.5 m (closest 0.6 m): tried, no credit
+    # (the approach is measured at every step of the trial, in any region)
     opt.begin_trial(rows)
     _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
     assert int(option[0]) == 1
