@@ -192,7 +192,7 @@ class SubgoalOptions(nn.Module):
         r, k = regions[entered], choice[entered]
         self.tries[b, r, k] += 1
         if self.config.credit == "reached":  # type: ignore[attr-defined]
-            goal_option = self.is_goal.gather(1, choice.clamp_min(0))
+            goal_option = self.is_goal[regions, choice.clamp_min(0)]  # (k, R)
             passed = self.closest[rows] <= self.config.credit_radius  # type: ignore[attr-defined]
             entered = entered & (passed | goal_option)
             b = rows[:, None].expand_as(choice)[entered]

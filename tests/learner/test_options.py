@@ -255,3 +255,23 @@ def test_reached_credit_ignores_trials_that_never_got_to_the_sub_goal():
         every.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
         every.learn(rows, torch.tensor([[-30.0, -1.0]], dtype=torch.float64))
     assert float(every.q[0, 0, 1]) == -30.0
+
+
+def test_reached_credit_in_a_batch_counts_each_robots_own_approach():
+    # 3 robots on the 2-region table (batch != regions): robot 0 takes the goal option, robot 1
+    # s1 and passes it, robot 2 s2 and never comes near it
+    opt = _options(batch=3, epsilon=0.0, credit="reached", credit_radius=0.5)
+    opt.tries[:, 0, 0] = opt.n[:, 0, 0] = 1
+    opt.tries[0, 0, 1:] = 1  # robot 0 has tried everything but only the goal counts: greedy goal
+    opt.tries[1, 0, 2] = 1  # robot 1's untried s1 first; robot 2's untried s2 (after s1) ...
+    opt.tries[2, 0, 1] = 1
+    rows = torch.arange(3)
+    _, option, _ = opt.steer(
+        torch.zeros(3, dtype=torch.long), _odometry(*[(0.0, 0.0, 0.0)] * 3), False
+    )
+    assert option.tolist() == [0, 1, 2]
+    opt.steer(torch.zeros(3, dtype=torch.long), _odometry((1.0, 0.0, 0.0), (3.4, -0.4, 0.0),
+                                                          (1.0, 1.0, 0.0)), False)  # fmt: skip
+    opt.learn(rows, torch.full((3, 2), -3.0, dtype=torch.float64))
+    assert opt.n[:, 0].tolist() == [[2, 0, 0], [1, 1, 0], [1, 0, 0]]
+    assert opt.tries[:, 0].tolist() == [[2, 1, 1], [1, 1, 1], [1, 1, 1]]
