@@ -153,6 +153,9 @@ class OptionsConfig(_Section):
     """Offer sub-goals on a region line itself; False: only the points 0.4 m past it."""
     subgoal_min_clearance: float = Field(0.0, ge=0)
     """Drop sub-goals closer than this to a wall (metres; 0 keeps all)."""
+    subgoal_planner: StrictBool = False
+    """Each region also gets the last turn of the planner's shortest path inside it (pushed out
+    to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end."""
     prior: Literal["none", "planner"] = "none"
     """Order of the first tries: "none" the table's order; "planner" the goal first, then the
     sub-goals by the length of the route through them (straight line from the robot to the

@@ -23,7 +23,7 @@ from torch import nn
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
 from symrl.world.worldmap import WorldMap
 
-__all__ = ["SubgoalOptions", "subgoal_config", "route_lengths"]
+__all__ = ["SubgoalOptions", "subgoal_config", "route_lengths", "with_planner_waypoints"]
 
 _GOAL_STAGE = 2  # the visit's sub-goal was reached: the reflex aims at the goal
 
@@ -73,6 +73,12 @@ class SubgoalOptions(nn.Module):
         super().__init__()
         self.config = config
         self.table = table or build_subgoals(world, subgoal_config(config))
+        if table is None and config.subgoal_planner:  # type: ignore[attr-defined]
+            self.table = with_planner_waypoints(
+                world,
+                self.table,
+                max(config.subgoal_min_clearance, 0.45),  # type: ignore[attr-defined]
+            )
         r, k = self.table.valid.shape
         self.labels = self.table.labels
         self.region_names = self.table.region_names
@@ -234,3 +240,41 @@ def route_lengths(world: WorldMap, table: SubgoalTable) -> torch.Tensor:
                     cache[xy] = math.inf
             out[region, option] = cache[xy]
     return out
+
+
+def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: float) -> SubgoalTable:
+    """``table`` plus, per region, one more option: the last turn of the planner's shortest path
+    (start to goal) inside the region, pushed out to ``clearance`` from the nearest wall. It is
+    the corner a route must round that no region line marks (a thin partition's end)."""
+    import numpy as np
+
+    from symrl.studies.planner import shortest_path  # the planner is a study tool: import late
+
+    plan = shortest_path(world)
+    seg = world.segments
+    a, b = seg[:, :2], seg[:, 2:]
+    d = b - a
+    last: dict[str, tuple[float, float]] = {}
+    start = plan.points[0]
+    for x, y in plan.waypoints[:-1]:  # the tangent points; the last one is in the goal disc
+        p = np.array((x, y))
+        if float(np.hypot(*(p - start))) < 0.05:
+            continue
+        t = np.clip(((p - a) * d).sum(1) / (d * d).sum(1), 0.0, 1.0)
+        near = a + t[:, None] * d
+        q = near[int(np.hypot(*(near - p).T).argmin())]
+        out = q + (p - q) / max(float(np.hypot(*(p - q))), 1e-9) * clearance
+        last[world.regions.region_of(float(x), float(y))] = (float(out[0]), float(out[1]))
+    names = list(table.region_names)
+    r, k = table.valid.shape
+    points = torch.cat((table.points, torch.zeros(r, 1, 2, dtype=table.points.dtype)), dim=1)
+    valid = torch.cat((table.valid, torch.zeros(r, 1, dtype=torch.bool)), dim=1)
+    labels = [list(row) for row in table.labels]
+    for region, xy in last.items():
+        i = names.index(region)
+        n = int(table.valid[i].sum())
+        points[i, n] = torch.tensor(xy, dtype=table.points.dtype)
+        valid[i, n] = True
+        labels[i].append("path")
+    used = int(valid.sum(1).max())  # the valid options of a row are its first ones
+    return SubgoalTable(table.region_names, points[:, :used], valid[:, :used], labels)

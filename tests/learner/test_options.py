@@ -275,3 +275,22 @@ def test_reached_credit_in_a_batch_counts_each_robots_own_approach():
     opt.learn(rows, torch.full((3, 2), -3.0, dtype=torch.float64))
     assert opt.n[:, 0].tolist() == [[2, 0, 0], [1, 1, 0], [1, 0, 0]]
     assert opt.tries[:, 0].tolist() == [[2, 1, 1], [1, 1, 1], [1, 1, 1]]
+
+
+def test_planner_waypoint_rounds_the_partition_that_no_region_line_marks():
+    # two_doors: the corridor's passage points lie west of the thin partition (x 6.0, up to
+    # y 2.4); aiming at the goal from there runs up the west lane into its dead end. The
+    # planner's last turn in the corridor, pushed 0.45 m out, lies past the partition's end.
+    from symrl.knowledge.subgoals import _clearance
+
+    world = load_map("two_doors")
+    config = load_config("paper", ["options.subgoal_planner=true"]).options
+    opt = SubgoalOptions(world, 1, config, [0])
+    corridor = opt.region_names.index("corridor")
+    path = opt.labels[corridor].index("path")
+    x, y = opt.table.point(corridor, path)
+    assert x > 6.0 and y < 2.4  # east of the partition, below its end
+    assert _clearance(world, (x, y)) == pytest.approx(0.45, abs=1e-6)
+    assert bool(opt.valid[corridor, path])
+    plain = SubgoalOptions(world, 1, load_config("paper").options, [0])
+    assert "path" not in plain.labels[corridor]
