@@ -171,7 +171,11 @@ def test_paper_table_shapes_follow_the_switches():
     assert all(label == "goal" or label.endswith("/0.4") for label in paper[room])
     assert "l2@+0.8/0.4" not in paper[room]  # (3.9, -0.69): 0.34 m from the door post
     assert "l3@+0.8/0.4" in paper[room]  # (4.15, -0.69): 0.51 m
-    assert len(paper[corridor]) > 1 and labels("options.subgoal_past=false")[corridor] == ["goal"]
+    assert len(paper[corridor]) > 1
+    assert labels("options.subgoal_past=false", "options.subgoal_planner=false")[corridor] == [
+        "goal"
+    ]
+    assert paper[corridor][-1] == "path"  # the planner's last turn in the corridor
 
 
 # --- the route-choice rules: planner prior, UCB, credit for reaching ---------------------------
@@ -292,5 +296,7 @@ def test_planner_waypoint_rounds_the_partition_that_no_region_line_marks():
     assert x > 6.0 and y < 2.4  # east of the partition, below its end
     assert _clearance(world, (x, y)) == pytest.approx(0.45, abs=1e-6)
     assert bool(opt.valid[corridor, path])
-    plain = SubgoalOptions(world, 1, load_config("paper").options, [0])
+    plain = SubgoalOptions(
+        world, 1, load_config("paper", ["options.subgoal_planner=false"]).options, [0]
+    )
     assert "path" not in plain.labels[corridor]
