@@ -26,6 +26,7 @@ from symrl.world.worldmap import WorldMap
 __all__ = ["SubgoalOptions", "subgoal_config", "route_lengths", "with_planner_waypoints"]
 
 _GOAL_STAGE = 2  # the visit's sub-goal was reached: the reflex aims at the goal
+_FAR = 1e9  # metres: "not approached yet" (finite, as checkpoints hold finite values only)
 
 
 def subgoal_config(options: object) -> SubgoalConfig:
@@ -89,7 +90,7 @@ class SubgoalOptions(nn.Module):
         self.register_buffer("q", torch.zeros(batch, r, k, dtype=torch.float64))
         self.register_buffer("n", torch.zeros(batch, r, k, dtype=torch.long))
         self.register_buffer("tries", torch.zeros(batch, r, k, dtype=torch.long))
-        self.register_buffer("closest", torch.full((batch, r), math.inf, dtype=torch.float64))
+        self.register_buffer("closest", torch.full((batch, r), _FAR, dtype=torch.float64))
         is_goal = [[label == "goal" for label in row] for row in self.labels]
         self.is_goal = torch.tensor(
             [row + [False] * (k - len(row)) for row in is_goal], dtype=torch.bool
@@ -182,7 +183,7 @@ class SubgoalOptions(nn.Module):
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the choices of controllers ``rows`` (their robots start a new trial)."""
         self.choice[rows] = -1
-        self.closest[rows] = math.inf
+        self.closest[rows] = _FAR
         self.stage[rows] = 0
         self.visit[rows] = -1
 
