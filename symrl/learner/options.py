@@ -277,5 +277,7 @@ def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: floa
         points[i, n] = torch.tensor(xy, dtype=table.points.dtype)
         valid[i, n] = True
         labels[i].append("path")
-    used = int(valid.sum(1).max())  # the valid options of a row are its first ones
-    return SubgoalTable(table.region_names, points[:, :used], valid[:, :used], labels)
+    # always one column more, valid or not: the table's shape (and a checkpoint's critic) then
+    # does not depend on where the path turns, so a controller learned on a world can be run on
+    # the world with an obstacle or another start (re-planned: "the planner's turn" again)
+    return SubgoalTable(table.region_names, points, valid, labels)
