@@ -91,8 +91,21 @@ class ExpertsConfig(_Section):
     residual: StrictBool = False
     """Neurons learn a correction added to the reflex's current action (a new neuron's p = 0)
     instead of an absolute action copied from the reflex at its birth. Needs ``reflex``."""
+    input: Literal["sensors", "pose"] = "sensors"
+    """What a neuron's centre encodes. ``sensors``: the sonars and the goal-distance codes
+    (paper 7.1). ``pose``: the odometry pose the region gate reads, (x, y, h cos theta,
+    h sin theta) in metres with h = ``heading_scale``; a robot that repeats its path meets the
+    same neurons again, so they are revisited and learn."""
+    heading_scale: float = Field(0.3, gt=0)
+    """Metres one radian of heading counts for in the ``pose`` input (near 0: position only)."""
+    activation: Literal["winner", "normalised"] = "winner"
+    """``winner``: the nearest neuron alone acts and learns (paper 8.1). ``normalised``: every
+    neuron of the expert, weighted by its normalised activation w_j = exp(-d_j^2 / width^2) /
+    sum_k exp(-d_k^2 / width^2); the utility, the action and the exploration mean are the
+    w-weighted sums, each update step is shared by w, and a new neuron starts from the
+    network's estimates at its centre (``symrl.learner.loss``)."""
     width: float = Field(0.1, gt=0)
-    """RBF receptive width (varsigma, paper 7.1); activations exp(-d^2 / width^2)."""
+    """RBF receptive width (varsigma, paper 7.1) of the ``normalised`` activations."""
     novelty_radius: float = Field(0.1, gt=0)
     """Distance-driven growth: a new neuron when the winner is farther than this."""
     goal_codes: StrictInt = Field(8, ge=2, le=256)

@@ -116,7 +116,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self.region_names: tuple[str, ...] = tuple(self.mapper.names)
         self.expert_names = self.region_names if config.gate.partition else ("all",)
         self.reflex = FuzzyReflex(config.reflex)
-        self.input_dim = robot.n_sensors + xc.goal_codes
+        self.input_dim = 4 if xc.input == "pose" else robot.n_sensors + xc.goal_codes
         self.experts = ExpertBank(
             batch, len(self.expert_names), self.input_dim, xc.capacity, xc.max_neurons,
             names=self.expert_names,
@@ -165,13 +165,23 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         codes = torch.exp(-(((self.code_centres - rho[:, None]) / width) ** 2))
         return torch.cat((sonar, codes), dim=-1)
 
+    def encode_pose(self, odometry: torch.Tensor) -> torch.Tensor:
+        """x = (x, y, h cos theta, h sin theta) of the odometry pose, h = ``heading_scale``."""
+        h = self.config.experts.heading_scale
+        pose = odometry.to(torch.float32)
+        theta = pose[:, 2]
+        return torch.stack((pose[:, 0], pose[:, 1], h * theta.cos(), h * theta.sin()), dim=-1)
+
     def perceive(
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
     ) -> Perception:
         """Gate and winner search for a batch of observations; changes nothing."""
         region = self.mapper.ids(odometry[:, :2].to(torch.float64))
         expert = region if self.config.gate.partition else torch.zeros_like(region)
-        x = self.encode(sonar, goal[:, 0])
+        if self.config.experts.input == "pose":
+            x = self.encode_pose(odometry)
+        else:
+            x = self.encode(sonar, goal[:, 0])
         if not self.config.experts.learning:
             none = torch.full_like(region, -1)
             return Perception(region, expert, x, none, torch.ones_like(region, dtype=torch.bool))
@@ -224,16 +234,26 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             else:
                 base, proto = zero, uniform * (2 * _PI) - _PI
             bank = self.experts
-            index = bank.flat_index(per.expert, per.winner.clamp(min=0))
-            known = ~per.novel
-            p = torch.where(known, bank.actions.take(index), proto)
-            mu = torch.where(known, bank.means.take(index), zero)
+            # a novel state's neuron is born with u = r(state): the reward of arriving here
+            u_new = td.get("state_reward").view(-1).to(torch.float64)
+            if xc.activation == "normalised":
+                # the network's estimates; a neuron born here starts from them (p = 0 and
+                # u = r(state) only in an empty expert)
+                w = bank.weights(per.expert, per.x, xc.width)
+                empty = per.winner < 0
+                proto = torch.where(empty, proto, bank.read("actions", per.expert, w))
+                p = proto
+                mu = torch.where(empty, zero, bank.read("means", per.expert, w))
+                u = torch.where(empty, u_new, bank.read("utilities", per.expert, w))
+            else:
+                index = bank.flat_index(per.expert, per.winner.clamp(min=0))
+                known = ~per.novel
+                p = torch.where(known, bank.actions.take(index), proto)
+                mu = torch.where(known, bank.means.take(index), zero)
+                u = torch.where(known, bank.utilities.take(index), u_new)
             if greedy:
                 xi = mu
             else:
-                # a novel state's neuron is born with u = r(state): the reward of arriving here
-                u_new = td.get("state_reward").view(-1).to(torch.float64)
-                u = torch.where(known, bank.utilities.take(index), u_new)
                 sigma = self.temperature / (1.0 + u.clamp(max=60.0).exp())
                 xi = mu + sigma * z
             alpha = (base + p + xi).clamp_(-_PI, _PI)
