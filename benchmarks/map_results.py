@@ -23,7 +23,10 @@ from symrl.studies.runner import LAST, optimum, run_sets, summarise
 from symrl.world import load_map
 from symrl.world.worldmap import builtin_maps
 
-MAPS = ("hailu2001", "hailu2001_mirror", "two_doors", "office", "l_corridor", "maze")
+MAPS = (
+    "hailu2001", "hailu2001_mirror", "two_doors", "two_door_room", "office", "l_corridor", "maze",
+    "dead_end",
+)
 
 
 def auto_copy(name: str, folder: Path) -> Path:

@@ -4,10 +4,14 @@ Two fuzzy behaviours vote on three output sets (LEFT, FORWARD, RIGHT): obstacle 
 reads the sonars, goal following reads the signed goal angle. Their activation vectors are
 fused with constant desirabilities (Eq. 5) and defuzzified to one crisp turning angle.
 The paper gives the architecture but not the rules; the rule base here is the reconstruction
-of ``docs/ALGORITHM.md`` section 4, with its one crucial detail: the FL/FR rules are guarded
-by "and not F", otherwise a robot facing a concave corner gets LEFT = RIGHT, the votes cancel
-into "forward", and it rams the corner. The whole reflex is a few tensor operations over any
-leading batch shape (fuzzy libraries that take milliseconds per inference are what we avoid).
+of ``docs/ALGORITHM.md`` section 4, with its two crucial details. The FL/FR rules are guarded
+by "and not F", and a blocked front turns to ONE side, the crisp turning side ``SIDE_L`` /
+``SIDE_R`` (the freer side, else the goal's side): otherwise a robot facing a concave corner
+gets LEFT = RIGHT, the votes cancel into "forward", and it rams the corner. The rule base is
+mirror-symmetric: mirroring the sonar ring (ray k <-> ray -k) and negating the goal angle
+negates the output exactly; no side is preferred. The whole reflex is a few tensor operations
+over any leading batch shape (fuzzy libraries that take milliseconds per inference are what
+we avoid).
 """
 
 from __future__ import annotations
@@ -24,6 +28,9 @@ __all__ = ["OUTPUTS", "ReflexConfig", "FuzzyReflex", "parse_rule"]
 
 OUTPUTS: tuple[str, str, str] = ("LEFT", "FORWARD", "RIGHT")
 """The output fuzzy sets, in the order of every activation vector."""
+
+SIDES: tuple[str, str] = ("SIDE_L", "SIDE_R")
+"""The crisp turning-side literals a rule may use besides the sectors (``ReflexConfig.side``)."""
 
 _HALF_PI = math.pi / 2
 
@@ -50,14 +57,17 @@ def _default_near() -> dict[str, tuple[float, float]]:
 
 def _default_rules() -> tuple[str, ...]:
     return (
-        "F and not FL -> LEFT",
-        "F and FL and not FR -> RIGHT",
-        "F and FL and FR -> LEFT",
+        "F and SIDE_L -> LEFT",
+        "F and SIDE_R -> RIGHT",
         "FR and not F -> LEFT",
         "FL and not F -> RIGHT",
         "R -> 0.5 * LEFT",
         "L -> 0.5 * RIGHT",
     )
+
+
+def _default_side() -> tuple[str, ...]:
+    return ("FL/FR", "L/R", "goal")
 
 
 def _default_peaks() -> tuple[float, float, float]:
@@ -78,8 +88,21 @@ class ReflexConfig:
 
     rules: tuple[str, ...] = field(default_factory=_default_rules)
     """Obstacle-avoidance rule base, one rule a string ``"A and not B -> [w *] SET"``: AND = min,
-    NOT = 1 - x, rules with the same SET combine by max, ``w`` scales the rule's strength.
-    Deliberately no FORWARD rule, so avoidance is silent in free space."""
+    NOT = 1 - x, rules with the same SET combine by max, ``w`` scales the rule's strength. A
+    literal is a sector (its NEAR membership) or ``SIDE_L`` / ``SIDE_R`` (the turning side, see
+    ``side``). Deliberately no FORWARD rule, so avoidance is silent in free space."""
+
+    side: tuple[str, ...] = field(default_factory=_default_side)
+    """How the turning side is chosen, first decisive key wins: ``"A/B"`` (a left sector / its
+    mirror on the right) picks the side whose sector is less NEAR, ``"goal"`` the side of the
+    goal angle; a tie falls through to the next key. ``SIDE_L`` is then 1 and ``SIDE_R`` 0 or
+    the reverse (crisp, so a blocked front never splits into LEFT = RIGHT); 0.5 each only if
+    every key ties, i.e. at an exactly mirror-symmetric input, whose output is 0 anyway."""
+
+    side_margin: float = 0.1
+    """A sector pair of ``side`` ties when its NEAR memberships differ by at most this, so
+    sonar noise (0.01 m) does not pick the side at a symmetric corner: 0.1 is 3 cm on the
+    default FL/FR ramp (0.30 m), 2.5 cm on the ``paper`` recipe's (0.25 m)."""
 
     peaks: tuple[float, float, float] = field(default_factory=_default_peaks)
     """Peaks of the output triangles (LEFT, FORWARD, RIGHT): RIGHT = tri(-pi, -pi/2, 0),
@@ -167,6 +190,23 @@ class ReflexConfig:
             raise ValueError(f"ReflexConfig.rules must be a list of strings, got {self.rules!r}")
         for i, text in enumerate(self.rules):
             parse_rule(text, tuple(self.sectors), where=f"ReflexConfig.rules[{i}]")
+        if not _finite(self.side_margin) or not 0 <= self.side_margin < 1:
+            raise ValueError(
+                f"ReflexConfig.side_margin must be a number in [0, 1), got {self.side_margin!r}"
+            )
+        if isinstance(self.side, str) or not isinstance(self.side, (tuple, list)):
+            raise ValueError(f"ReflexConfig.side must be a list of keys, got {self.side!r}")
+        if len(set(self.side)) != len(self.side):
+            raise ValueError(f"ReflexConfig.side: a key appears twice in {self.side!r}")
+        for key in self.side:
+            pair = key.split("/") if isinstance(key, str) else None
+            if key != "goal" and (
+                pair is None or len(pair) != 2 or not all(p in self.sectors for p in pair)
+            ):
+                raise ValueError(
+                    f"ReflexConfig.side: bad key {key!r} (expected 'goal' or 'LEFT_SECTOR/"
+                    f"RIGHT_SECTOR' of sectors {tuple(self.sectors)})"
+                )
 
 
 def _finite(value: object) -> bool:
@@ -179,7 +219,8 @@ _RULE = re.compile(r"^\s*(?P<lhs>.+?)\s*->\s*(?:(?P<w>[0-9]*\.?[0-9]+)\s*\*\s*)?
 def parse_rule(
     text: str, sectors: tuple[str, ...], where: str = "rule"
 ) -> tuple[list[tuple[str, bool]], int, float]:
-    """Read ``"F and not FL -> 0.5 * LEFT"`` into ([(sector, negated)], output index, weight)."""
+    """Read ``"F and not FL -> 0.5 * LEFT"`` into ([(literal, negated)], output index, weight);
+    a literal is one of ``sectors`` or of :data:`SIDES`."""
     m = _RULE.match(text) if isinstance(text, str) else None
     if m is None:
         raise ValueError(
@@ -195,10 +236,10 @@ def parse_rule(
     for part in re.split(r"\s+and\s+", m["lhs"]):
         words = part.split()
         negated = len(words) == 2 and words[0] == "not"
-        if not (len(words) == 1 or negated) or words[-1] not in sectors:
+        if not (len(words) == 1 or negated) or words[-1] not in (*sectors, *SIDES):
             raise ValueError(
                 f"{where}: bad antecedent {part!r} in {text!r} "
-                f"(expected a sector or 'not' sector; sectors: {sectors})"
+                f"(expected a sector or 'not' sector; sectors: {sectors}, sides: {SIDES})"
             )
         literals.append((words[-1], negated))
     return literals, OUTPUTS.index(m["set"]), weight
@@ -209,17 +250,20 @@ class FuzzyReflex(nn.Module):
 
     Config compiled to buffers (S sectors, K rules, N rays; numbers kept in float64 and cast
     to the input's dtype, so float32 observations and float64 tests both compute exactly):
-      ``sector_mask`` (S, N) bool, ``near_ab`` (S, 2), ``pos``/``neg`` (K, S) bool literals,
-      ``rule_out`` (K, 3) rule weight on its output set, ``peaks`` (3,).
+      ``sector_mask`` (S, N) bool, ``near_ab`` (S, 2), ``pos``/``neg`` (K, S + 2) bool literals
+      (the S sectors, then ``SIDE_L``, ``SIDE_R``), ``rule_out`` (K, 3) rule weight on its
+      output set, ``peaks`` (3,).
 
     These buffers (the ``state_dict``) are compiled once more into the few index tensors the
     hot path runs on: sector rays as one padded ``(S, M)`` index (a sector's distance is one
     gather and one ``amin``), rule antecedents as one padded ``(K, L)`` index into the literal
-    vector ``(mu, 1 - mu)`` (a rule's strength is one gather and one ``amin``). Padding repeats
-    an index of the same row, so a min over the padded row is the min over the set. Constants
-    are cast to each input dtype/device once and cached; the cache is dropped by ``.to()`` /
-    ``.float()`` etc. and ``load_state_dict``; after editing a buffer in place, call
-    :meth:`recompile`. A batched call is ~30 tensor ops instead of ~60; one float64 sample
+    vector ``(mu, 1 - mu)`` (a rule's strength is one gather and one ``amin``); if a rule uses
+    the turning side, ``mu`` is extended by ``(SIDE_L, SIDE_R)`` from the signs of the side keys
+    (``ReflexConfig.side``), weighted 2^(n-1), ..., 1 so the first non-zero one decides.
+    Padding repeats an index of the same row, so a min over the padded row is the min over the
+    set. Constants are cast to each input dtype/device once and cached; the cache is dropped by
+    ``.to()`` / ``.float()`` etc. and ``load_state_dict``; after editing a buffer in place, call
+    :meth:`recompile`. A batched call is a few dozen tensor ops; one float64 sample
     (:meth:`angle`, or the module on a 1-D float64 sonar) runs on Python floats. Both give the
     same numbers bit for bit as the uncompiled formulas (tests/knowledge/test_reflex_compiled.py).
     """
@@ -244,13 +288,14 @@ class FuzzyReflex(nn.Module):
         mask = torch.zeros(n_s, config.n_rays, dtype=torch.bool)
         for s, name in enumerate(names):
             mask[s, list(config.sectors[name])] = True
-        pos = torch.zeros(n_k, n_s, dtype=torch.bool)
-        neg = torch.zeros(n_k, n_s, dtype=torch.bool)
+        columns = (*names, *SIDES)
+        pos = torch.zeros(n_k, len(columns), dtype=torch.bool)
+        neg = torch.zeros(n_k, len(columns), dtype=torch.bool)
         rule_out = torch.zeros(n_k, 3, dtype=torch.float64)
         for k, text in enumerate(config.rules):
             literals, out, weight = parse_rule(text, names, where=f"ReflexConfig.rules[{k}]")
             for name, negated in literals:
-                (neg if negated else pos)[k, names.index(name)] = True
+                (neg if negated else pos)[k, columns.index(name)] = True
             rule_out[k, out] = weight
         self.register_buffer("sector_mask", mask)
         self.register_buffer(
@@ -298,13 +343,36 @@ class FuzzyReflex(nn.Module):
         sector = rays.amin(dim=-1) * self.config.sonar_range
         return torch.sub(c.b, sector).div_(c.b_minus_a).clamp_(0.0, 1.0)
 
-    def avoid(self, sonar: torch.Tensor) -> torch.Tensor:
-        """Obstacle-avoidance activations ``(..., 3)``: min for AND, 1 - x for NOT, max per set."""
-        return self._avoid(sonar, self._compiled(sonar))
+    def avoid(self, sonar: torch.Tensor, goal_angle: torch.Tensor | float = 0.0) -> torch.Tensor:
+        """Obstacle-avoidance activations ``(..., 3)``: min for AND, 1 - x for NOT, max per set.
+        The goal angle only enters through the turning side (``ReflexConfig.side``)."""
+        sonar, goal_angle = self._check(sonar, goal_angle)
+        return self._avoid(sonar, _wrap(goal_angle), self._compiled(sonar))
 
-    def _avoid(self, sonar: torch.Tensor, c: _Compiled) -> torch.Tensor:
+    def side(self, sonar: torch.Tensor, goal_angle: torch.Tensor | float = 0.0) -> torch.Tensor:
+        """The turning side ``(..., 2)``: (SIDE_L, SIDE_R), (1, 0) or (0, 1); (0.5, 0.5) only
+        if every key of ``ReflexConfig.side`` ties (an exactly mirror-symmetric input)."""
+        sonar, goal_angle = self._check(sonar, goal_angle)
+        c = self._compiled(sonar)
+        return self._side(self._near(sonar, c), _wrap(goal_angle), c)
+
+    def _side(self, mu: torch.Tensor, wrapped: torch.Tensor, c: _Compiled) -> torch.Tensor:
+        # key = NEAR(right) - NEAR(left) per pair (> 0: the left is freer; within the margin a
+        # tie, 0), then the goal angle; signs weighted 2^(n-1) .. 1 sum to a number whose sign
+        # is the first non-zero key's.
+        pairs = mu.index_select(-1, c.side_index).unflatten(-1, (2, -1))
+        diff = pairs[..., 0, :] - pairs[..., 1, :]
+        decisive = diff.abs() > self.config.side_margin
+        diff = diff.sign_().mul_(decisive)
+        keys = torch.cat((diff, wrapped.sign().unsqueeze(-1)), dim=-1)
+        s = (keys * c.side_weights).sum(dim=-1).sign_()
+        return torch.stack((s + 1.0, torch.rsub(s, 1.0)), dim=-1).mul_(0.5)
+
+    def _avoid(self, sonar: torch.Tensor, wrapped: torch.Tensor, c: _Compiled) -> torch.Tensor:
         mu = self._near(sonar, c)
-        literals = torch.cat((mu, torch.rsub(mu, 1.0)), dim=-1)  # (..., 2S): mu, then NOT mu
+        if c.uses_side:  # literals SIDE_L, SIDE_R after the sectors
+            mu = torch.cat((mu, self._side(mu, wrapped, c)), dim=-1)
+        literals = torch.cat((mu, torch.rsub(mu, 1.0)), dim=-1)  # mu, then NOT mu
         if c.always_true:  # a rule without antecedent (only from hand-made buffers): 1.0
             literals = torch.cat((literals, torch.ones_like(mu[..., :1])), dim=-1)
         strength = literals.index_select(-1, c.literals).unflatten(-1, c.literals_shape)
@@ -316,7 +384,9 @@ class FuzzyReflex(nn.Module):
 
         The angle is wrapped to [-pi, pi] first, so 3*pi/2 reads as a right turn of pi/2.
         """
-        wrapped = torch.atan2(torch.sin(goal_angle), torch.cos(goal_angle))
+        return self._follow(_wrap(goal_angle))
+
+    def _follow(self, wrapped: torch.Tensor) -> torch.Tensor:
         t = wrapped / self.config.goal_span
         return torch.stack((t, torch.rsub(t.abs(), 1.0), t.neg()), dim=-1).clamp_(0.0, 1.0)
 
@@ -329,14 +399,16 @@ class FuzzyReflex(nn.Module):
 
     def _fused(self, sonar: torch.Tensor, goal_angle: torch.Tensor, c: _Compiled) -> torch.Tensor:
         cfg = self.config
-        follow = self.follow(goal_angle).mul_(cfg.d_g)
-        return self._avoid(sonar, c).mul_(cfg.d_a).add_(follow)
+        wrapped = _wrap(goal_angle)
+        follow = self._follow(wrapped).mul_(cfg.d_g)
+        return self._avoid(sonar, wrapped, c).mul_(cfg.d_a).add_(follow)
 
     def forward(self, sonar: torch.Tensor, goal_angle: torch.Tensor) -> torch.Tensor:
         """Height defuzzification: sum(alpha_f * peak) / sum(alpha_f); 0 (ahead) if all silent.
 
         All activations are >= 0, so when they are all 0 the numerator is 0 too and the
-        quotient by the clamped total is already the 0 of "all silent"."""
+        quotient by the clamped total is already the 0 of "all silent". The total is summed
+        as (LEFT + RIGHT) + FORWARD, the same rounding for a mirrored input (exact symmetry)."""
         if (
             type(sonar) is torch.Tensor
             and sonar.dtype is torch.float64
@@ -352,7 +424,7 @@ class FuzzyReflex(nn.Module):
         sonar, goal_angle = self._check(sonar, goal_angle)
         c = self._compiled(sonar)
         f = self._fused(sonar, goal_angle, c)
-        total = f.sum(dim=-1).clamp_min_(1e-12)
+        total = (f[..., 0] + f[..., 2]).add_(f[..., 1]).clamp_min_(1e-12)
         return (f * c.peaks).sum(dim=-1).div_(total)
 
     def angle(self, sonar: torch.Tensor, goal_angle: float) -> float:
@@ -392,21 +464,27 @@ class FuzzyReflex(nn.Module):
         for rays, b, b_minus_a in p.sectors:
             v = (b - min([s[k] for k in rays]) * p.sonar_range) / b_minus_a
             mu.append(min(max(v, 0.0), 1.0))
+        wrapped = math.atan2(torch.sin(goal_angle).item(), torch.cos(goal_angle).item())
+        if p.uses_side:  # the turning side: the first key with a non-zero sign decides
+            diffs = [mu[right] - mu[left] for left, right in p.side_pairs]
+            keys = [d if abs(d) > p.side_margin else 0.0 for d in diffs] + [wrapped]
+            key = next((k for k in (keys[i] for i in p.side_order) if k != 0.0), 0.0)
+            side = 0.5 if key == 0.0 else (1.0 if key > 0.0 else 0.0)
+            mu = [*mu, side, 1.0 - side]
         literals = mu + [1.0 - m for m in mu] + [1.0]
         strength = [min([literals[i] for i in rule]) for rule in p.rules]
         d_a, d_g = p.d_a, p.d_g
         avoid = [
             max([st * w for st, w in zip(strength, col, strict=True)]) * d_a for col in p.rule_out
         ]
-        wrapped = math.atan2(torch.sin(goal_angle).item(), torch.cos(goal_angle).item())
         t = wrapped / p.goal_span
         follow = (min(max(t, 0.0), 1.0), min(max(1.0 - abs(t), 0.0), 1.0), min(max(-t, 0.0), 1.0))
         f0, f1, f2 = (a + fo * d_g for a, fo in zip(avoid, follow, strict=True))
         p0, p1, p2 = p.peaks
-        return (f0 * p0 + f1 * p1 + f2 * p2) / max(f0 + f1 + f2, 1e-12)
+        return (f0 * p0 + f1 * p1 + f2 * p2) / max((f0 + f2) + f1, 1e-12)
 
     def _check(
-        self, sonar: torch.Tensor, goal_angle: torch.Tensor
+        self, sonar: torch.Tensor, goal_angle: torch.Tensor | float
     ) -> tuple[torch.Tensor, torch.Tensor]:
         if not isinstance(sonar, torch.Tensor) or not sonar.is_floating_point():
             raise ValueError(f"FuzzyReflex: sonar must be a float tensor, got {type(sonar)}")
@@ -444,6 +522,11 @@ class FuzzyReflex(nn.Module):
         return f"sectors={list(self.sector_names)}, rules={len(c.rules)}, d_a={c.d_a}, d_g={c.d_g}"
 
 
+def _wrap(angle: torch.Tensor) -> torch.Tensor:
+    """An angle wrapped to [-pi, pi] (odd: a negated angle wraps to the negated result)."""
+    return torch.atan2(torch.sin(angle), torch.cos(angle))
+
+
 class _Compiled(NamedTuple):
     """The rule base of one :class:`FuzzyReflex` as index tensors, for one dtype and device."""
 
@@ -455,10 +538,18 @@ class _Compiled(NamedTuple):
     b_minus_a: torch.Tensor
     """(S,) b - a, computed in the input dtype (as the uncompiled formula did)."""
     literals: torch.Tensor
-    """(K*L,) long into (mu_1..mu_S, 1-mu_1..1-mu_S[, 1]): each rule's literals, padded."""
+    """(K*L,) long into (mu_1..mu_S[, SIDE_L, SIDE_R], NOT of them[, 1]): each rule's
+    literals, padded."""
     literals_shape: tuple[int, int]
     always_true: bool
-    """Some rule has no literal (index 2S, a constant 1)."""
+    """Some rule has no literal (the last index, a constant 1)."""
+    uses_side: bool
+    """Some rule reads SIDE_L or SIDE_R (only then is the turning side computed)."""
+    side_index: torch.Tensor
+    """(2P,) long into mu: the right sectors of the P side pairs, then their left sectors."""
+    side_weights: torch.Tensor
+    """(P + 1,) weight of each key's sign (pairs, then the goal): 2^(n-1) for the first key of
+    ``ReflexConfig.side`` down to 1 for the last, 0 for the goal if it is not a key."""
     rule_out: torch.Tensor
     """(K, 3) the rule weight on its output set."""
     peaks: torch.Tensor
@@ -472,16 +563,24 @@ class _Compiled(NamedTuple):
         n_s = len(sectors)
         # A literal is mu where `pos`, else 1 - mu where `neg`, else absent (as torch.where did).
         pos, neg = reflex.pos.cpu(), reflex.neg.cpu()
+        uses_side = bool((pos[:, n_s:] | neg[:, n_s:]).any())
+        n_mu = pos.shape[1] if uses_side else n_s
         rules = [
-            [s if pos[k, s] else n_s + s for s in range(n_s) if pos[k, s] or neg[k, s]]
+            [s if pos[k, s] else n_mu + s for s in range(n_mu) if pos[k, s] or neg[k, s]]
             for k in range(pos.shape[0])
         ]
         always_true = any(not r for r in rules)
-        rules = [r or [2 * n_s] for r in rules]
+        rules = [r or [2 * n_mu] for r in rules]
         length = max(len(r) for r in rules)
         rules = [r + [r[0]] * (length - len(r)) for r in rules]
         ab = reflex.near_ab.to(dtype=dtype, device=device)
         b = ab[:, 1].contiguous()
+        names, keys = reflex.sector_names, reflex.config.side
+        pairs = [tuple(names.index(s) for s in key.split("/")) for key in keys if key != "goal"]
+        order = _side_order(keys)
+        weights = [0.0] * (len(pairs) + 1)
+        for rank, i in enumerate(order):
+            weights[i] = float(2 ** (len(order) - 1 - rank))
         return cls(
             rays=torch.tensor(rays, dtype=torch.long, device=device).flatten(),
             rays_shape=(n_s, width),
@@ -490,6 +589,11 @@ class _Compiled(NamedTuple):
             literals=torch.tensor(rules, dtype=torch.long, device=device).flatten(),
             literals_shape=(len(rules), length),
             always_true=always_true,
+            uses_side=uses_side,
+            side_index=torch.tensor(
+                [r for _, r in pairs] + [left for left, _ in pairs], dtype=torch.long, device=device
+            ),
+            side_weights=torch.tensor(weights, dtype=dtype, device=device),
             rule_out=reflex.rule_out.to(dtype=dtype, device=device),
             peaks=reflex.peaks.to(dtype=dtype, device=device),
         )
@@ -501,8 +605,15 @@ class _Plain(NamedTuple):
     n_rays: int
     sectors: list[tuple[tuple[int, ...], float, float]]
     """Per sector: its rays, b, and b - a (float64, as the tensor path computes them)."""
+    uses_side: bool
+    """Some rule reads SIDE_L or SIDE_R."""
+    side_pairs: list[tuple[int, int]]
+    """(left, right) sector indices of the side pairs (``ReflexConfig.side`` order)."""
+    side_order: list[int]
+    """The side keys in decision order, as indices into (pair keys..., goal)."""
+    side_margin: float
     rules: list[tuple[int, ...]]
-    """Per rule: indices of its literals in (mu_1..mu_S, 1-mu_1..1-mu_S, 1)."""
+    """Per rule: indices of its literals in (mu_1..mu_S[, SIDE_L, SIDE_R], NOT of them, 1)."""
     rule_out: list[list[float]]
     """Per output set, the weight of every rule on it (0 for the other sets' rules)."""
     peaks: tuple[float, float, float]
@@ -518,12 +629,21 @@ class _Plain(NamedTuple):
         rays = c.rays.view(n_s, width).tolist()
         n_k, length = c.literals_shape
         cfg = reflex.config
+        names = reflex.sector_names
+        pairs = [
+            (names.index(a), names.index(b))
+            for a, b in (key.split("/") for key in cfg.side if key != "goal")
+        ]
         return cls(
             n_rays=reflex.sector_mask.shape[1],
             sectors=[
                 (tuple(r), b, bma)
                 for r, b, bma in zip(rays, c.b.tolist(), c.b_minus_a.tolist(), strict=True)
             ],
+            uses_side=c.uses_side,
+            side_pairs=pairs,
+            side_order=_side_order(cfg.side),
+            side_margin=float(cfg.side_margin),
             rules=[tuple(r) for r in c.literals.view(n_k, length).tolist()],
             rule_out=c.rule_out.T.tolist(),
             peaks=tuple(c.peaks.tolist()),
@@ -532,3 +652,16 @@ class _Plain(NamedTuple):
             sonar_range=float(cfg.sonar_range),
             goal_span=float(cfg.goal_span),
         )
+
+
+def _side_order(keys: tuple[str, ...]) -> list[int]:
+    """The side keys in decision order as indices into (pair keys in order..., goal)."""
+    n_pairs = sum(key != "goal" for key in keys)
+    order, pair = [], 0
+    for key in keys:
+        if key == "goal":
+            order.append(n_pairs)
+        else:
+            order.append(pair)
+            pair += 1
+    return order

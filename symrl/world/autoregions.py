@@ -8,10 +8,19 @@ partition the region mapper and the sub-goal builder can use:
    such a line crosses a free stretch at most ``max_door`` wide but at least the robot's width, and
    the free stretch through the same point ``probe`` metres to one side is ``widen`` times wider,
    the stretch is a door-like narrowing: a door's face, a gap in a thin wall, a corridor's mouth.
-2. **Regions.** The free area cut along the narrowings falls into connected pieces; a piece of
-   less than ``door_area`` square metres is a door (``door1``, ...), any other a room (``room1``,
-   ...), numbered by their lowest, then leftmost point.
-3. **Rules.** The narrowing lines cut the plane into a grid of boxes; while a box's free area
+2. **Corners.** A corner where the free area is concave (its free side spans more than 180
+   degrees: the inner corner of a bend, the end of a thin wall, the outer corner of a pocket) is
+   where steering straight at something stops working. From each such corner, in coordinate
+   order, the axis-parallel chords into the free area (up to the next wall or cut) are taken
+   shortest first until every free sector left at the corner spans at most 180 degrees; chords
+   as short as the last one taken (within ``tie``) are taken too, so the square where two equal
+   arms meet becomes its own piece. A corner that would need a chord longer than ``max_cut`` is
+   left whole (a passage wider than that gets no sub-goal either). Each chord is a cut, and the
+   corners after it see it as a wall.
+3. **Regions.** The free area cut along the narrowings and chords falls into connected pieces; a
+   piece of less than ``door_area`` square metres is a door (``door1``, ...), any other a room
+   (``room1``, ...), numbered by their lowest, then leftmost point.
+4. **Rules.** The narrowing lines cut the plane into a grid of boxes; while a box's free area
    holds pieces of two regions, the wall-corner line that leaves the fewest such boxes is added.
    Each box then becomes one rule; the region with the most boxes is the default.
 
@@ -46,6 +55,10 @@ class AutoRegionConfig:
     """A stretch is a narrowing if the one beside it is at least this many times wider."""
     door_area: float = 1.0
     """Pieces smaller than this (square metres) are doors, larger ones rooms."""
+    max_cut: float = 2.0
+    """Longest chord a concave corner is cut along (the sub-goal builder's widest passage)."""
+    tie: float = 0.01
+    """Chords this much longer than the one that resolved a corner are taken too."""
 
 
 def _free(boundary: np.ndarray, obstacles: list[np.ndarray], segments: np.ndarray):
@@ -107,6 +120,119 @@ def _narrowings(
     return sorted(found)
 
 
+def _walls(boundary: np.ndarray, obstacles: list[np.ndarray], segments: np.ndarray) -> np.ndarray:
+    """Every wall as a segment ``(x0, y0, x1, y1)``: polygon edges and thin walls."""
+    rings = [boundary, *obstacles]
+    edges = [np.concatenate([r, np.roll(r, -1, axis=0)], axis=1) for r in rings]
+    return np.concatenate([*edges, segments.reshape(-1, 4)])
+
+
+def _directions(walls: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Angles (radians, 0..2 pi) of the walls leaving point ``p``."""
+    a, b = walls[:, :2], walls[:, 2:]
+    d = b - a
+    length = np.hypot(d[:, 0], d[:, 1])
+    t = ((p - a) * d).sum(1) / np.maximum(length**2, 1e-300)
+    cross = d[:, 0] * (p[1] - a[:, 1]) - d[:, 1] * (p[0] - a[:, 0])
+    off = np.abs(cross) / np.maximum(length, 1e-300)
+    on = (off < 1e-6) & (t > -1e-6) & (t < 1 + 1e-6) & (length > 1e-12)
+    out = []
+    for (ax, ay), (bx, by), ti in zip(a[on], b[on], t[on], strict=True):
+        if ti < 1 - 1e-6:  # the wall goes on toward b
+            out.append(np.arctan2(by - p[1], bx - p[0]))
+        if ti > 1e-6:  # ... and back toward a
+            out.append(np.arctan2(ay - p[1], ax - p[0]))
+    return np.unique(np.round(np.mod(out, 2 * np.pi), 12))
+
+
+def _open_sectors(free, p: np.ndarray, walls: np.ndarray) -> list[tuple[float, float]]:
+    """The free angular sectors ``(from, to)`` around ``p`` between consecutive walls."""
+    angles = _directions(walls, p)
+    if len(angles) == 0:
+        return []
+    out = []
+    for lo, hi in zip(angles, np.append(angles[1:], angles[0] + 2 * np.pi), strict=True):
+        mid = 0.5 * (lo + hi)
+        q = p + 1e-4 * np.array([np.cos(mid), np.sin(mid)])
+        if shapely.contains_xy(free, q[0], q[1]):
+            out.append((float(lo), float(hi)))
+    return out
+
+
+def _chord(walls: np.ndarray, p: np.ndarray, angle: float) -> tuple[float, np.ndarray]:
+    """The chord from ``p`` along ``angle`` to the first wall it meets: its length and far end."""
+    d = np.array([np.cos(angle), np.sin(angle)])
+    d[np.abs(d) < 1e-12] = 0.0
+    a, e = walls[:, :2], walls[:, 2:] - walls[:, :2]
+    det = d[0] * -e[:, 1] + d[1] * e[:, 0]  # solve p + t d = a + u e
+    rel = a - p
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (rel[:, 0] * -e[:, 1] + rel[:, 1] * e[:, 0]) / det
+        u = (d[0] * rel[:, 1] - d[1] * rel[:, 0]) / det
+    crossing = (np.abs(det) > 1e-12) & (u >= -1e-9) & (u <= 1 + 1e-9) & (t > 1e-7)
+    hits = list(t[crossing])
+    # a wall lying on the ray's line ahead of it stops the ray at its nearer end
+    line = (np.abs(det) <= 1e-12) & (np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0]) < 1e-9)
+    for a0, e0 in zip(a[line], e[line], strict=True):
+        ends = np.array([(a0 - p) @ d, (a0 + e0 - p) @ d])
+        ahead = ends[ends > 1e-7]
+        if len(ahead):
+            hits.append(float(ahead.min()))
+    length = float(min(hits))
+    return length, p + length * d
+
+
+def _corner_cuts(
+    free, walls: np.ndarray, cuts: list[tuple[int, float, float, float]], config: AutoRegionConfig
+) -> list[tuple[int, float, float, float]]:
+    """Chords that cut every concave corner of the free area into sectors of at most 180 degrees
+    (module docstring, step 2), as ``(axis, c, a, b)`` like the narrowings."""
+    corners = np.unique(np.round(walls.reshape(-1, 2), 9), axis=0)
+    corners = corners[np.lexsort((corners[:, 1], corners[:, 0]))]
+    found: list[tuple[int, float, float, float]] = []
+
+    def segment(axis: int, c: float, a: float, b: float) -> np.ndarray:
+        lo, hi = min(a, b), max(a, b)
+        return np.array([c, lo, c, hi] if axis == 0 else [lo, c, hi, c])
+
+    for p in corners:
+        every = np.concatenate([walls, *[segment(*k)[None] for k in cuts + found]])
+        for lo, hi in _open_sectors(free, p, every):
+            if hi - lo <= np.pi + 1e-9:
+                continue
+            # axis directions strictly inside the sector, with their chords
+            options = []
+            for k in range(int(np.floor(lo / (np.pi / 2))) + 1, int(np.ceil(hi / (np.pi / 2)))):
+                angle = k * np.pi / 2
+                if angle - lo < 1e-9 or hi - angle < 1e-9:
+                    continue
+                length, far = _chord(every, p, angle)
+                options.append((length, angle, far))
+            options.sort(key=lambda o: (o[0], o[1]))
+            taken: list[tuple[float, float, np.ndarray]] = []
+            for option in options:
+                done = taken and _resolved(lo, hi, [t[1] for t in taken])
+                if done and option[0] > taken[-1][0] + config.tie:
+                    break
+                taken.append(option)
+            if not taken or not _resolved(lo, hi, [t[1] for t in taken]):
+                continue
+            if taken[-1][0] > config.max_cut:
+                continue
+            for _, angle, far in taken:
+                axis = 0 if abs(np.cos(angle)) < 0.5 else 1  # a vertical chord lies on x = c
+                c = float(p[0] if axis == 0 else p[1])
+                a, b = sorted((float(p[1 - axis]), float(far[1 - axis])))
+                found.append((axis, c, round(a, 6), round(b, 6)))
+    return found
+
+
+def _resolved(lo: float, hi: float, angles: list[float]) -> bool:
+    """Whether chords at ``angles`` split the sector ``lo..hi`` into parts of at most 180 deg."""
+    edges = np.sort(np.array([lo, *angles, hi]))
+    return bool((np.diff(edges) <= np.pi + 1e-9).all())
+
+
 def _pieces(free, cuts: list[tuple[int, float, float, float]]) -> list:
     """Connected pieces of the free area cut along the narrowings, by lowest then leftmost."""
     slits = [
@@ -162,6 +288,7 @@ def auto_regions(
         sorted({float(y) for y in pts[:, 1] if ymin < y < ymax}),
     )
     cuts = _narrowings(free, (xmin, ymin, xmax, ymax), coords, config)
+    cuts += _corner_cuts(free, _walls(boundary, list(obstacles), segments), cuts, config)
     pieces = _pieces(free, cuts)
     kinds, counters = [], {"door": 0, "room": 0}
     for p in pieces:

@@ -7,6 +7,7 @@ d_a = 0.7, d_g = 0.3, peaks (LEFT, FORWARD, RIGHT) = (pi/2, 0, -pi/2), sonar_ran
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import pytest
@@ -84,19 +85,30 @@ def test_goal_angle_is_wrapped(reflex):
 # --- walls --------------------------------------------------------------------------------
 
 
-def test_wall_ahead_turns_left(reflex):
-    # F at 0.25 m -> NEAR 1; FL/FR at 0.44 m -> NEAR (0.5-0.44)/0.3 = 0.2
-    # F&!FL = 0.8 -> LEFT, F&FL&!FR = 0.2 -> RIGHT, F&FL&FR = 0.2 -> LEFT: avoid (0.8, 0, 0.2)
-    # fused with goal 0: (0.56, 0.30, 0.14), sum 1 -> (0.56 - 0.14) * pi/2 = 0.21 pi
+def test_symmetric_wall_ahead_turns_to_the_goals_side(reflex):
+    # F at 0.25 m -> NEAR 1; FL/FR at 0.44 m -> NEAR 0.2 each: the sides tie, so the goal's
+    # side decides. Goal at +0.1 rad: SIDE_L = 1, F&SIDE_L -> LEFT = 1; goal sets
+    # (t, 1 - t, 0) with t = 0.2/pi -> fused (0.7 + 0.3t, 0.3(1 - t), 0), sum 1
     s = sonar(F=0.25, FL=0.44, FR=0.44)
-    assert reflex.avoid(s).tolist() == pytest.approx([0.8, 0.0, 0.2])
-    assert angle(reflex, s, 0.0) == pytest.approx(0.21 * PI)
+    t = 0.1 / (PI / 2)
+    assert reflex.side(s, 0.1).tolist() == [1.0, 0.0]
+    assert reflex.avoid(s, 0.1).tolist() == [1.0, 0.0, 0.0]
+    assert angle(reflex, s, 0.1) == pytest.approx((0.7 + 0.3 * t) * PI / 2)
+    assert angle(reflex, s, -0.1) == -angle(reflex, s, 0.1)  # mirrored: to the right
+    # goal dead ahead: every key ties, SIDE = (0.5, 0.5), and the output is 0 by symmetry
+    assert reflex.side(s, 0.0).tolist() == [0.5, 0.5]
+    assert angle(reflex, s, 0.0) == 0.0
 
 
-def test_wall_ahead_with_left_blocked_turns_right(reflex):
-    # F and FL near, FR free: F&FL&!FR -> RIGHT = 1; fused (0, 0.3, 0.7) -> -0.35 pi
+def test_wall_ahead_turns_to_the_freer_side_even_against_the_goal(reflex):
+    # F and FL near, FR free: the right is freer, F&SIDE_R -> RIGHT = 1 whatever the goal's
+    # side; goal at +pi/4 adds 0.3 * (1/2, 1/2, 0): fused (0.15, 0.15, 0.7) -> -0.275 pi
     s = sonar(F=0.2, FL=0.2)
     assert angle(reflex, s, 0.0) == pytest.approx(-0.35 * PI)
+    assert angle(reflex, s, PI / 4) == pytest.approx(-0.275 * PI)
+    # the front-side sectors tie (both free) but L is near: the right is freer
+    s = sonar(F=0.2, L=0.1)
+    assert reflex.side(s, PI / 4).tolist() == [0.0, 1.0]
 
 
 def test_wall_on_the_left_turns_right(reflex):
@@ -120,17 +132,34 @@ def test_doorway_goes_roughly_forward(reflex):
 
 
 def test_concave_corner_turns_hard_not_forward(reflex):
-    # F, FL and FR all fully near (facing a corner), goal at -pi/4:
-    # only F&FL&FR -> LEFT fires; fused (0.7, 0.15, 0.15) -> (0.7 - 0.15) * pi/2 = 0.275 pi
+    # F, FL and FR all fully near (facing a corner), goal at +pi/4: the sides tie, the goal's
+    # side decides; only F&SIDE_L -> LEFT fires; fused (0.85, 0.15, 0) -> 0.425 pi
     s = sonar(F=0.25, FL=0.20, FR=0.20)
-    assert reflex.avoid(s).tolist() == [1.0, 0.0, 0.0]
-    assert angle(reflex, s, -PI / 4) == pytest.approx(0.275 * PI)
+    assert reflex.avoid(s, PI / 4).tolist() == [1.0, 0.0, 0.0]
+    assert angle(reflex, s, PI / 4) == pytest.approx(0.425 * PI)
+    # goal at -pi/4: the same turn to the right (never LEFT = RIGHT cancelling to forward)
+    assert reflex.avoid(s, -PI / 4).tolist() == [0.0, 0.0, 1.0]
+    assert angle(reflex, s, -PI / 4) == pytest.approx(-0.425 * PI)
+
+
+@pytest.mark.parametrize("goal", [0.3, -0.3, 2.5, -2.5])
+def test_a_slightly_uneven_blocked_front_still_turns_decisively(reflex, goal):
+    # The turning side is crisp: avoidance 1 on one set, 0 on the other, never a
+    # near-cancelling LEFT ~ RIGHT. The left 4 cm freer (NEAR 0.133 apart > side_margin 0.1):
+    # LEFT whatever the goal's side.
+    s = sonar(F=0.25, FL=0.34, FR=0.30)
+    assert reflex.avoid(s, goal).tolist() == [1.0, 0.0, 0.0]
+    assert angle(reflex, s, goal) > 0.3 * PI / 2
+    # 1 cm (sonar noise, NEAR 0.033 apart) is a tie: the goal's side, just as decisively
+    s = sonar(F=0.25, FL=0.31, FR=0.30)
+    toward = 1.0 if goal > 0 else -1.0
+    assert reflex.avoid(s, goal).tolist() == ([1.0, 0.0, 0.0] if goal > 0 else [0.0, 0.0, 1.0])
+    assert toward * angle(reflex, s, goal) > 0.3 * PI / 2
 
 
 UNGUARDED = (
-    "F and not FL -> LEFT",
-    "F and FL and not FR -> RIGHT",
-    "F and FL and FR -> LEFT",
+    "F and SIDE_L -> LEFT",
+    "F and SIDE_R -> RIGHT",
     "FR -> LEFT",
     "FL -> RIGHT",
     "R -> 0.5 * LEFT",
@@ -141,10 +170,10 @@ UNGUARDED = (
 def test_concave_corner_trap_without_the_not_f_guards():
     # The trap of ALGORITHM.md §4: without "and not F", FR -> LEFT and FL -> RIGHT both fire,
     # avoid (1, 0, 1), fused (0.7, 0.15, 0.85), sum 1.7 -> -0.15 * (pi/2) / 1.7 = -0.044 pi:
-    # almost straight into the corner (the guarded base turns 0.275 pi left, test above).
+    # almost straight into the corner (the guarded base turns 0.425 pi right, test above).
     trap = FuzzyReflex(ReflexConfig(rules=UNGUARDED))
     s = sonar(F=0.25, FL=0.20, FR=0.20)
-    assert trap.avoid(s).tolist() == [1.0, 0.0, 1.0]
+    assert trap.avoid(s, -PI / 4).tolist() == [1.0, 0.0, 1.0]
     assert angle(trap, s, -PI / 4) == pytest.approx(-0.15 * (PI / 2) / 1.7)
 
 
@@ -157,6 +186,45 @@ def test_real_concave_corner_of_the_map(reflex):
     unguarded = angle(FuzzyReflex(ReflexConfig(rules=UNGUARDED)), s, PI / 4)
     assert guarded > PI / 4  # a clear left turn, away from the corner
     assert abs(unguarded) < PI / 18  # the trap: votes cancel to within 10 deg of forward
+
+
+# --- mirror symmetry ------------------------------------------------------------------------
+
+MIRROR = [(-k) % 24 for k in range(24)]  # ray k (heading + 15k deg) <-> ray -k
+
+
+@pytest.mark.parametrize("config", ["literal", "paper"])
+@settings(max_examples=300, deadline=None)
+@given(
+    s=st.lists(st.floats(0.0, 0.3) | st.just(1.0), min_size=24, max_size=24),
+    goal=st.floats(-2 * PI, 2 * PI),
+)
+def test_mirrored_input_gives_exactly_the_negated_output(config, s, goal):
+    # Exact (==, not approx) at every input, on both paths: no side is preferred. At an exactly
+    # mirror-symmetric input (a mirrored ring and goal 0) this forces the output to 0.
+    reflex = _mirror_reflex(config)
+    sonar_ = torch.tensor(s, dtype=torch.float64)
+    mirrored = sonar_[MIRROR]
+    assert reflex.angle(mirrored, -goal) == -reflex.angle(sonar_, goal)
+    batch = torch.stack((sonar_, mirrored))
+    out = reflex(batch, torch.tensor([goal, -goal], dtype=torch.float64))
+    assert float(out[1]) == -float(out[0])
+    symmetric = torch.maximum(sonar_, mirrored)
+    assert reflex.angle(symmetric, 0.0) == 0.0
+
+
+@functools.cache
+def _mirror_reflex(config: str) -> FuzzyReflex:
+    from symrl.learner.config import load_config
+
+    return FuzzyReflex(load_config("paper").reflex if config == "paper" else None)
+
+
+def test_symmetric_wall_ahead_no_longer_turns_left():
+    # The rule base before the turning side ("F and not FL -> LEFT", "F and FL and FR -> LEFT")
+    # turned 0.21 pi LEFT here with the goal dead ahead; the mirror-symmetric one goes on to 0.
+    s = sonar(F=0.25, FL=0.44, FR=0.44)
+    assert angle(FuzzyReflex(), s, 0.0) == 0.0
 
 
 # --- batching and range --------------------------------------------------------------------
@@ -218,6 +286,10 @@ def test_no_goal_following_and_free_space_goes_straight():
         ({"rules": ("F => LEFT",)}, r"rules\[0\]: cannot read rule"),
         ({"rules": ("F -> 2 * LEFT",)}, r"weight must be in \(0, 1\], got 2.0"),
         ({"rules": "F -> LEFT"}, "rules must be a list of strings"),
+        ({"side": ("FL/XX",)}, r"side: bad key 'FL/XX'"),
+        ({"side": ("goal", "goal")}, "side: a key appears twice"),
+        ({"side": "goal"}, "side must be a list of keys"),
+        ({"side_margin": 1.0}, r"side_margin must be a number in \[0, 1\), got 1.0"),
     ],
 )
 def test_bad_config_names_the_field(changes, message):

@@ -16,6 +16,7 @@ CUSTOM_RULES = (
     "F and not F -> LEFT",  # a sector both positive and negated: the positive literal wins
     "FR and not FL and L -> 0.3 * RIGHT",
     "R -> FORWARD",
+    "FL and not SIDE_R -> 0.7 * LEFT",
 )
 
 
@@ -25,16 +26,32 @@ def oracle(reflex: FuzzyReflex, sonar: torch.Tensor, goal: torch.Tensor) -> torc
     dist = sonar * cfg.sonar_range
     sector = torch.where(reflex.sector_mask, dist.unsqueeze(-2), torch.inf).amin(dim=-1)
     ab = reflex.near_ab.to(dist.dtype)
-    mu = ((ab[:, 1] - sector) / (ab[:, 1] - ab[:, 0])).clamp(0.0, 1.0).unsqueeze(-2)
+    mu = ((ab[:, 1] - sector) / (ab[:, 1] - ab[:, 0])).clamp(0.0, 1.0)
+    wrapped = torch.atan2(torch.sin(goal), torch.cos(goal))
+    # the turning side, written out: the first key (in config order) with a non-zero sign
+    names = reflex.sector_names
+    keys = {
+        k: mu[..., names.index(k.split("/")[1])] - mu[..., names.index(k.split("/")[0])]
+        for k in cfg.side
+        if k != "goal"
+    }
+    keys = {k: torch.where(v.abs() > cfg.side_margin, v, 0.0) for k, v in keys.items()}
+    keys["goal"] = wrapped
+    decided = torch.zeros_like(wrapped)
+    for k in reversed(cfg.side):
+        decided = torch.where(keys[k] != 0, torch.sign(keys[k]), decided)
+    side_l = torch.where(decided > 0, 1.0, torch.where(decided < 0, 0.0, 0.5))
+    mu = torch.cat((mu, side_l.unsqueeze(-1), (1.0 - side_l).unsqueeze(-1)), dim=-1)
+    mu = mu.unsqueeze(-2)
     literal = torch.where(reflex.pos, mu, torch.where(reflex.neg, 1.0 - mu, 1.0))
     strength = literal.amin(dim=-1)
     avoid = (strength.unsqueeze(-1) * reflex.rule_out.to(strength.dtype)).amax(dim=-2)
-    t = torch.atan2(torch.sin(goal), torch.cos(goal)) / cfg.goal_span
+    t = wrapped / cfg.goal_span
     follow = torch.stack(
         [t.clamp(0.0, 1.0), (1.0 - t.abs()).clamp(0.0, 1.0), (-t).clamp(0.0, 1.0)], dim=-1
     )
     f = cfg.d_a * avoid + cfg.d_g * follow
-    total = f.sum(dim=-1)
+    total = (f[..., 0] + f[..., 2]) + f[..., 1]  # LEFT + RIGHT first: mirror-exact rounding
     angle = (f * reflex.peaks.to(f.dtype)).sum(dim=-1) / total.clamp_min(1e-12)
     return torch.where(total > 0, angle, torch.zeros_like(angle))
 

@@ -24,7 +24,9 @@ from symrl.studies.runner import optimum
 from symrl.world import load_map
 from symrl.world.worldmap import BODY_RADIUS, MapError, reaches_goal
 
-GALLERY = ("two_doors", "office", "l_corridor", "maze", "hailu2001_mirror")
+GALLERY = (
+    "two_doors", "two_door_room", "office", "l_corridor", "maze", "dead_end", "hailu2001_mirror",
+)
 FIGURES = "l_corridor"  # the one map whose study also draws its figures (the rest: tables only)
 SHORT = "env.max_actions=60"  # trials cut at 60 actions: the reflex is stuck for 200 on some maps
 

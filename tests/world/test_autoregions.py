@@ -60,7 +60,14 @@ def test_a_map_without_regions_gets_them_found_and_the_same_every_time():
 
 @pytest.mark.parametrize(
     ("name", "rooms", "doors"),
-    [("two_doors", 2, 2), ("office", 4, 3), ("maze", 4, 0), ("l_corridor", 1, 0)],
+    [
+        ("two_doors", 4, 2),
+        ("two_door_room", 3, 2),
+        ("office", 4, 3),
+        ("maze", 4, 0),
+        ("l_corridor", 3, 0),
+        ("dead_end", 5, 0),
+    ],
 )
 def test_gallery_auto_regions(name, rooms, doors):
     world = load_map(_auto(name))
@@ -70,6 +77,74 @@ def test_gallery_auto_regions(name, rooms, doors):
     # every free point is in exactly one region and every region has free points
     seen = {world.regions.region_of(x, y) for x, y in _grid(world)}
     assert seen == set(names)
+
+
+@pytest.mark.parametrize("name", ["l_corridor", "dead_end"])
+def test_corner_cuts_give_the_hand_partition(name):
+    """The bend of the L and the pocket of the dead end: no door-like narrowing, but concave
+    corners; cut there, the found regions are the hand-drawn ones, region for region."""
+    hand = load_map(name)
+    auto = load_map(_auto(name))
+    assert len(auto.regions.names) == len(hand.regions.names)
+    lines = {(axis, c) for axis, c in hand.regions.lines.values()}
+    assert {(axis, c) for axis, c in auto.regions.lines.values()} == lines
+    match: dict[str, str] = {}
+    for x, y in _grid(hand):
+        if any(c == (x if axis == "x" else y) for axis, c in lines):
+            continue  # on a line
+        a = auto.regions.region_of(x, y)
+        assert match.setdefault(hand.regions.region_of(x, y), a) == a
+    assert len(set(match.values())) == len(match) == len(hand.regions.names)
+
+
+def test_l_corridor_regions_at_known_poses():
+    world = load_map(_auto("l_corridor"))
+    of = world.regions.region_of
+    # the east arm, the corner square where the arms meet, the north arm
+    assert len({of(0.8, 0.9), of(7.1, 0.9), of(7.1, 7.0)}) == 3
+    assert of(0.8, 0.9) == of(6.1, 1.7)  # the east arm up to the inner corner's x
+    assert of(7.1, 0.9) == of(6.3, 0.1) == of(7.9, 1.7)  # the corner square
+    assert of(7.1, 7.0) == of(6.3, 1.9)  # the north arm from the inner corner's y
+
+
+ROOM = np.array([[0, 0], [6, 0], [6, 4], [0, 4]], float)
+NO_WALLS = np.zeros((0, 4))
+
+
+@pytest.mark.parametrize(("end", "regions"), [(1.8, 2), (2.5, 1)])
+def test_a_thin_wall_end_is_cut_along_its_continuation_up_to_max_cut(end, regions):
+    # a thin wall from the north wall down to y = end; the gap below it (1.8 m or 2.5 m) is wider
+    # than a door. From the wall's free end, the chord straight down resolves the 360 degree
+    # corner alone (two 180 degree sectors): cut when it is at most 2 m long
+    wall = np.array([[3.0, end, 3.0, 4.0]])
+    found = auto_regions(ROOM, [], wall)
+    assert len(found["names"]) == regions
+    assert found["lines"] == ({"x1": {"x": 3.0}} if regions == 2 else {})
+
+
+def test_a_bend_is_cut_along_its_narrower_arm():
+    # an L whose east arm is 1.2 m wide and whose north arm 1.8 m: at the inner corner the chord
+    # across the narrow arm suffices; the 1.8 m one is not taken (no corner square)
+    boundary = np.array([[0, 0], [8, 0], [8, 8], [6.2, 8], [6.2, 1.2], [0, 1.2]], float)
+    found = auto_regions(boundary, [], NO_WALLS)
+    assert found["lines"] == {"x1": {"x": 6.2}}
+    assert len(found["names"]) == 2
+
+
+def test_a_pillar_is_cut_to_the_nearer_walls():
+    # a 0.5 m pillar 1.75 m from the north and south walls, 2.75 m from the east and west ones:
+    # each corner takes its 1.75 m chord; four regions: west of, east of, below, above the pillar
+    pillar = np.array([[2.75, 1.75], [3.25, 1.75], [3.25, 2.25], [2.75, 2.25]])
+    found = auto_regions(ROOM, [pillar], NO_WALLS)
+    assert found == auto_regions(ROOM, [pillar], NO_WALLS)
+    world = load_map({"boundary": ROOM.tolist(), "obstacles": [pillar.tolist()],
+                      "start": {"x": 0.5, "y": 0.5}, "goal": {"x": 5.5, "y": 3.5, "radius": 0.3},
+                      "regions": found})  # fmt: skip
+    of = world.regions.region_of
+    assert len({of(1.0, 2.0), of(5.0, 2.0), of(3.0, 0.5), of(3.0, 3.5)}) == 4
+    # a pillar more than 2 m from every wall is left whole: one region
+    far = np.array([[0, 0], [9, 0], [9, 5], [0, 5]], float)
+    assert auto_regions(far, [pillar + [1.5, 0.5]], NO_WALLS)["names"] == ["room1"]
 
 
 def test_auto_regions_give_the_paper_door_as_sub_goals():

@@ -16,9 +16,11 @@ OPTIMA = {
     "hailu2001": (4.913, 25),
     "hailu2001_mirror": (4.913, 25),
     "two_doors": (7.121, 36),
+    "two_door_room": (5.200, 27),
     "office": (13.005, 66),
     "l_corridor": (10.760, 54),
     "maze": (10.681, 54),
+    "dead_end": (5.175, 26),
 }
 
 
@@ -68,3 +70,67 @@ def test_two_doors_shorter_route_is_off_the_goal_bearing():
     i = int(across[0])
     y = a[i, 1] + (5.125 - a[i, 0]) * (b[i, 1] - a[i, 1]) / (b[i, 0] - a[i, 0])
     assert 1.0 < y < 2.0
+
+
+def _crossings(points: np.ndarray, x: float) -> list[float]:
+    """The y of every crossing of the vertical line at ``x`` by a polyline."""
+    a, b = points[:-1], points[1:]
+    return [
+        float(a[i, 1] + (x - a[i, 0]) * (b[i, 1] - a[i, 1]) / (b[i, 0] - a[i, 0]))
+        for i in np.flatnonzero((a[:, 0] - x) * (b[:, 0] - x) < 0)
+    ]
+
+
+def test_two_door_room_the_reflex_takes_the_upper_door_the_optimum_the_lower():
+    world = load_map("two_door_room")
+    # the goal's bearing from the start crosses the dividing wall (x 3.5..3.75) in the upper door
+    s, g = world.start, world.goal
+    y_wall = s.y + (3.625 - s.x) * (g.y - s.y) / (g.x - s.x)
+    assert -0.5 < y_wall < 0.5
+    # the optimum goes through the lower door (y -2.25..-1.25) ...
+    (y,) = _crossings(shortest_path(world).points, 3.625)
+    assert -2.25 < y < -1.25
+    # ... the reflex alone through the upper door, into the west lane, where it stays
+    path = np.asarray(drive(map=world, noise=False)["path"])
+    assert all(-0.5 < y < 0.5 for y in _crossings(path, 3.625))
+    assert _crossings(path, 3.625)
+    assert 3.75 < path[-1, 0] < 4.6 and path[-1, 1] > -1.5
+    # the regions name the poses of both routes
+    names = {
+        (x, y): world.regions.region_of(x, y)
+        for x, y in [(1.0, 0.0), (3.6, 0.0), (3.6, -1.75), (4.2, 0.5), (5.1, -0.5), (4.2, -2.0)]
+    }
+    assert names == {
+        (1.0, 0.0): "room",
+        (3.6, 0.0): "upper_door",
+        (3.6, -1.75): "lower_door",
+        (4.2, 0.5): "corridor",
+        (5.1, -0.5): "corridor",
+        (4.2, -2.0): "corridor",
+    }
+
+
+def test_dead_end_the_reflex_enters_the_pocket_the_optimum_goes_round():
+    world = load_map("dead_end")
+    s, g = world.start, world.goal
+    assert s.y == g.y and 1.5 < s.y < 3.0  # the goal's bearing runs into the pocket's mouth
+    plan = shortest_path(world)
+    inside = (plan.points[:, 0] > 2.5) & (plan.points[:, 0] < 4.5)
+    ys = plan.points[inside, 1]
+    assert bool(((ys < 1.5) | (ys > 3.0)).all())  # round the pocket, never in it
+    path = np.asarray(drive(map=world, noise=False)["path"])
+    end = path[-1]
+    assert 2.5 < end[0] < 4.5 and 1.5 < end[1] < 3.0  # the reflex ends inside the pocket
+    assert world.regions.region_of(*end) == "pocket"
+    names = {
+        p: world.regions.region_of(*p)
+        for p in [(0.8, 2.25), (3.5, 2.25), (3.5, 3.7), (3.5, 0.7), (5.6, 2.25), (2.0, 4.0)]
+    }
+    assert names == {
+        (0.8, 2.25): "west",
+        (3.5, 2.25): "pocket",
+        (3.5, 3.7): "north",
+        (3.5, 0.7): "south",
+        (5.6, 2.25): "east",
+        (2.0, 4.0): "west",
+    }
