@@ -148,8 +148,12 @@ class ExpertBank(nn.Module):
         self, name: str, expert: torch.Tensor, weights: torch.Tensor, step: torch.Tensor
     ) -> None:
         """v_j += w_j * step of a per-neuron tensor ``name`` for every neuron of ``expert``."""
-        index = self._slots(expert, weights.shape[1])
-        getattr(self, name).view(-1).index_add_(0, index.flatten(), (weights * step[:, None]).flatten())
+        index = self._slots(expert, weights.shape[1]).flatten()
+        getattr(self, name).view(-1).index_add_(0, index, (weights * step[:, None]).flatten())
+
+    def counts(self, expert: torch.Tensor) -> torch.Tensor:
+        """Neurons in each controller's ``expert``, (B,)."""
+        return self.count.take(self._row_base + expert)
 
     # -- growth ---------------------------------------------------------------------------
     @torch.no_grad()

@@ -191,19 +191,17 @@ class TeseoLoss(LossModule):
 
         def estimates(e: torch.Tensor, at: torch.Tensor, empty_value: torch.Tensor):
             w = bank.weights(e, at, width)
-            empty = bank.count.take(bank.flat_index(e, torch.zeros_like(e)) // bank.capacity) == 0
-            u = torch.where(empty, empty_value, bank.read("utilities", e, w))
-            mu = bank.read("means", e, w)  # 0 for an empty expert
-            return w, u, mu, empty
+            u = torch.where(bank.counts(e) == 0, empty_value, bank.read("utilities", e, w))
+            return w, u, bank.read("means", e, w)  # mu = 0 for an empty expert
 
         novel = td[k.novel]
         if bool(novel.any()):
             new = novel.nonzero().flatten()
-            _, u0, mu0, _ = estimates(expert, x, state_reward)
+            _, u0, mu0 = estimates(expert, x, state_reward)
             winner = winner.clone()
             winner[new] = bank.add(new, expert[new], x[new], proto[new], u0[new], mu0[new])
             grown += novel.long()
-        w, u_prev, mu_prev, _ = estimates(expert, x, state_reward)
+        w, u_prev, mu_prev = estimates(expert, x, state_reward)
         index = bank.flat_index(expert, winner)
         bank.taken.view(-1).index_copy_(0, index, td[k.taken])
         bank.used.view(-1).index_fill_(0, index, True)
@@ -213,7 +211,7 @@ class TeseoLoss(LossModule):
         seen = policy.perceive(nxt[k.sonar], nxt[k.odometry], nxt[k.goal])
         # an empty expert ahead: its first neuron will get u = r; a truncated trial there
         # bootstraps from the present estimate
-        _, u_next, _, _ = estimates(seen.expert, seen.x, torch.where(truncated, u_prev, r))
+        _, u_next, _ = estimates(seen.expert, seen.x, torch.where(truncated, u_prev, r))
         u_next = u_next.masked_fill(terminated, 0.0)
 
         update = cfg.update
@@ -274,4 +272,3 @@ class TeseoLoss(LossModule):
             f"gamma={u.gamma}, eta={u.eta}, beta={u.beta}, kappa={u.kappa}, "
             f"theta={u.error_threshold}"
         )
-
