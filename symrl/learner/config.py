@@ -94,18 +94,14 @@ class ExpertsConfig(_Section):
     input: Literal["sensors", "pose"] = "sensors"
     """What a neuron's centre encodes. ``sensors``: the sonars and the goal-distance codes
     (paper 7.1). ``pose``: the odometry pose the region gate reads, (x, y, h cos theta,
-    h sin theta) in metres with h = ``heading_scale``; a robot that repeats its path meets the
-    same neurons again, so they are revisited and learn."""
-    heading_scale: float = Field(0.3, gt=0)
-    """Metres one radian of heading counts for in the ``pose`` input (near 0: position only)."""
-    activation: Literal["winner", "normalised"] = "winner"
-    """``winner``: the nearest neuron alone acts and learns (paper 8.1). ``normalised``: every
-    neuron of the expert, weighted by its normalised activation w_j = exp(-d_j^2 / width^2) /
-    sum_k exp(-d_k^2 / width^2); the utility, the action and the exploration mean are the
-    w-weighted sums, each update step is shared by w, and a new neuron starts from the
-    network's estimates at its centre (``symrl.learner.loss``)."""
+    h sin theta) in metres with h = ``heading_scale``. A robot that repeats its path meets the
+    same neurons again (with sensors, 46 % of steps grow a neuron: noise makes every sonar
+    vector new), so far fewer neurons are grown and each is revisited; ``novelty_radius`` is
+    then in metres."""
+    heading_scale: float = Field(1.0, gt=0)
+    """Metres one radian of heading counts for in the ``pose`` input."""
     width: float = Field(0.1, gt=0)
-    """RBF receptive width (varsigma, paper 7.1) of the ``normalised`` activations."""
+    """RBF receptive width (varsigma, paper 7.1); activations exp(-d^2 / width^2)."""
     novelty_radius: float = Field(0.1, gt=0)
     """Distance-driven growth: a new neuron when the winner is farther than this."""
     goal_codes: StrictInt = Field(8, ge=2, le=256)

@@ -117,44 +117,6 @@ class ExpertBank(nn.Module):
         best = d2.min(dim=-1)
         return best.indices.masked_fill_(counts == 0, -1), best.values.sqrt_()
 
-    def weights(self, expert: torch.Tensor, x: torch.Tensor, width: float) -> torch.Tensor:
-        """Normalised RBF activations of every neuron of each controller's ``expert`` for its
-        input ``x``: w_j = exp(-d_j^2 / width^2) / sum_k exp(-d_k^2 / width^2), (B, n) over the
-        first n neuron slots (n the largest count among the rows; 0 past a row's count, and
-        all 0 for an empty expert). Width -> 0 gives the winner's one-hot."""
-        row = self._row_base + expert
-        counts = self.count.take(row)
-        n = int(counts.max())
-        if n == 0:
-            return x.new_zeros((self.batch, 0), dtype=torch.float64)
-        batch, experts, capacity, dim = self.centres.shape
-        centres = self.centres.view(batch * experts, capacity, dim)[:, :n].index_select(0, row)
-        d2 = (centres - x[:, None, :].to(centres.dtype)).square_().sum(-1).to(torch.float64)
-        logits = (-d2 / width**2).masked_fill_(self._arange[:n] >= counts[:, None], -torch.inf)
-        w = torch.softmax(logits, dim=-1)
-        return w.masked_fill_((counts == 0)[:, None], 0.0)
-
-    def _slots(self, expert: torch.Tensor, n: int) -> torch.Tensor:
-        """Flat indices (B, n) of the first n neuron slots of each controller's ``expert``."""
-        return ((self._row_base + expert) * self.capacity)[:, None] + self._arange[:n]
-
-    def read(self, name: str, expert: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
-        """sum_j w_j v_j of a per-neuron tensor ``name`` (utilities, actions, means), (B,)."""
-        values = getattr(self, name).view(-1).take(self._slots(expert, weights.shape[1]))
-        return (weights * values).sum(-1)
-
-    @torch.no_grad()
-    def add_weighted(
-        self, name: str, expert: torch.Tensor, weights: torch.Tensor, step: torch.Tensor
-    ) -> None:
-        """v_j += w_j * step of a per-neuron tensor ``name`` for every neuron of ``expert``."""
-        index = self._slots(expert, weights.shape[1]).flatten()
-        getattr(self, name).view(-1).index_add_(0, index, (weights * step[:, None]).flatten())
-
-    def counts(self, expert: torch.Tensor) -> torch.Tensor:
-        """Neurons in each controller's ``expert``, (B,)."""
-        return self.count.take(self._row_base + expert)
-
     # -- growth ---------------------------------------------------------------------------
     @torch.no_grad()
     def add(
@@ -164,11 +126,9 @@ class ExpertBank(nn.Module):
         centre: torch.Tensor,
         action: torch.Tensor,
         utility: torch.Tensor,
-        mean: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """Append one neuron to ``expert[i]`` of controller ``rows[i]`` (rows distinct); returns
-        the new neurons' indices. Storage doubles when any expert is full. Its exploration mean
-        is ``mean`` (default 0)."""
+        the new neurons' indices. Storage doubles when any expert is full."""
         row = self._row_base.index_select(0, rows) + expert  # (controller, expert) rows
         index = self.count.take(row)
         if rows.numel() == 0:
@@ -186,11 +146,8 @@ class ExpertBank(nn.Module):
         self.centres.view(-1, self.dim).index_copy_(0, flat, centre.to(self.centres.dtype))
         self.actions.view(-1).index_copy_(0, flat, action.to(torch.float64))
         self.utilities.view(-1).index_copy_(0, flat, utility.to(torch.float64))
-        self.taken.view(-1).index_fill_(0, flat, 0.0)
-        if mean is None:
-            self.means.view(-1).index_fill_(0, flat, 0.0)
-        else:
-            self.means.view(-1).index_copy_(0, flat, mean.to(torch.float64))
+        for name in ("means", "taken"):
+            getattr(self, name).view(-1).index_fill_(0, flat, 0.0)
         self.used.view(-1).index_fill_(0, flat, False)
         self.count.view(-1).index_copy_(0, row, index + 1)
         return index

@@ -116,8 +116,6 @@ class TeseoLoss(LossModule):
             zero = torch.zeros(batch, dtype=torch.float64)
             return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
                               neurons=policy.neurons().sum(-1), batch_size=[batch])  # fmt: skip
-        if cfg.experts.activation == "normalised":
-            return self._normalised(td, r)
         bank = policy.experts
         expert, x, proto = td[k.expert], td[k.x], td[k.proto]
         winner = td[k.winner]
@@ -162,71 +160,6 @@ class TeseoLoss(LossModule):
         bank.utilities.view(-1).index_copy_(0, index, u_prev + update.eta * step)
         mu = bank.means.take(index)
         bank.means.view(-1).index_copy_(0, index, mu + update.beta * step * (td[k.xi] - mu))
-        shift = keep & (delta > 0)
-        if bool(shift.any()):
-            a = shift.nonzero().flatten()
-            rows = index.index_select(0, a)
-            flat = bank.centres.view(-1, bank.dim)
-            moved = flat.index_select(0, rows).lerp_(x.index_select(0, a), update.kappa)
-            flat.index_copy_(0, rows, moved)
-        return TensorDict(td_error=delta, grown=grown, neurons=bank.count.sum(-1),
-                          batch_size=[batch])  # fmt: skip
-
-    def _normalised(self, td: TensorDictBase, r: torch.Tensor) -> TensorDictBase:
-        """The same update with normalised activations (``experts.activation: normalised``):
-        V(x) = sum_j w_j(x) u_j, the mean m(x) = sum_j w_j(x) mu_j, and each step is the
-        gradient step of the literal rule through w: u_j += eta * w_j * delta and
-        mu_j += beta * w_j * delta * (xi - m(x)). A neuron grown at x starts from the
-        network's estimates there (u = V(x), p and mu the weighted sums), which leaves V and the
-        action at x unchanged; the nearest neuron keeps the centre shift and action replacement."""
-        k = self.tensor_keys
-        policy, cfg = self.policy, self.config
-        bank, width = policy.experts, cfg.experts.width
-        batch = policy.batch
-        nxt = td["next"]
-        expert, x, proto = td[k.expert], td[k.x], td[k.proto]
-        winner = td[k.winner]
-        grown = torch.zeros(batch, dtype=torch.long)
-        state_reward = td[k.state_reward].view(-1).to(torch.float64)
-
-        def estimates(e: torch.Tensor, at: torch.Tensor, empty_value: torch.Tensor):
-            w = bank.weights(e, at, width)
-            u = torch.where(bank.counts(e) == 0, empty_value, bank.read("utilities", e, w))
-            return w, u, bank.read("means", e, w)  # mu = 0 for an empty expert
-
-        novel = td[k.novel]
-        if bool(novel.any()):
-            new = novel.nonzero().flatten()
-            _, u0, mu0 = estimates(expert, x, state_reward)
-            winner = winner.clone()
-            winner[new] = bank.add(new, expert[new], x[new], proto[new], u0[new], mu0[new])
-            grown += novel.long()
-        w, u_prev, mu_prev = estimates(expert, x, state_reward)
-        index = bank.flat_index(expert, winner)
-        bank.taken.view(-1).index_copy_(0, index, td[k.taken])
-        bank.used.view(-1).index_fill_(0, index, True)
-
-        terminated = nxt[k.terminated].view(-1)
-        truncated = nxt[k.truncated].view(-1)
-        seen = policy.perceive(nxt[k.sonar], nxt[k.odometry], nxt[k.goal])
-        # an empty expert ahead: its first neuron will get u = r; a truncated trial there
-        # bootstraps from the present estimate
-        _, u_next, _ = estimates(seen.expert, seen.x, torch.where(truncated, u_prev, r))
-        u_next = u_next.masked_fill(terminated, 0.0)
-
-        update = cfg.update
-        delta = r + update.gamma * u_next - u_prev
-        split = delta.abs() > update.error_threshold
-        if bool(split.any()):
-            s = split.nonzero().flatten()
-            bank.add(s, expert[s], x[s], proto[s], (u_prev + delta)[s], mu_prev[s])
-            grown += split.long()
-            w = bank.weights(expert, x, width)
-            index = bank.flat_index(expert, winner)
-        keep = ~split
-        step = delta.masked_fill(split, 0.0)
-        bank.add_weighted("utilities", expert, w, update.eta * step)
-        bank.add_weighted("means", expert, w, update.beta * step * (td[k.xi] - mu_prev))
         shift = keep & (delta > 0)
         if bool(shift.any()):
             a = shift.nonzero().flatten()

@@ -234,26 +234,16 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             else:
                 base, proto = zero, uniform * (2 * _PI) - _PI
             bank = self.experts
-            # a novel state's neuron is born with u = r(state): the reward of arriving here
-            u_new = td.get("state_reward").view(-1).to(torch.float64)
-            if xc.activation == "normalised":
-                # the network's estimates; a neuron born here starts from them (p = 0 and
-                # u = r(state) only in an empty expert)
-                w = bank.weights(per.expert, per.x, xc.width)
-                empty = per.winner < 0
-                proto = torch.where(empty, proto, bank.read("actions", per.expert, w))
-                p = proto
-                mu = torch.where(empty, zero, bank.read("means", per.expert, w))
-                u = torch.where(empty, u_new, bank.read("utilities", per.expert, w))
-            else:
-                index = bank.flat_index(per.expert, per.winner.clamp(min=0))
-                known = ~per.novel
-                p = torch.where(known, bank.actions.take(index), proto)
-                mu = torch.where(known, bank.means.take(index), zero)
-                u = torch.where(known, bank.utilities.take(index), u_new)
+            index = bank.flat_index(per.expert, per.winner.clamp(min=0))
+            known = ~per.novel
+            p = torch.where(known, bank.actions.take(index), proto)
+            mu = torch.where(known, bank.means.take(index), zero)
             if greedy:
                 xi = mu
             else:
+                # a novel state's neuron is born with u = r(state): the reward of arriving here
+                u_new = td.get("state_reward").view(-1).to(torch.float64)
+                u = torch.where(known, bank.utilities.take(index), u_new)
                 sigma = self.temperature / (1.0 + u.clamp(max=60.0).exp())
                 xi = mu + sigma * z
             alpha = (base + p + xi).clamp_(-_PI, _PI)
