@@ -205,3 +205,4 @@ class TeseoLoss(LossModule):
             f"gamma={u.gamma}, eta={u.eta}, beta={u.beta}, kappa={u.kappa}, "
             f"theta={u.error_threshold}"
         )
+
