@@ -90,11 +90,13 @@ def test_two_door_room_the_reflex_takes_the_upper_door_the_optimum_the_lower():
     # the optimum goes through the lower door (y -2.25..-1.25) ...
     (y,) = _crossings(shortest_path(world).points, 3.625)
     assert -2.25 < y < -1.25
-    # ... the reflex alone through the upper door, into the west lane, where it stays
-    path = np.asarray(drive(map=world, noise=False)["path"])
+    # ... the reflex alone through the upper door, into the west lane, down it and stuck at
+    # the partition's end (the mirror-symmetric reflex gets 5 cm past it, at x 4.66, y -1.81)
+    trial = drive(map=world, noise=False)
+    path = np.asarray(trial["path"])
     assert all(-0.5 < y < 0.5 for y in _crossings(path, 3.625))
     assert _crossings(path, 3.625)
-    assert 3.75 < path[-1, 0] < 4.6 and path[-1, 1] > -1.5
+    assert 3.75 < path[-1, 0] < 4.75 and not trial["reached_goal"]
     # the regions name the poses of both routes
     names = {
         (x, y): world.regions.region_of(x, y)
