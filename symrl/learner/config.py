@@ -91,6 +91,15 @@ class ExpertsConfig(_Section):
     residual: StrictBool = False
     """Neurons learn a correction added to the reflex's current action (a new neuron's p = 0)
     instead of an absolute action copied from the reflex at its birth. Needs ``reflex``."""
+    input: Literal["sensors", "pose"] = "sensors"
+    """What a neuron's centre encodes. ``sensors``: the sonars and the goal-distance codes
+    (paper 7.1). ``pose``: the odometry pose the region gate reads, (x, y, h cos theta,
+    h sin theta) in metres with h = ``heading_scale``. A robot that repeats its path meets the
+    same neurons again (with sensors, 46 % of steps grow a neuron: noise makes every sonar
+    vector new), so far fewer neurons are grown and each is revisited; ``novelty_radius`` is
+    then in metres."""
+    heading_scale: float = Field(1.0, gt=0)
+    """Metres one radian of heading counts for in the ``pose`` input."""
     width: float = Field(0.1, gt=0)
     """RBF receptive width (varsigma, paper 7.1); activations exp(-d^2 / width^2)."""
     novelty_radius: float = Field(0.1, gt=0)

@@ -117,7 +117,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self.region_names: tuple[str, ...] = tuple(self.mapper.names)
         self.expert_names = self.region_names if config.gate.partition else ("all",)
         self.reflex = FuzzyReflex(config.reflex)
-        self.input_dim = robot.n_sensors + xc.goal_codes
+        self.input_dim = 4 if xc.input == "pose" else robot.n_sensors + xc.goal_codes
         self.experts = ExpertBank(
             batch, len(self.expert_names), self.input_dim, xc.capacity, xc.max_neurons,
             names=self.expert_names,
@@ -166,13 +166,23 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         codes = torch.exp(-(((self.code_centres - rho[:, None]) / width) ** 2))
         return torch.cat((sonar, codes), dim=-1)
 
+    def encode_pose(self, odometry: torch.Tensor) -> torch.Tensor:
+        """x = (x, y, h cos theta, h sin theta) of the odometry pose, h = ``heading_scale``."""
+        h = self.config.experts.heading_scale
+        pose = odometry.to(torch.float32)
+        theta = pose[:, 2]
+        return torch.stack((pose[:, 0], pose[:, 1], h * theta.cos(), h * theta.sin()), dim=-1)
+
     def perceive(
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
     ) -> Perception:
         """Gate and winner search for a batch of observations; changes nothing."""
         region = self.mapper.ids(odometry[:, :2].to(torch.float64))
         expert = region if self.config.gate.partition else torch.zeros_like(region)
-        x = self.encode(sonar, goal[:, 0])
+        if self.config.experts.input == "pose":
+            x = self.encode_pose(odometry)
+        else:
+            x = self.encode(sonar, goal[:, 0])
         if not self.config.experts.learning:
             none = torch.full_like(region, -1)
             return Perception(region, expert, x, none, torch.ones_like(region, dtype=torch.bool))

@@ -271,3 +271,23 @@ def test_a_robots_actions_do_not_depend_on_the_batch():
             one = p(obs[b].clone())
             for key in ("action", "xi", "option", "proto"):
                 assert torch.equal(td[key][b], one[key][0]), key
+
+
+def test_pose_input_is_the_odometry_pose_with_a_heading_scale():
+    p = policy("paper_literal", "experts.input=pose", "experts.heading_scale=0.5")
+    obs = observation(pose=(1.0, -2.0, math.pi / 2), sonar=0.3)
+    x = p.perceive(obs["sonar"], obs["odometry"], obs["goal"]).x[0]
+    assert p.input_dim == 4 and p.experts.dim == 4
+    assert torch.allclose(x, torch.tensor([1.0, -2.0, 0.0, 0.5]), atol=1e-6)
+    # the sonars do not enter: another reading at the same pose is the same input
+    other = observation(pose=(1.0, -2.0, math.pi / 2), sonar=0.9)
+    assert torch.equal(p.perceive(other["sonar"], other["odometry"], other["goal"]).x[0], x)
+
+
+def test_pose_input_revisits_a_neuron_within_the_radius_in_metres():
+    p = policy("paper_literal", "experts.input=pose", "experts.novelty_radius=0.5")
+    place(p, observation(pose=(0.0, 0.0, 0.0)))
+    near = observation(pose=(0.3, 0.2, 0.1), sonar=0.9)  # 0.37 m and 0.1 rad away
+    far = observation(pose=(0.6, 0.0, 0.0))
+    assert not bool(p.perceive(near["sonar"], near["odometry"], near["goal"]).novel[0])
+    assert bool(p.perceive(far["sonar"], far["odometry"], far["goal"]).novel[0])
