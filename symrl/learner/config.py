@@ -165,26 +165,6 @@ class OptionsConfig(_Section):
     subgoal_planner: StrictBool = False
     """Each region also gets the last turn of the planner's shortest path inside it (pushed out
     to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end."""
-    prior: Literal["none", "planner"] = "none"
-    """Order of the first tries: "none" the table's order; "planner" the goal first, then the
-    sub-goals by the length of the route through them (straight line from the robot to the
-    point plus the planner's shortest path from the point to the goal), shortest first."""
-    chooser: Literal["epsilon", "ucb"] = "epsilon"
-    """After the first tries: "epsilon" epsilon-greedy on the critic; "ucb" the highest
-    critic + ucb_c * sqrt(ln N / n) (N the region's trials, n the option's)."""
-    ucb_c: float = Field(2.0, ge=0)
-    """Exploration bonus scale of "ucb", in units of reinforcement."""
-    credit: Literal["all", "reached"] = "all"
-    """Which trials an option's critic averages: "all" every trial that chose it; "reached"
-    only those whose robot came within ``credit_radius`` of its sub-goal at any time of the
-    trial (the goal option
-    always), so a trial in which the reflex swerved through another passage does not count for
-    the one it was sent to. An option chosen but never reached has no critic value and is not
-    chosen again."""
-    credit_radius: float = Field(0.75, gt=0)
-    """How near (m, odometry) a robot must come to a sub-goal for "reached" credit: about a
-    door's half-width plus the sub-goal's 0.4 m past the line, less than the 1.75 m between the
-    two doors of ``two_door_room``."""
 
 
 class ShieldSection(_Section):

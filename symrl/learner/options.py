@@ -23,10 +23,9 @@ from torch import nn
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
 from symrl.world.worldmap import WorldMap
 
-__all__ = ["SubgoalOptions", "subgoal_config", "route_lengths", "with_planner_waypoints"]
+__all__ = ["SubgoalOptions", "subgoal_config", "with_planner_waypoints"]
 
 _GOAL_STAGE = 2  # the visit's sub-goal was reached: the reflex aims at the goal
-_FAR = 1e9  # metres: "not approached yet" (finite, as checkpoints hold finite values only)
 
 
 def subgoal_config(options: object) -> SubgoalConfig:
@@ -42,21 +41,15 @@ class SubgoalOptions(nn.Module):
     """The option learner of B controllers over one map's sub-goal table.
 
     Buffers: ``points`` (R, K, 2) and ``valid`` (R, K) (the table), ``q`` (B, R, K) mean (or best)
-    return-to-go, ``n`` (B, R, K) trials the critic counts per option, ``tries`` (B, R, K) trials
-    that chose it (= ``n`` unless ``credit`` is "reached"), ``epsilon`` (B,), ``trials`` (B,)
-    finished trials, and the per-trial ``choice`` (B, R) (-1: region not entered yet),
-    ``closest`` (B, R) (how near the robot came to the chosen sub-goal, m), ``stage`` (B,)
-    and ``visit`` (B,) (the region being visited). ``route_length`` (R, K) is the planner's
-    length from each point to the goal (``prior`` "planner"; 0 for the goal option).
+    return-to-go, ``n`` (B, R, K) trials per option, ``epsilon`` (B,), ``trials`` (B,) finished
+    trials, and the per-trial ``choice`` (B, R) (-1: region not entered yet), ``stage`` (B,) and
+    ``visit`` (B,) (the region being visited).
     """
 
     points: torch.Tensor
     valid: torch.Tensor
     q: torch.Tensor
     n: torch.Tensor
-    tries: torch.Tensor
-    closest: torch.Tensor
-    route_length: torch.Tensor
     epsilon: torch.Tensor
     trials: torch.Tensor
     choice: torch.Tensor
@@ -89,18 +82,6 @@ class SubgoalOptions(nn.Module):
         self.register_buffer("valid", self.table.valid.clone(), persistent=False)
         self.register_buffer("q", torch.zeros(batch, r, k, dtype=torch.float64))
         self.register_buffer("n", torch.zeros(batch, r, k, dtype=torch.long))
-        self.register_buffer("tries", torch.zeros(batch, r, k, dtype=torch.long))
-        self.register_buffer("closest", torch.full((batch, r), _FAR, dtype=torch.float64))
-        is_goal = [[label == "goal" for label in row] for row in self.labels]
-        self.is_goal = torch.tensor(
-            [row + [False] * (k - len(row)) for row in is_goal], dtype=torch.bool
-        ).view(r, k)
-        lengths = (
-            route_lengths(world, self.table)
-            if config.prior == "planner"  # type: ignore[attr-defined]
-            else torch.zeros(r, k, dtype=torch.float64)
-        )
-        self.register_buffer("route_length", lengths, persistent=False)
         eps = float(config.epsilon)  # type: ignore[attr-defined]
         self.register_buffer("epsilon", torch.full((batch,), eps, dtype=torch.float64))
         self.register_buffer("trials", torch.zeros(batch, dtype=torch.long))
@@ -122,9 +103,8 @@ class SubgoalOptions(nn.Module):
         chosen = self.choice.gather(1, column).squeeze(1)
         entered = chosen < 0
         if bool(entered.any()):
-            xy = odometry[:, :2].to(torch.float64)
             for b in entered.nonzero().flatten().tolist():
-                self.choice[b, region[b]] = self._choose(b, int(region[b]), greedy, xy[b])
+                self.choice[b, region[b]] = self._choose(b, int(region[b]), greedy)
             chosen = self.choice.gather(1, column).squeeze(1)
         # a new visit of a region aims at its sub-goal again
         self.stage.masked_fill_(region != self.visit, 0)
@@ -133,57 +113,36 @@ class SubgoalOptions(nn.Module):
         point = self.points.view(-1, 2).index_select(0, region * self.points.shape[1] + chosen)
         reached = torch.linalg.vector_norm(point - xy, dim=-1) < self.config.reach  # type: ignore[attr-defined]
         self.stage.masked_fill_(reached, _GOAL_STAGE)
-        if self.config.credit == "reached":  # type: ignore[attr-defined]
-            # how near the robot has come, so far in the trial, to every region's chosen point
-            regions = torch.arange(self.points.shape[0])
-            chosen_points = self.points[regions, self.choice.clamp_min(0)]  # (B, R, 2)
-            near = torch.linalg.vector_norm(chosen_points - xy[:, None], dim=-1)
-            torch.minimum(self.closest, near, out=self.closest)
         target = torch.where((self.stage == _GOAL_STAGE)[:, None], self._goal, point)
         d = target - xy
         bearing = torch.atan2(d[:, 1], d[:, 0]) - odometry[:, 2].to(torch.float64)
         angle = torch.remainder(bearing + math.pi, 2 * math.pi) - math.pi
         return angle, chosen, entered
 
-    def _choose(self, b: int, region: int, greedy: bool, xy: torch.Tensor) -> int:
-        """Controller ``b``'s option for ``region`` at its first entry in a trial, the robot
-        at odometry position ``xy`` (2,)."""
+    def _choose(self, b: int, region: int, greedy: bool) -> int:
+        """Controller ``b``'s option for ``region`` at its first entry in a trial."""
         cfg = self.config
         options = self.valid[region].nonzero().flatten()
         after = int(cfg.greedy_after)  # type: ignore[attr-defined]
         greedy_only = greedy or bool(after and int(self.trials[b]) >= after)
-        tries = self.tries[b, region]
-        untried = options[tries[options] == 0]
+        counts = self.n[b, region]
+        untried = options[counts[options] == 0]
         gen = self.generators[b]
         if cfg.try_untried and not greedy_only and untried.numel() > 0:  # type: ignore[attr-defined]
-            if cfg.prior == "planner":  # type: ignore[attr-defined]
-                return int(untried[self._route_order(region, untried, xy)[0]])
             return int(untried[0])
-        q = torch.where((self.n[b, region] > 0) & self.valid[region], self.q[b, region], -math.inf)
-        if not greedy_only and cfg.chooser == "ucb":  # type: ignore[attr-defined]
-            total = float(tries.sum())
-            bonus = cfg.ucb_c * torch.sqrt(math.log(max(total, 1.0)) / tries.clamp_min(1))  # type: ignore[attr-defined]
-            q = torch.where(tries > 0, q + bonus, math.inf if not cfg.try_untried else q)  # type: ignore[attr-defined]
-        elif not greedy_only and float(torch.rand((), generator=gen, dtype=torch.float64)) < float(
+        if not greedy_only and float(torch.rand((), generator=gen, dtype=torch.float64)) < float(
             self.epsilon[b]
         ):
             return int(options[int(torch.randint(options.numel(), (), generator=gen))])
-        if bool(torch.isinf(q).all() & (q < 0).all()):
+        q = torch.where((counts > 0) & self.valid[region], self.q[b, region], -math.inf)
+        if bool(torch.isinf(q).all()):
             return int(options[0])
         return int((q == q.max()).nonzero()[0, 0])
-
-    def _route_order(self, region: int, options: torch.Tensor, xy: torch.Tensor) -> list[int]:
-        """Indices into ``options`` by route length from ``xy`` (the goal option first)."""
-        points = self.points[region, options]
-        length = torch.linalg.vector_norm(points - xy, dim=-1) + self.route_length[region, options]
-        length = torch.where(self.is_goal[region, options], -math.inf, length)
-        return torch.argsort(length, stable=True).tolist()
 
     @torch.no_grad()
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the choices of controllers ``rows`` (their robots start a new trial)."""
         self.choice[rows] = -1
-        self.closest[rows] = _FAR
         self.stage[rows] = 0
         self.visit[rows] = -1
 
@@ -196,15 +155,7 @@ class SubgoalOptions(nn.Module):
         entered = choice >= 0
         regions = torch.arange(choice.shape[1]).expand_as(choice)
         b = rows[:, None].expand_as(choice)[entered]
-        r, k = regions[entered], choice[entered]
-        self.tries[b, r, k] += 1
-        if self.config.credit == "reached":  # type: ignore[attr-defined]
-            goal_option = self.is_goal[regions, choice.clamp_min(0)]  # (k, R)
-            passed = self.closest[rows] <= self.config.credit_radius  # type: ignore[attr-defined]
-            entered = entered & (passed | goal_option)
-            b = rows[:, None].expand_as(choice)[entered]
-            r, k = regions[entered], choice[entered]
-        ret = returns[entered]
+        r, k, ret = regions[entered], choice[entered], returns[entered]
         self.n[b, r, k] += 1
         if self.config.critic == "best":  # type: ignore[attr-defined]
             first = self.n[b, r, k] == 1
@@ -219,28 +170,6 @@ class SubgoalOptions(nn.Module):
         q = torch.where((self.n[row] > 0) & self.valid, self.q[row], -math.inf)
         best = q.argmax(dim=1)
         return [int(o) if math.isfinite(float(q[r, o])) else -1 for r, o in enumerate(best)]
-
-
-def route_lengths(world: WorldMap, table: SubgoalTable) -> torch.Tensor:
-    """(R, K) float64: the planner's shortest-path length (m) from each sub-goal to the goal; 0
-    for the goal option and invalid entries, inf where the planner finds no path."""
-    from symrl.studies.planner import shortest_path  # the planner is a study tool: import late
-
-    r, k = table.valid.shape
-    out = torch.zeros(r, k, dtype=torch.float64)
-    cache: dict[tuple[float, float], float] = {}
-    for region in range(r):
-        for option in range(k):
-            if not bool(table.valid[region, option]) or table.labels[region][option] == "goal":
-                continue
-            xy = table.point(region, option)
-            if xy not in cache:
-                try:
-                    cache[xy] = shortest_path(world, start=xy).length
-                except ValueError:  # too near a wall or cut off: never preferred
-                    cache[xy] = math.inf
-            out[region, option] = cache[xy]
-    return out
 
 
 def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: float) -> SubgoalTable:

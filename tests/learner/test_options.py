@@ -77,7 +77,7 @@ def test_mean_critic_is_robust_to_a_lucky_trial_best_critic_is_not(critic, winne
 
 def test_option_is_kept_for_the_trial_and_reaching_it_aims_at_the_goal():
     opt = _options(epsilon=0.0, reach=0.25)
-    opt.n[0, 0] = opt.tries[0, 0] = 1  # everything tried: s1 best
+    opt.n[0, 0] = 1  # everything tried: s1 best
     opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
 
     def aim(region: int, x: float, y: float) -> float:
@@ -176,109 +176,6 @@ def test_paper_table_shapes_follow_the_switches():
         "goal"
     ]
     assert paper[corridor][-1] == "path"  # the planner's last turn in the corridor
-
-
-# --- the route-choice rules: planner prior, UCB, credit for reaching ---------------------------
-
-
-def test_planner_prior_tries_the_shorter_door_first_on_the_two_door_room():
-    # two_door_room: from the start (1, 0) the goal's bearing points at the upper door, but the
-    # optimum (27 actions) goes through the lower door; the prior puts the lower door's points
-    # before the upper door's, the goal option first as always.
-    world = load_map("two_door_room")
-    config = load_config("paper", ["options.prior=planner"]).options
-    opt = SubgoalOptions(world, 1, config, [0])
-    room = opt.region_names.index("room")
-    labels = opt.labels[room]
-    upper = labels.index("wall_w#2@+0.0/0.4")  # (3.9, 0.0)
-    lower = labels.index("wall_w#1@+0.0/0.4")  # (3.9, -1.75)
-    length = opt.route_length[room]
-    assert float(length[labels.index("goal")]) == 0.0
-    assert float(length[upper]) > float(length[lower]) + 1.0  # 3.16 m against 1.82 m
-    options = opt.valid[room].nonzero().flatten()
-    order = [labels[int(options[i])] for i in opt._route_order(room, options, torch.tensor(
-        [1.0, 0.0], dtype=torch.float64))]  # fmt: skip
-    assert order[0] == "goal" and order.index(labels[lower]) < order.index(labels[upper])
-    chosen = []
-    for _ in range(len(options)):
-        opt.begin_trial(torch.tensor([0]))
-        _, option, _ = opt.steer(torch.tensor([room]), _odometry((1.0, 0.0, 0.0)), False)
-        chosen.append(labels[int(option[0])])
-        opt.learn(torch.tensor([0]), torch.zeros(1, len(opt.region_names), dtype=torch.float64))
-    assert chosen == order  # the first tries follow the prior
-
-
-def test_ucb_picks_the_highest_mean_plus_bonus():
-    opt = _options(chooser="ucb", ucb_c=2.0, greedy_after=0)
-    # region 0: 10 trials; option 1 mean -5 over 8 trials, option 2 mean -6 over 1 trial
-    opt.tries[0, 0] = opt.n[0, 0] = torch.tensor([1, 8, 1])
-    opt.q[0, 0] = torch.tensor([-20.0, -5.0, -6.0], dtype=torch.float64)
-    # scores: -5 + 2 sqrt(ln 10 / 8) = -3.93; -6 + 2 sqrt(ln 10) = -2.97; -20 + 3.03
-    _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
-    assert int(option[0]) == 2
-    opt.begin_trial(torch.tensor([0]))
-    opt.tries[0, 0] = opt.n[0, 0] = torch.tensor([1, 8, 8])  # equal evidence: the mean wins
-    _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
-    assert int(option[0]) == 1
-    opt.begin_trial(torch.tensor([0]))
-    opt.tries[0, 0] = opt.n[0, 0] = torch.tensor([1, 8, 1])
-    _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
-    assert int(option[0]) == 1  # greedy (evaluation): no bonus
-
-
-def test_reached_credit_ignores_trials_that_never_got_to_the_sub_goal():
-    opt = _options(epsilon=0.0, credit="reached", reach=0.25, credit_radius=0.5)
-    rows = torch.tensor([0])
-    # trial 1: option 0 (the goal) counts without being reached
-    opt.begin_trial(rows)
-    opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
-    opt.learn(rows, torch.tensor([[-10.0, -1.0]], dtype=torch.float64))
-    assert opt.n[0, 0].tolist() == [1, 0, 0] and opt.tries[0, 0].tolist() == [1, 0, 0]
-    # trial 2: option 1, s1 (3.5, -0.5), never within 0.5 m (closest 0.6 m): tried, no credit
-    # (the approach is measured at every step of the trial, in any region)
-    opt.begin_trial(rows)
-    _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
-    assert int(option[0]) == 1
-    opt.steer(torch.tensor([0]), _odometry((3.5, 0.1, 0.0)), False)
-    assert float(opt.closest[0, 0]) == pytest.approx(0.6)
-    opt.steer(torch.tensor([1]), _odometry((3.8, 0.5, 0.0)), False)
-    opt.learn(rows, torch.tensor([[-30.0, -1.0]], dtype=torch.float64))
-    assert opt.tries[0, 0].tolist() == [1, 1, 0] and opt.n[0, 0].tolist() == [1, 0, 0]
-    assert float(opt.q[0, 0, 1]) == 0.0
-    # trial 3: option 2, s2 (3.9, -0.5), passed 0.4 m from it: credited
-    opt.begin_trial(rows)
-    _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
-    assert int(option[0]) == 2
-    opt.steer(torch.tensor([0]), _odometry((3.5, -0.5, 0.0)), False)
-    opt.learn(rows, torch.tensor([[-4.0, -1.0]], dtype=torch.float64))
-    assert opt.n[0, 0].tolist() == [1, 0, 1] and float(opt.q[0, 0, 2]) == -4.0
-    # with credit "all" the unreached trial would have counted -30 for option 1
-    every = _options(epsilon=0.0, reach=0.25)
-    for _ in range(2):
-        every.begin_trial(rows)
-        every.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
-        every.learn(rows, torch.tensor([[-30.0, -1.0]], dtype=torch.float64))
-    assert float(every.q[0, 0, 1]) == -30.0
-
-
-def test_reached_credit_in_a_batch_counts_each_robots_own_approach():
-    # 3 robots on the 2-region table (batch != regions): robot 0 takes the goal option, robot 1
-    # s1 and passes it, robot 2 s2 and never comes near it
-    opt = _options(batch=3, epsilon=0.0, credit="reached", credit_radius=0.5)
-    opt.tries[:, 0, 0] = opt.n[:, 0, 0] = 1
-    opt.tries[0, 0, 1:] = 1  # robot 0 has tried everything but only the goal counts: greedy goal
-    opt.tries[1, 0, 2] = 1  # robot 1's untried s1 first; robot 2's untried s2 (after s1) ...
-    opt.tries[2, 0, 1] = 1
-    rows = torch.arange(3)
-    _, option, _ = opt.steer(
-        torch.zeros(3, dtype=torch.long), _odometry(*[(0.0, 0.0, 0.0)] * 3), False
-    )
-    assert option.tolist() == [0, 1, 2]
-    opt.steer(torch.zeros(3, dtype=torch.long), _odometry((1.0, 0.0, 0.0), (3.4, -0.4, 0.0),
-                                                          (1.0, 1.0, 0.0)), False)  # fmt: skip
-    opt.learn(rows, torch.full((3, 2), -3.0, dtype=torch.float64))
-    assert opt.n[:, 0].tolist() == [[2, 0, 0], [1, 1, 0], [1, 0, 0]]
-    assert opt.tries[:, 0].tolist() == [[2, 1, 1], [1, 1, 1], [1, 1, 1]]
 
 
 def test_planner_waypoint_rounds_the_partition_that_no_region_line_marks():
