@@ -71,35 +71,6 @@ class CheckpointError(ValueError):
     """A checkpoint file cannot be used; the message names the file and the fault."""
 
 
-_REMOVED_OPTIONS = {"prior": "none", "chooser": "epsilon", "ucb_c": None, "credit": "all",
-                    "credit_radius": None}  # fmt: skip
-"""Option-learner switches that measured no gain and were removed (docs/LEARNING.md, "Removed
-switches"), with the value that meant today's behaviour (None: any; it only tuned a removed
-rule). Checkpoints written while they existed still load when they held those values."""
-_REMOVED_STATE = ("options.tries", "options.closest")
-"""Per-robot buffers those switches kept (``tries`` equalled ``n`` with them off)."""
-
-
-def _upgrade(data: dict[str, Any], path: Path) -> None:
-    """Drop from a loaded checkpoint (in place) the removed switches and their buffers; a run
-    that had one of them on cannot be run by this symrl (one-line :class:`CheckpointError`)."""
-    config = data.get("config")
-    options = config.get("options") if isinstance(config, dict) else None
-    if isinstance(options, dict):
-        for key, today in _REMOVED_OPTIONS.items():
-            if key in options and today is not None and options[key] != today:
-                raise CheckpointError(
-                    f"checkpoint {str(path)!r}: options.{key}={options[key]!r} was removed "
-                    "(it measured no gain, docs/LEARNING.md); this symrl cannot run it"
-                )
-            options.pop(key, None)
-    resume = data.get("resume")
-    for state in (data.get("policy"), resume.get("policy") if isinstance(resume, dict) else None):
-        if isinstance(state, dict):
-            for key in _REMOVED_STATE:
-                state.pop(key, None)
-
-
 def expert_names(config: RunConfig, world: Any) -> tuple[str, ...]:
     """The experts of a controller: one per map region, or one for all without partition."""
     return tuple(world.regions.names) if config.gate.partition else ("all",)
@@ -224,7 +195,6 @@ def load_resume(run_dir: str | Path) -> tuple[RunConfig, int, dict[str, Any]]:
         raise CheckpointError(f"--resume {str(folder)!r}: no checkpoint.pt in it")
     _, config = load_checkpoint(path)  # checks format, config, map and weights
     data = torch.load(path, map_location="cpu", weights_only=True)
-    _upgrade(data, path)
     state = data.get("resume")
     if not isinstance(state, dict):
         raise CheckpointError(
@@ -262,7 +232,6 @@ def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
             f"checkpoint {str(path)!r}: format {data.get('format')!r}, this symrl reads "
             f"format {CHECKPOINT_FORMAT}"
         )
-    _upgrade(data, path)
     kinds = (("config", dict), ("policy", dict), ("seed", int))
     for key, kind in kinds:
         value = data.get(key, 0 if key == "seed" else None)

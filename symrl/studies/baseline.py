@@ -246,7 +246,7 @@ def load_baseline(path: str | Path) -> BaselineController | None:
     """The controller in a baseline checkpoint; None if the file is another kind (the paper
     learner's, read by :func:`symrl.runs.load_checkpoint`). Faults: one-line CheckpointError."""
     from symrl.learner.config import ConfigError, config_from_dict
-    from symrl.runs import CheckpointError, _upgrade
+    from symrl.runs import CheckpointError
     from symrl.world.worldmap import MapError, load_map
 
     try:
@@ -255,7 +255,6 @@ def load_baseline(path: str | Path) -> BaselineController | None:
         return None
     if not isinstance(data, dict) or data.get("kind") != CHECKPOINT_KIND:
         return None
-    _upgrade(data, Path(path))
     try:
         config = config_from_dict(dict(data["config"]), recipe="paper")
         world = load_map(data["map"]) if data.get("map") else load_map(config.env.map)

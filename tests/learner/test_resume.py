@@ -116,37 +116,3 @@ def test_bad_resume_inputs_are_one_line_errors(runs, tmp_path, capsys):
         assert _train("--resume", *argv) == 2, argv
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and message in err, (argv, err)
-
-
-# the option-learner switches removed for no measured gain, as a run written while they existed
-# holds them: their config values (all off) and two per-robot buffers of the option learner
-_REMOVED = {"prior": "none", "chooser": "epsilon", "ucb_c": 2.0, "credit": "all",
-            "credit_radius": 0.75}  # fmt: skip
-
-
-def _with_removed_switches(data: dict) -> None:
-    data["config"]["options"].update(_REMOVED)
-    for state in (data["policy"], data["resume"]["policy"]):
-        state["options.tries"] = state["options.n"].clone()
-        state["options.closest"] = torch.full(state["options.choice"].shape, 1e9,
-                                              dtype=torch.float64)  # fmt: skip
-
-
-def test_a_run_written_with_the_removed_switches_still_resumes(runs, tmp_path, capsys):
-    whole, _ = runs
-    run = tmp_path / "older"
-    assert _train("paper", "--trials", "2", "--seed", str(SEED), "--logdir", str(run)) == 0
-    data = torch.load(run / "checkpoint.pt", weights_only=True)
-    _with_removed_switches(data)
-    torch.save(data, run / "checkpoint.pt")
-    policy, config = load_checkpoint(run / "checkpoint.pt")
-    assert "options.tries" not in policy.state_dict() and not hasattr(config.options, "credit")
-    assert _train("--resume", str(run), "--trials", "4") == 0
-    assert read_trials_csv(run / "trials.csv") == read_trials_csv(whole / "trials.csv")
-    # a run that had one of them on cannot be continued: one line naming it
-    data["config"]["options"]["prior"] = "planner"
-    torch.save(data, run / "checkpoint.pt")
-    capsys.readouterr()
-    assert _train("--resume", str(run), "--trials", "4") == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "options.prior='planner' was removed" in err, err
