@@ -104,40 +104,40 @@ class TeseoLoss(LossModule):
         k = self.tensor_keys
         policy, cfg = self.policy, self.config
         batch = policy.batch
-        nxt = td.get("next")
-        r = nxt.get(k.reward).reshape(batch).to(torch.float64)
+        nxt = td["next"]
+        r = nxt[k.reward].reshape(batch).to(torch.float64)
         if policy.options is not None:
-            entered = td.get(k.option_entry)
+            entered = td[k.option_entry]
             if bool(entered.any()):
                 rows = entered.nonzero().flatten()
-                self.entry_return[rows, td.get(k.region)[rows]] = self.trial_return[rows]
+                self.entry_return[rows, td[k.region][rows]] = self.trial_return[rows]
             self.trial_return += r
         if not cfg.experts.learning:
             zero = torch.zeros(batch, dtype=torch.float64)
             return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
                               neurons=policy.neurons().sum(-1), batch_size=[batch])  # fmt: skip
         bank = policy.experts
-        expert, x, proto = td.get(k.expert), td.get(k.x), td.get(k.proto)
-        winner = td.get(k.winner)
+        expert, x, proto = td[k.expert], td[k.x], td[k.proto]
+        winner = td[k.winner]
         grown = torch.zeros(batch, dtype=torch.long)
 
         # 1. the neuron the policy acted as at a novel state is born now
-        novel = td.get(k.novel)
+        novel = td[k.novel]
         if bool(novel.any()):
             new = novel.nonzero().flatten()
-            u0 = td.get(k.state_reward).view(-1)[new]
+            u0 = td[k.state_reward].view(-1)[new]
             winner = winner.clone()
             winner[new] = bank.add(new, expert[new], x[new], proto[new], u0)
             grown += novel.long()
         index = bank.flat_index(expert, winner)  # after any growth: the capacity may change
-        bank.taken.view(-1).index_copy_(0, index, td.get(k.taken))
+        bank.taken.view(-1).index_copy_(0, index, td[k.taken])
         bank.used.view(-1).index_fill_(0, index, True)
 
         # 2. the utility of the state reached
-        terminated = nxt.get(k.terminated).view(-1)
-        truncated = nxt.get(k.truncated).view(-1)
+        terminated = nxt[k.terminated].view(-1)
+        truncated = nxt[k.truncated].view(-1)
         u_prev = bank.utilities.take(index)
-        seen = policy.perceive(nxt.get(k.sonar), nxt.get(k.odometry), nxt.get(k.goal))
+        seen = policy.perceive(nxt[k.sonar], nxt[k.odometry], nxt[k.goal])
         u_seen = bank.utilities.take(bank.flat_index(seen.expert, seen.winner.clamp(min=0)))
         # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
         u_trunc = torch.where(seen.winner >= 0, u_seen, u_prev)
@@ -159,7 +159,7 @@ class TeseoLoss(LossModule):
         step = delta.masked_fill(split, 0.0)
         bank.utilities.view(-1).index_copy_(0, index, u_prev + update.eta * step)
         mu = bank.means.take(index)
-        bank.means.view(-1).index_copy_(0, index, mu + update.beta * step * (td.get(k.xi) - mu))
+        bank.means.view(-1).index_copy_(0, index, mu + update.beta * step * (td[k.xi] - mu))
         shift = keep & (delta > 0)
         if bool(shift.any()):
             a = shift.nonzero().flatten()
