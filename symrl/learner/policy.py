@@ -56,6 +56,9 @@ _PER_ROBOT = {
 _BLOCK = 1024  # random draws per robot per refill: one call per robot instead of one per step
 
 
+_GateAndInputs = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
+
+
 def _bits(t: torch.Tensor) -> torch.Tensor:
     """The tensor's bits as integers (so equality is bitwise: -0.0 is not 0.0, NaN is NaN)."""
     if t.is_floating_point():
@@ -155,7 +158,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self._no_option = torch.full((batch,), -1, dtype=torch.long)
         self._no_entry = torch.zeros(batch, dtype=torch.bool)
         # the observation of the last perception and its (region, expert, x)
-        self._last_seen: tuple[tuple[torch.Tensor, ...], tuple[torch.Tensor, ...]] | None = None
+        self._last_seen: tuple[tuple[torch.Tensor, ...], _GateAndInputs] | None = None
 
     @property
     def subgoals(self) -> SubgoalTable | None:
@@ -196,7 +199,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
 
     def _gate_and_inputs(
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    ) -> _GateAndInputs:
         """Region, expert and input x of a batch of observations. They depend on the
         observation alone, and the loop asks twice for most observations (the update perceives
         the state reached, then the policy acts on it), so the last result is kept with a copy

@@ -183,7 +183,7 @@ class BatchedWorldEnv(EnvBase):
         reset = self._reset(TensorDict({"_reset": done}, batch_size=self.batch_size))
         restarted = done.reshape(self.size)
         for key in list(tensordict.keys()):
-            if key not in reset.keys():
+            if key not in reset:
                 value = tensordict.get(key)
                 rows = restarted.view(-1, *([1] * (value.dim() - 1)))
                 tensordict.set(key, value.masked_fill(rows, 0))

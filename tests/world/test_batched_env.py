@@ -106,7 +106,7 @@ def test_maybe_reset_equals_torchrl_generic_version():
         na = ours.maybe_reset(ours._step_mdp(a))
         nb = EnvBase.maybe_reset(generic, generic._step_mdp(b))
         assert set(na.keys()) == set(nb.keys())
-        for key in na.keys():
+        for key in sorted(na.keys()):
             assert na[key].dtype == nb[key].dtype and torch.equal(na[key], nb[key]), key
         for key in a.keys(True, True):  # the transition itself is left as it was
             assert torch.equal(a[key], b[key]), key
