@@ -6,7 +6,8 @@ Rows, all in robot-steps (set-steps) per CPU second of this process:
 - raw env: the Gymnasium env (``Hailu2001Env``) stepped with fixed random actions, no learner;
 - training loop at B = 1 (``symrl train``) and at B = 10, 100 (``symrl study``: one robot per
   set): ``symrl.train.train_batch`` itself, with the per-step breakdown (policy, update, the
-  env's ``step``, the rest: Collector, trial bookkeeping) measured inside that loop.
+  env's ``_step``, the rest: TorchRL's step, step_mdp and resets around it, trial bookkeeping)
+  measured inside that loop.
 The ratio column divides by the raw env. Rounds are interleaved (raw, B=1, B=10, ... again) so
 that a change in machine load hits every row alike; the best of ``--rounds`` is reported.
 
