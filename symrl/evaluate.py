@@ -18,9 +18,10 @@ from symrl.learner.config import RunConfig
 __all__ = ["rollout", "evaluate"]
 
 
-@torch.no_grad()
+@torch.inference_mode()
 def rollout(policy: Any, env: Any) -> list[dict[str, Any]]:
-    """One greedy trial per robot of ``env`` (batch size = ``policy.batch``); their records."""
+    """One greedy trial per robot of ``env`` (batch size = ``policy.batch``); their records
+    (inference mode: no op needs autograd, as in the training loop)."""
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
     from symrl.train import TrialRecorder

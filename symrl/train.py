@@ -100,18 +100,19 @@ class TrialRecorder:
         if fresh.any():
             self._first[fresh] = td.get("true_pose")[:, :2].numpy()[fresh]
         self.steps += 1
-        self.total += nxt.get("reward").reshape(-1).double().numpy()
-        self.collisions += nxt.get("collision").reshape(-1).numpy()
+        # numpy on the tensors' memory: a numpy call costs a fraction of a torch op's dispatch
+        self.total += nxt.get("reward").numpy().reshape(-1)  # float32 widened exactly
+        self.collisions += nxt.get("collision").numpy().reshape(-1)
         self.shielded += td.get("shielded").numpy()
-        self.td_error += td_error.abs().numpy()
+        self.td_error += np.abs(td_error.numpy())
         self.reached = nxt.get("reached_goal").reshape(-1)
-        self._poses.append(nxt.get("true_pose")[:, :2].numpy().copy())
+        self._poses.append(nxt.get("true_pose").numpy()[:, :2].copy())
         expert, winner = td.get("expert", None), td.get("winner", None)
         if expert is None:  # a controller without neurons (the baselines): no ghosts
             self._winners.append(np.zeros(self.batch, dtype=np.int64))
         else:
             self._winners.append(expert.numpy() * 1_000_003 + winner.numpy())
-        return nxt.get("done").reshape(-1).numpy().copy()
+        return nxt.get("done").numpy().reshape(-1).copy()
 
     def finish(self, b: int) -> dict[str, Any]:
         """Robot ``b``'s trial record (its path and ghosts included); resets its accumulators."""
@@ -255,6 +256,12 @@ def train_batch(
     frames, stopped = 0, False
     exploring = set_exploration_type(ExplorationType.RANDOM)  # the policy draws its noise
     exploring.__enter__()
+    # nothing in the loop needs autograd: inference mode skips the version counters and the
+    # autograd dispatch of every op (about a sixth of the learner's per-op cost, measured
+    # with benchmarks/bench_train.py); tensors created here are inference tensors, which
+    # later code only reads or clones
+    no_autograd = torch.inference_mode()
+    no_autograd.__enter__()
     try:
         if resume is None:
             td = env.reset()
@@ -301,6 +308,7 @@ def train_batch(
                 stopped = True
                 break
     finally:
+        no_autograd.__exit__(None, None, None)
         exploring.__exit__(None, None, None)
         bar.close()
         env.close()

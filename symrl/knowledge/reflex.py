@@ -359,14 +359,14 @@ class FuzzyReflex(nn.Module):
     def _side(self, mu: torch.Tensor, wrapped: torch.Tensor, c: _Compiled) -> torch.Tensor:
         # key = NEAR(right) - NEAR(left) per pair (> 0: the left is freer; within the margin a
         # tie, 0), then the goal angle; signs weighted 2^(n-1) .. 1 sum to a number whose sign
-        # is the first non-zero key's.
-        pairs = mu.index_select(-1, c.side_index).unflatten(-1, (2, -1))
-        diff = pairs[..., 0, :] - pairs[..., 1, :]
+        # is the first non-zero key's. The differences are one product with a +1 / -1 matrix
+        # (exact: two non-zero terms each), the weighted signs small integers (exact in any
+        # order); SIDE_L, SIDE_R = 0.5 + s * (0.5, -0.5), i.e. (1, 0), (0, 1) or (0.5, 0.5).
+        diff = mu @ c.side_diff
         decisive = diff.abs() > self.config.side_margin
-        diff = diff.sign_().mul_(decisive)
-        keys = torch.cat((diff, wrapped.sign().unsqueeze(-1)), dim=-1)
-        s = (keys * c.side_weights).sum(dim=-1).sign_()
-        return torch.stack((s + 1.0, torch.rsub(s, 1.0)), dim=-1).mul_(0.5)
+        keys = diff.sign_().mul_(decisive)
+        s = (keys @ c.pair_weights).add_(wrapped.sign().mul_(c.goal_weight)).sign_()
+        return torch.addcmul(c.side_half, s.unsqueeze(-1), c.side_step)
 
     def _avoid(self, sonar: torch.Tensor, wrapped: torch.Tensor, c: _Compiled) -> torch.Tensor:
         mu = self._near(sonar, c)
@@ -545,11 +545,18 @@ class _Compiled(NamedTuple):
     """Some rule has no literal (the last index, a constant 1)."""
     uses_side: bool
     """Some rule reads SIDE_L or SIDE_R (only then is the turning side computed)."""
-    side_index: torch.Tensor
-    """(2P,) long into mu: the right sectors of the P side pairs, then their left sectors."""
-    side_weights: torch.Tensor
-    """(P + 1,) weight of each key's sign (pairs, then the goal): 2^(n-1) for the first key of
-    ``ReflexConfig.side`` down to 1 for the last, 0 for the goal if it is not a key."""
+    side_diff: torch.Tensor
+    """(S, P): +1 at the right sector and -1 at the left one of each of the P side pairs
+    (``mu @ side_diff`` = NEAR(right) - NEAR(left))."""
+    pair_weights: torch.Tensor
+    """(P,) weight of each pair key's sign: 2^(n-1) for the first key of ``ReflexConfig.side``
+    down to 1 for the last."""
+    goal_weight: float
+    """The goal key's weight (0 if the goal is not a key)."""
+    side_half: torch.Tensor
+    """(2,) 0.5, 0.5."""
+    side_step: torch.Tensor
+    """(2,) 0.5, -0.5."""
     rule_out: torch.Tensor
     """(K, 3) the rule weight on its output set."""
     peaks: torch.Tensor
@@ -581,6 +588,10 @@ class _Compiled(NamedTuple):
         weights = [0.0] * (len(pairs) + 1)
         for rank, i in enumerate(order):
             weights[i] = float(2 ** (len(order) - 1 - rank))
+        side_diff = torch.zeros(n_s, len(pairs), dtype=dtype, device=device)
+        for j, (left, right) in enumerate(pairs):
+            side_diff[right, j] += 1.0
+            side_diff[left, j] -= 1.0
         return cls(
             rays=torch.tensor(rays, dtype=torch.long, device=device).flatten(),
             rays_shape=(n_s, width),
@@ -590,10 +601,11 @@ class _Compiled(NamedTuple):
             literals_shape=(len(rules), length),
             always_true=always_true,
             uses_side=uses_side,
-            side_index=torch.tensor(
-                [r for _, r in pairs] + [left for left, _ in pairs], dtype=torch.long, device=device
-            ),
-            side_weights=torch.tensor(weights, dtype=dtype, device=device),
+            side_diff=side_diff,
+            pair_weights=torch.tensor(weights[:-1], dtype=dtype, device=device),
+            goal_weight=weights[-1],
+            side_half=torch.tensor([0.5, 0.5], dtype=dtype, device=device),
+            side_step=torch.tensor([0.5, -0.5], dtype=dtype, device=device),
             rule_out=reflex.rule_out.to(dtype=dtype, device=device),
             peaks=reflex.peaks.to(dtype=dtype, device=device),
         )

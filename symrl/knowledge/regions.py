@@ -37,8 +37,8 @@ class RegionMapper(nn.Module):
     threshold: torch.Tensor
     used: torch.Tensor
     rule_region: torch.Tensor
-    sign: torch.Tensor
-    padding: torch.Tensor
+    select: torch.Tensor
+    bound: torch.Tensor
 
     def __init__(self, spec: RegionSpec) -> None:
         super().__init__()
@@ -69,9 +69,27 @@ class RegionMapper(nn.Module):
         self.register_buffer("threshold", threshold)
         self.register_buffer("used", used)
         self.register_buffer("rule_region", rule_region)
-        # derived from the above (not saved): the comparison as one sign, the padding mask
-        self.register_buffer("sign", greater.to(torch.float64) * 2 - 1, persistent=False)
-        self.register_buffer("padding", ~used, persistent=False)
+        self.register_buffer("select", torch.empty(0), persistent=False)
+        self.register_buffer("bound", torch.empty(0), persistent=False)
+        self._derive()
+
+    def _derive(self) -> None:
+        """The buffers ``ids`` runs on, derived from the saved ones (not saved): a condition
+        holds where sign * value > sign * threshold (sign +1 for ">", -1 for "<": the same test
+        as value > / < threshold, since negation is exact). ``select`` (2, R*C) picks sign *
+        the coordinate of every condition in one product (x * (+-1) + y * 0 is exact);
+        ``bound`` (R*C,) is sign * threshold, -inf for padding (always true)."""
+        sign = self.greater.to(torch.float64) * 2 - 1
+        used = self.used.reshape(-1)
+        select = torch.zeros(2, used.numel(), dtype=torch.float64, device=self.axis.device)
+        flat = used.nonzero().flatten()
+        select[self.axis.reshape(-1)[flat], flat] = sign.reshape(-1)[flat]
+        self.select = select
+        self.bound = (self.threshold * sign).masked_fill(~self.used, -torch.inf).reshape(-1)
+
+    def _load_from_state_dict(self, *args, **kwargs):  # type: ignore[override]
+        super()._load_from_state_dict(*args, **kwargs)
+        self._derive()
 
     @classmethod
     def from_map(cls, world: WorldMap | str | dict[str, Any] = "hailu2001") -> RegionMapper:
@@ -100,10 +118,8 @@ class RegionMapper(nn.Module):
     def ids(self, xy: torch.Tensor) -> torch.Tensor:
         """:meth:`forward` without the input checks, for finite float64 ``xy`` (..., 2): the
         control loop's call (its poses come from the env, finite by construction)."""
-        # (..., R, C): the coordinate each condition looks at; a condition holds where
-        # sign * (value - threshold) > 0 (sign +1 for ">", -1 for "<"), padding always holds
-        values = xy.index_select(-1, self.axis.view(-1)).unflatten(-1, self.axis.shape)
-        holds = ((values - self.threshold) * self.sign > 0) | self.padding
+        # (..., R, C): whether each condition holds (padding always does)
+        holds = (torch.matmul(xy, self.select) > self.bound).unflatten(-1, self.axis.shape)
         # First matching rule: argmax over a 0/1 integer tensor returns the first maximum.
         first = holds.all(dim=-1).to(torch.uint8).argmax(dim=-1)
         return self.rule_region[first]

@@ -103,8 +103,9 @@ class SubgoalOptions(nn.Module):
         chosen = self.choice.gather(1, column).squeeze(1)
         entered = chosen < 0
         if bool(entered.any()):
+            regions = region.tolist()
             for b in entered.nonzero().flatten().tolist():
-                self.choice[b, region[b]] = self._choose(b, int(region[b]), greedy)
+                self.choice[b, regions[b]] = self._choose(b, regions[b], greedy)
             chosen = self.choice.gather(1, column).squeeze(1)
         # a new visit of a region aims at its sub-goal again
         self.stage.masked_fill_(region != self.visit, 0)
@@ -120,24 +121,27 @@ class SubgoalOptions(nn.Module):
         return angle, chosen, entered
 
     def _choose(self, b: int, region: int, greedy: bool) -> int:
-        """Controller ``b``'s option for ``region`` at its first entry in a trial."""
+        """Controller ``b``'s option for ``region`` at its first entry in a trial (on Python
+        numbers: a handful of values, read once; the draws are those of the tensor version)."""
         cfg = self.config
-        options = self.valid[region].nonzero().flatten()
+        valid = self.valid[region].tolist()
+        options = [o for o, ok in enumerate(valid) if ok]
         after = int(cfg.greedy_after)  # type: ignore[attr-defined]
         greedy_only = greedy or bool(after and int(self.trials[b]) >= after)
-        counts = self.n[b, region]
-        untried = options[counts[options] == 0]
+        counts = self.n[b, region].tolist()
         gen = self.generators[b]
-        if cfg.try_untried and not greedy_only and untried.numel() > 0:  # type: ignore[attr-defined]
-            return int(untried[0])
-        if not greedy_only and float(torch.rand((), generator=gen, dtype=torch.float64)) < float(
-            self.epsilon[b]
-        ):
-            return int(options[int(torch.randint(options.numel(), (), generator=gen))])
-        q = torch.where((counts > 0) & self.valid[region], self.q[b, region], -math.inf)
-        if bool(torch.isinf(q).all()):
-            return int(options[0])
-        return int((q == q.max()).nonzero()[0, 0])
+        if not greedy_only:
+            untried = [o for o in options if counts[o] == 0]
+            if cfg.try_untried and untried:  # type: ignore[attr-defined]
+                return untried[0]
+            if torch.rand((), generator=gen, dtype=torch.float64).item() < self.epsilon[b].item():
+                return options[int(torch.randint(len(options), (), generator=gen))]
+        q = self.q[b, region].tolist()
+        tried = [q[o] if counts[o] > 0 and valid[o] else -math.inf for o in range(len(q))]
+        best = max(tried)
+        if best == -math.inf:
+            return options[0]
+        return tried.index(best)  # the first of equal values
 
     @torch.no_grad()
     def begin_trial(self, rows: torch.Tensor) -> None:

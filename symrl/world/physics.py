@@ -130,6 +130,7 @@ class RobotBatch:
         self.noise = bool(noise)
         self.max_actions = max_actions
         self.walls = Walls(world.segments)
+        self._valid_poses: set[bytes] = set()  # float64 (x, y, heading) rows that passed
 
         n = robot.n_sensors
         self.n_sensors = n
@@ -213,7 +214,11 @@ class RobotBatch:
 
     def check_poses(self, poses: np.ndarray, rows: np.ndarray | None = None) -> None:
         """Raise a one-line ValueError naming the first pose (and robot) that is not finite, not
-        in the free area, or whose clearance is not above the robot's radius."""
+        in the free area, or whose clearance is not above the robot's radius. Poses found valid
+        are remembered (the world does not change): a trial's reset at the usual start pose
+        skips the polygon and clearance queries."""
+        if all(row.tobytes() in self._valid_poses for row in poses):
+            return
         who = range(len(poses)) if rows is None else rows
         finite = np.all(np.isfinite(poses), axis=1)
         free = np.zeros(len(poses), dtype=bool)
@@ -222,6 +227,8 @@ class RobotBatch:
         clear[free] = self.walls.clearance(poses[free, :2])
         bad = np.flatnonzero(~(clear > self.robot.radius))
         if len(bad) == 0:
+            if len(self._valid_poses) < 4096:  # bounded: start poses, not random ones
+                self._valid_poses.update(row.tobytes() for row in poses)
             return
         i = int(bad[0])
         pose = tuple(float(v) for v in poses[i])

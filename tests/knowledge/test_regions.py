@@ -155,8 +155,8 @@ def test_buffers_move_with_the_module(mapper):
         "threshold",
         "used",
         "rule_region",
-        "sign",
-        "padding",
+        "select",
+        "bound",
     }
     assert set(mapper.state_dict()) == {"axis", "greater", "threshold", "used", "rule_region"}
     assert list(mapper.parameters()) == []

@@ -47,6 +47,24 @@ def test_region_gate_picks_the_expert():
     assert per.region.tolist() == [0, 1, 2, 3] and per.expert.tolist() == [0, 0, 0, 0]
 
 
+@pytest.mark.parametrize("recipe", ["paper", "paper_literal"])  # pose input, sensor input
+def test_perceiving_again_follows_the_observation_not_the_tensor(recipe):
+    """The gate and the inputs of the last observation are reused only for the same bits: an
+    observation changed in place, or another one, is perceived afresh."""
+    p = policy(recipe, seeds=range(2))
+    obs = stack(observation(pose=POSES["room"]), observation(0.3, POSES["door"], (2.0, 0.5)))
+    first = p.perceive(obs["sonar"], obs["odometry"], obs["goal"])
+    again = p.perceive(obs["sonar"].clone(), obs["odometry"].clone(), obs["goal"].clone())
+    assert torch.equal(again.region, first.region) and torch.equal(again.x, first.x)
+    obs["odometry"][0] = obs["odometry"][1]  # in place: the same tensor, the door's pose
+    obs["sonar"][0] = obs["sonar"][1]
+    obs["goal"][0] = obs["goal"][1]
+    moved = p.perceive(obs["sonar"], obs["odometry"], obs["goal"])
+    fresh = policy(recipe, seeds=range(2)).perceive(obs["sonar"], obs["odometry"], obs["goal"])
+    assert moved.region.tolist() == [2, 2] == fresh.region.tolist()
+    assert torch.equal(moved.x, fresh.x) and not torch.equal(moved.x, first.x)
+
+
 def test_acting_writes_the_decision_and_grows_nothing():
     p = policy()
     td = p(observation())

@@ -7,6 +7,7 @@ import pytest
 import torch
 from tensordict import TensorDict
 from torchrl.collectors import Collector
+from torchrl.envs import EnvBase
 from torchrl.envs.utils import RandomPolicy, check_env_specs
 
 from symrl.world.batched_env import BatchedWorldEnv
@@ -85,6 +86,42 @@ def test_partial_reset_touches_only_the_masked_robots():
     # the robots not reset drew nothing; robot 1 drew its reset's sonar noise (no reseeding)
     states = [rng.bit_generator.state for rng in env.rngs]
     assert states[0] == draws[0] and states[2] == draws[2] and states[1] != draws[1]
+
+
+def test_maybe_reset_equals_torchrl_generic_version():
+    """The env's own maybe_reset gives what EnvBase.maybe_reset gives (same seeds, same
+    actions, robots ending at different steps), key for key and bit for bit."""
+    ours, generic = (BatchedWorldEnv(size=5, seeds=range(5), max_actions=4) for _ in range(2))
+    rng = np.random.default_rng(1)
+    a, b = ours.reset(), generic.reset()
+    restarts = 0
+    for i in range(40):
+        action = torch.from_numpy(rng.uniform(-1, 1, (5, 1)).astype(np.float32))
+        for env in (ours, generic):
+            if i % 3 == 0:  # stagger the truncations, so resets are partial
+                env.physics.actions_taken[i % 5] += 1
+        a = ours.step(a.set("action", action.clone()))
+        b = generic.step(b.set("action", action.clone()))
+        restarts += int(a["next", "done"].sum())
+        na = ours.maybe_reset(ours._step_mdp(a))
+        nb = EnvBase.maybe_reset(generic, generic._step_mdp(b))
+        assert set(na.keys()) == set(nb.keys())
+        for key in sorted(na.keys()):
+            assert na[key].dtype == nb[key].dtype and torch.equal(na[key], nb[key]), key
+        for key in a.keys(True, True):  # the transition itself is left as it was
+            assert torch.equal(a[key], b[key]), key
+        a, b = na, nb
+    assert 0 < restarts < 40 * 5
+
+
+def test_a_start_pose_found_valid_is_not_checked_again_but_a_bad_one_still_fails():
+    env = BatchedWorldEnv(size=2, seeds=[0, 1])
+    env.reset()
+    env.set_starts([START, (3.6, -0.5, 0.0)])
+    env.reset()
+    assert len(env.physics._valid_poses) == 2
+    with pytest.raises(ValueError, match=r"\(3\.6, 1\.0, 0\.0\) of robot 1"):
+        env.set_starts([START, (3.6, 1.0, 0.0)])
 
 
 def test_reset_state_reward_by_hand():
