@@ -40,6 +40,7 @@ __all__ = [
     "ExpertsConfig",
     "UpdateConfig",
     "OptionsConfig",
+    "TrialExplorationConfig",
     "ShieldSection",
     "RunSection",
     "RunConfig",
@@ -167,6 +168,25 @@ class OptionsConfig(_Section):
     to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end."""
 
 
+class TrialExplorationConfig(_Section):
+    """Exploration held constant over a trial (``symrl.learner.trial_exploration``): each
+    neuron's correction gets one perturbation per trial, and its exploration mean moves toward
+    a perturbation whose trial beat the option critic and away from one that lost. Needs the
+    region gate's partition and the sub-goal options (their critic is the baseline)."""
+
+    enabled: StrictBool = False
+    """False: only the paper's per-step exploration (Eq. 6) and REINFORCE."""
+    sigma: float = Field(0.1, ge=0)
+    """Standard deviation of a neuron's perturbation in the first trial (radians)."""
+    decay: float = Field(0.9, ge=0, le=1)
+    """The perturbations' standard deviation is multiplied by this after every trial."""
+    rate: float = Field(1.0, ge=0)
+    """Step: mu += rate * clip(G - q, -clip, clip) * perturbation for every neuron that acted
+    with its perturbation (G the region's return-to-go, q its option's mean)."""
+    clip: float = Field(2.0, gt=0)
+    """Largest |G - q| a step uses (one trial's swerve should not throw a correction far)."""
+
+
 class ShieldSection(_Section):
     """The IR safety shield (``symrl.knowledge.shield``)."""
 
@@ -197,6 +217,7 @@ class RunConfig(_Section):
     experts: ExpertsConfig = Field(default_factory=ExpertsConfig)
     update: UpdateConfig = Field(default_factory=UpdateConfig)
     options: OptionsConfig = Field(default_factory=OptionsConfig)
+    trial_exploration: TrialExplorationConfig = Field(default_factory=TrialExplorationConfig)
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
     shield: ShieldSection = Field(default_factory=ShieldSection)
@@ -206,6 +227,13 @@ class RunConfig(_Section):
     def _consistent(self) -> RunConfig:
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
+        if self.trial_exploration.enabled and not (
+            self.options.enabled and self.gate.partition and self.experts.learning
+        ):
+            raise ValueError(
+                "trial_exploration.enabled=true needs options.enabled=true, gate.partition=true "
+                "and experts.learning=true (the options' critic of each region is its baseline)"
+            )
         robot = self.env.robot
         if self.reflex.n_rays != robot.n_sensors:
             raise ValueError(
@@ -411,7 +439,8 @@ def describe_keys() -> str:
     sections: list[tuple[str, type]] = [
         ("env", EnvConfig), ("env.robot", RobotConfig), ("gate", GateConfig),
         ("experts", ExpertsConfig), ("update", UpdateConfig), ("options", OptionsConfig),
-        ("reflex", ReflexConfig), ("shield", ShieldSection), ("run", RunSection),
+        ("trial_exploration", TrialExplorationConfig), ("reflex", ReflexConfig),
+        ("shield", ShieldSection), ("run", RunSection),
     ]  # fmt: skip
     for prefix, cls in sections:
         names = (
