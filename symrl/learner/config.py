@@ -41,6 +41,7 @@ __all__ = [
     "UpdateConfig",
     "OptionsConfig",
     "TrialExplorationConfig",
+    "SubgoalSearchConfig",
     "ShieldSection",
     "RunSection",
     "RunConfig",
@@ -187,6 +188,26 @@ class TrialExplorationConfig(_Section):
     """Largest |G - q| a step uses (one trial's swerve should not throw a correction far)."""
 
 
+class SubgoalSearchConfig(_Section):
+    """Learned continuous sub-goal positions (``symrl.learner.trial_exploration``): every option
+    has an offset from its map point; each trial moves each region's point by a random jitter,
+    and the offset of the option chosen there steps toward a jitter whose return-to-go beat the
+    option's critic and away from one that lost. Needs the sub-goal options."""
+
+    enabled: StrictBool = False
+    """False: the options' points are the map's."""
+    sigma: float = Field(0.1, ge=0)
+    """Standard deviation of a point's jitter (x and y) in the first trial (metres)."""
+    decay: float = Field(0.9, ge=0, le=1)
+    """The jitters' standard deviation is multiplied by this after every trial."""
+    rate: float = Field(0.5, ge=0)
+    """Step: offset += rate * clip(G - q, -clip, clip) * jitter."""
+    clip: float = Field(2.0, gt=0)
+    """Largest |G - q| a step uses."""
+    max_shift: float = Field(0.3, gt=0)
+    """Largest learned offset from the map's point (metres)."""
+
+
 class ShieldSection(_Section):
     """The IR safety shield (``symrl.knowledge.shield``)."""
 
@@ -218,6 +239,7 @@ class RunConfig(_Section):
     update: UpdateConfig = Field(default_factory=UpdateConfig)
     options: OptionsConfig = Field(default_factory=OptionsConfig)
     trial_exploration: TrialExplorationConfig = Field(default_factory=TrialExplorationConfig)
+    subgoal_search: SubgoalSearchConfig = Field(default_factory=SubgoalSearchConfig)
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
     shield: ShieldSection = Field(default_factory=ShieldSection)
@@ -234,6 +256,8 @@ class RunConfig(_Section):
                 "trial_exploration.enabled=true needs options.enabled=true, gate.partition=true "
                 "and experts.learning=true (the options' critic of each region is its baseline)"
             )
+        if self.subgoal_search.enabled and not self.options.enabled:
+            raise ValueError("subgoal_search.enabled=true needs options.enabled=true")
         robot = self.env.robot
         if self.reflex.n_rays != robot.n_sensors:
             raise ValueError(
@@ -439,7 +463,8 @@ def describe_keys() -> str:
     sections: list[tuple[str, type]] = [
         ("env", EnvConfig), ("env.robot", RobotConfig), ("gate", GateConfig),
         ("experts", ExpertsConfig), ("update", UpdateConfig), ("options", OptionsConfig),
-        ("trial_exploration", TrialExplorationConfig), ("reflex", ReflexConfig),
+        ("trial_exploration", TrialExplorationConfig), ("subgoal_search", SubgoalSearchConfig),
+        ("reflex", ReflexConfig),
         ("shield", ShieldSection), ("run", RunSection),
     ]  # fmt: skip
     for prefix, cls in sections:

@@ -21,6 +21,11 @@ The policy owns a :class:`TrialPerturbation` and reads a neuron's kick when it a
 the kick into the TensorDict); the update marks the neurons that acted with a kick
 (:meth:`mark`) and takes the step at the trial's end (:meth:`learn`); the policy redraws at
 the next trial's start (:meth:`begin_trial`).
+
+:class:`SubgoalSearch` applies the same rule to the sub-goal options' points: each option has a
+learned offset, each region's point is moved by one jitter per trial, and the offset of the
+option chosen in a region steps toward the jitter when the region's return-to-go beat the
+option's critic (learned continuous sub-goal positions).
 """
 
 from __future__ import annotations
@@ -28,10 +33,18 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-__all__ = ["TrialPerturbation", "option_advantage"]
+__all__ = ["SubgoalSearch", "TrialPerturbation", "option_advantage", "trial_normal"]
 
 _BLOCK = 64  # neuron slots drawn per (robot, expert) stream; storage grows by whole blocks
 _SALT = 104_729  # separates the kicks' streams from the exploration's and the options'
+_SEARCH_SALT = 1_299_709  # the sub-goal jitters' streams
+
+
+def trial_normal(seed: int, trial: int, salt: int, shape: tuple[int, ...]) -> torch.Tensor:
+    """Standard normals for robot ``seed`` in trial ``trial`` (a stream per ``salt``): the same
+    numbers whatever the batch, the order of calls or a resumed run's saved random state."""
+    key = ((seed * 1_000_003 + trial) * 7_919 + salt) % (2**63)
+    return torch.randn(shape, generator=torch.Generator().manual_seed(key), dtype=torch.float64)
 
 
 class TrialPerturbation(nn.Module):
@@ -66,9 +79,7 @@ class TrialPerturbation(nn.Module):
     def _block(self, b: int, block: int) -> torch.Tensor:
         """Robot ``b``'s kicks (E, _BLOCK) for neuron slots ``block * _BLOCK ...`` this trial."""
         trial = int(self.trial[b])
-        seed = (self.seeds[b] * 1_000_003 + trial * 7_919 + block) * 31 + _SALT
-        gen = torch.Generator().manual_seed(seed % (2**63))
-        draw = torch.randn(self.experts, _BLOCK, generator=gen, dtype=torch.float64)
+        draw = trial_normal(self.seeds[b], trial, _SALT + block, (self.experts, _BLOCK))
         return draw * self.sigma(trial)
 
     def fit(self, capacity: int) -> None:
@@ -139,3 +150,58 @@ def option_advantage(options: object, rows: torch.Tensor, returns: torch.Tensor)
     n = options.n[rows].gather(2, pick).squeeze(2)  # type: ignore[attr-defined]
     known = (choice >= 0) & (n > 0)
     return torch.where(known, returns - q, torch.zeros_like(returns))
+
+
+class SubgoalSearch(nn.Module):
+    """Learned offsets of B robots' sub-goal points, explored by one jitter per region and trial.
+
+    Buffers: ``offset`` (B, R, K, 2) learned per option (saved), ``jitter`` (B, R, 2) this
+    trial's move of each region's point (drawn from the seed and the trial: not saved).
+    """
+
+    offset: torch.Tensor
+    jitter: torch.Tensor
+
+    def __init__(self, seeds: list[int], regions: int, options: int, config: object) -> None:
+        super().__init__()
+        self.seeds = [int(s) for s in seeds]
+        self.config = config
+        batch = len(self.seeds)
+        self.register_buffer("offset", torch.zeros(batch, regions, options, 2, dtype=torch.float64))
+        self.register_buffer("jitter", torch.zeros(batch, regions, 2, dtype=torch.float64),
+                             persistent=False)  # fmt: skip
+        self.begin_trial(torch.arange(batch), torch.zeros(batch, dtype=torch.long))
+
+    def sigma(self, trial: int) -> float:
+        """The jitters' scale in trial ``trial`` (0-based), metres."""
+        return float(self.config.sigma) * float(self.config.decay) ** trial  # type: ignore[attr-defined]
+
+    @torch.no_grad()
+    def begin_trial(self, rows: torch.Tensor, trials: torch.Tensor) -> None:
+        """Robots ``rows`` start their trial ``trials`` (0-based): new jitters."""
+        for b, t in zip(rows.tolist(), trials.tolist(), strict=True):
+            draw = trial_normal(self.seeds[b], t, _SEARCH_SALT, tuple(self.jitter.shape[1:]))
+            self.jitter[b] = draw * self.sigma(t)
+
+    def shift(self, region: torch.Tensor, option: torch.Tensor, greedy: bool) -> torch.Tensor:
+        """(B, 2) how far each robot's point of ``option`` in ``region`` is moved now (the
+        learned offset, plus this trial's jitter unless greedy)."""
+        rows = torch.arange(len(self.seeds))
+        move = self.offset[rows, region, option]
+        return move if greedy else move + self.jitter[rows, region]
+
+    @torch.no_grad()
+    def learn(self, rows: torch.Tensor, advantage: torch.Tensor, choice: torch.Tensor) -> None:
+        """End of the trials of ``rows``: the offset of the option ``choice`` (k, R; -1: region
+        not entered) steps by rate * clip(advantage) * jitter, kept within ``max_shift``."""
+        cfg = self.config
+        a = advantage.clamp(-cfg.clip, cfg.clip)  # type: ignore[attr-defined]
+        entered = choice >= 0
+        b = rows[:, None].expand_as(choice)[entered]
+        r = torch.arange(choice.shape[1]).expand_as(choice)[entered]
+        k = choice[entered]
+        step = cfg.rate * a[entered][:, None] * self.jitter[b, r]  # type: ignore[attr-defined]
+        moved = self.offset[b, r, k] + step
+        norm = torch.linalg.vector_norm(moved, dim=-1, keepdim=True)
+        limit = float(cfg.max_shift)  # type: ignore[attr-defined]
+        self.offset[b, r, k] = moved * (limit / norm.clamp(min=limit))

@@ -123,3 +123,77 @@ def test_option_advantage_is_zero_where_no_region_was_entered():
 def test_needs_options_and_the_partition():
     with pytest.raises(ConfigError, match="trial_exploration.enabled=true needs"):
         load_config("paper", ["trial_exploration.enabled=true", "options.enabled=false"])
+
+
+# -- learned sub-goal positions -------------------------------------------------------------
+
+
+def _search_policy(*overrides: str, seeds=(0,)):
+    return policy("paper", "subgoal_search.enabled=true", "options.try_untried=false",
+                  "options.epsilon=0", *overrides, seeds=seeds)  # fmt: skip
+
+
+def _aim(p, greedy=False) -> float:
+    obs = A.expand(p.batch).clone()
+    region = p.mapper.ids(obs["odometry"][:, :2].double())
+    return p.options.steer(region, obs["odometry"], greedy)[0]
+
+
+def test_a_regions_point_moves_by_one_jitter_per_trial_and_its_learned_offset():
+    p = _search_policy()
+    search = p.options.search
+    first = search.jitter.clone()
+    assert first.abs().min() > 0
+    room = p.region_names.index("room")
+    aim = _aim(p)
+    assert torch.equal(_aim(p), aim)  # the same trial: the same point
+    plain = policy("paper", "options.try_untried=false", "options.epsilon=0")
+    assert not torch.equal(_aim(plain), aim)
+    p.options.choice.fill_(-1)
+    search.jitter.zero_()
+    assert torch.allclose(_aim(p), _aim(plain))  # no jitter, no offset: the map's point
+    search.offset[0, room, 0] = torch.tensor([0.0, 0.2], dtype=torch.float64)
+    p.options.choice.fill_(-1)
+    assert not torch.allclose(_aim(p, greedy=True), _aim(plain, greedy=True))
+    p.options.trials += 1
+    p.begin_trial(torch.tensor([0]))
+    assert not torch.equal(search.jitter, first)
+    p.options.trials -= 1
+    p.begin_trial(torch.tensor([0]))
+    assert torch.equal(search.jitter, first)  # drawn from the seed and the trial
+    sigma = _search_policy("subgoal_search.sigma=0.2").options.search.jitter
+    assert torch.allclose(sigma, 2 * first)
+    batch = _search_policy(seeds=(3, 0)).options.search.jitter
+    assert torch.equal(batch[1], first[0])
+
+
+@pytest.mark.parametrize("ret, sign", [(-1.0, 1.0), (-3.0, -1.0)])
+def test_the_offset_steps_toward_a_jitter_that_beat_the_critic(ret, sign):
+    p = _search_policy("subgoal_search.rate=0.5")
+    opts, search = p.options, p.options.search
+    opts.choice[0] = torch.tensor([1, -1, -1, -1])  # the room chose option 1
+    opts.q[0, 0, 1], opts.n[0, 0, 1] = -2.0, 3
+    jitter = search.jitter[0, 0].clone()
+    opts.learn(torch.tensor([0]), torch.tensor([[ret, 0.0, 0.0, 0.0]], dtype=torch.float64))
+    assert torch.allclose(search.offset[0, 0, 1], sign * 0.5 * 1.0 * jitter)
+    search.offset[0, 0, 1] = 0.0
+    assert not search.offset.any()  # no other option or region moved
+
+
+def test_the_offset_stays_within_max_shift_and_is_saved():
+    p = _search_policy("subgoal_search.rate=100", "subgoal_search.max_shift=0.25")
+    opts, search = p.options, p.options.search
+    opts.choice[0] = torch.tensor([2, -1, -1, -1])
+    opts.q[0, 0, 2], opts.n[0, 0, 2] = -5.0, 1
+    opts.learn(torch.tensor([0]), torch.tensor([[-3.0, 0.0, 0.0, 0.0]], dtype=torch.float64))
+    assert float(torch.linalg.vector_norm(search.offset[0, 0, 2])) == pytest.approx(0.25)
+    state = p.robot_state(0)
+    assert torch.equal(state["options.search.offset"], search.offset)
+    fresh = _search_policy()
+    fresh.load_state_dict(state)
+    assert torch.equal(fresh.options.search.offset, search.offset)
+
+
+def test_search_needs_options():
+    with pytest.raises(ConfigError, match="subgoal_search.enabled=true needs"):
+        load_config("paper", ["subgoal_search.enabled=true", "options.enabled=false"])
