@@ -52,6 +52,7 @@ _PI = math.pi
 _PER_ROBOT = {
     "temperature", "best_total", "trials_done", "options.q", "options.n", "options.epsilon",
     "options.trials", "options.choice", "options.stage", "options.visit", "options.search.offset",
+    "options.search.jitter", "perturbation.trial",
 }  # fmt: skip
 """State-dict entries with one row per robot (besides every ``experts.*`` buffer)."""
 _BLOCK = 1024  # random draws per robot per refill: one call per robot instead of one per step

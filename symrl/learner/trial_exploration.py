@@ -61,12 +61,18 @@ class TrialPerturbation(nn.Module):
         self.experts = int(experts)
         self.config = config
         batch = len(self.seeds)
-        # derived from (seed, trial): nothing to save, a resumed run draws the same kicks
+        # the kicks are derived from (seed, trial): only the trial is saved, and a loaded
+        # controller draws its trial's kicks again (a resumed run acts as the uninterrupted one)
         self.register_buffer("kick", torch.zeros(batch, experts, 0, dtype=torch.float64),
                              persistent=False)  # fmt: skip
         self.register_buffer("applied", torch.zeros(batch, experts, 0, dtype=torch.bool),
                              persistent=False)  # fmt: skip
-        self.register_buffer("trial", torch.zeros(batch, dtype=torch.long), persistent=False)
+        self.register_buffer("trial", torch.zeros(batch, dtype=torch.long))
+
+    def _load_from_state_dict(self, *args, **kwargs):  # type: ignore[override]
+        super()._load_from_state_dict(*args, **kwargs)
+        self.kick = self.kick[:, :, :0].clone()  # redrawn for the loaded trials when next read
+        self.applied = self.applied[:, :, :0].clone()
 
     @property
     def capacity(self) -> int:
@@ -155,8 +161,9 @@ def option_advantage(options: object, rows: torch.Tensor, returns: torch.Tensor)
 class SubgoalSearch(nn.Module):
     """Learned offsets of B robots' sub-goal points, explored by one jitter per region and trial.
 
-    Buffers: ``offset`` (B, R, K, 2) learned per option (saved), ``jitter`` (B, R, 2) this
-    trial's move of each region's point (drawn from the seed and the trial: not saved).
+    Buffers: ``offset`` (B, R, K, 2) learned per option, ``jitter`` (B, R, 2) this trial's move
+    of each region's point (drawn from the seed and the trial; saved, so a resumed run that
+    starts inside a trial moves its points as the uninterrupted run did).
     """
 
     offset: torch.Tensor
@@ -168,8 +175,7 @@ class SubgoalSearch(nn.Module):
         self.config = config
         batch = len(self.seeds)
         self.register_buffer("offset", torch.zeros(batch, regions, options, 2, dtype=torch.float64))
-        self.register_buffer("jitter", torch.zeros(batch, regions, 2, dtype=torch.float64),
-                             persistent=False)  # fmt: skip
+        self.register_buffer("jitter", torch.zeros(batch, regions, 2, dtype=torch.float64))
         self.begin_trial(torch.arange(batch), torch.zeros(batch, dtype=torch.long))
 
     def sigma(self, trial: int) -> float:

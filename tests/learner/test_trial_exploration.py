@@ -197,3 +197,15 @@ def test_the_offset_stays_within_max_shift_and_is_saved():
 def test_search_needs_options():
     with pytest.raises(ConfigError, match="subgoal_search.enabled=true needs"):
         load_config("paper", ["subgoal_search.enabled=true", "options.enabled=false"])
+
+
+def test_a_loaded_controller_acts_with_the_kicks_and_jitters_of_its_trial():
+    p = _with_neuron("subgoal_search.enabled=true")
+    p.trials_done += 2
+    p.options.trials += 2
+    p.begin_trial(torch.tensor([0]))
+    kick, jitter = _kick(p), p.options.search.jitter.clone()
+    fresh = _with_neuron("subgoal_search.enabled=true")
+    fresh.load_state_dict(p.state_dict())
+    assert torch.equal(_kick(fresh), kick) and float(kick[0]) != 0.0
+    assert torch.equal(fresh.options.search.jitter, jitter)
