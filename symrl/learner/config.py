@@ -40,8 +40,6 @@ __all__ = [
     "ExpertsConfig",
     "UpdateConfig",
     "OptionsConfig",
-    "TrialExplorationConfig",
-    "SubgoalSearchConfig",
     "ShieldSection",
     "RunSection",
     "RunConfig",
@@ -169,45 +167,6 @@ class OptionsConfig(_Section):
     to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end."""
 
 
-class TrialExplorationConfig(_Section):
-    """Exploration held constant over a trial (``symrl.learner.trial_exploration``): each
-    neuron's correction gets one perturbation per trial, and its exploration mean moves toward
-    a perturbation whose trial beat the option critic and away from one that lost. Needs the
-    region gate's partition and the sub-goal options (their critic is the baseline)."""
-
-    enabled: StrictBool = False
-    """False: only the paper's per-step exploration (Eq. 6) and REINFORCE."""
-    sigma: float = Field(0.1, ge=0)
-    """Standard deviation of a neuron's perturbation in the first trial (radians)."""
-    decay: float = Field(0.9, ge=0, le=1)
-    """The perturbations' standard deviation is multiplied by this after every trial."""
-    rate: float = Field(1.0, ge=0)
-    """Step: mu += rate * clip(G - q, -clip, clip) * perturbation for every neuron that acted
-    with its perturbation (G the region's return-to-go, q its option's mean)."""
-    clip: float = Field(2.0, gt=0)
-    """Largest |G - q| a step uses (one trial's swerve should not throw a correction far)."""
-
-
-class SubgoalSearchConfig(_Section):
-    """Learned continuous sub-goal positions (``symrl.learner.trial_exploration``): every option
-    has an offset from its map point; each trial moves each region's point by a random jitter,
-    and the offset of the option chosen there steps toward a jitter whose return-to-go beat the
-    option's critic and away from one that lost. Needs the sub-goal options."""
-
-    enabled: StrictBool = False
-    """False: the options' points are the map's."""
-    sigma: float = Field(0.1, ge=0)
-    """Standard deviation of a point's jitter (x and y) in the first trial (metres)."""
-    decay: float = Field(0.9, ge=0, le=1)
-    """The jitters' standard deviation is multiplied by this after every trial."""
-    rate: float = Field(0.5, ge=0)
-    """Step: offset += rate * clip(G - q, -clip, clip) * jitter."""
-    clip: float = Field(2.0, gt=0)
-    """Largest |G - q| a step uses."""
-    max_shift: float = Field(0.3, gt=0)
-    """Largest learned offset from the map's point (metres)."""
-
-
 class ShieldSection(_Section):
     """The IR safety shield (``symrl.knowledge.shield``)."""
 
@@ -238,8 +197,6 @@ class RunConfig(_Section):
     experts: ExpertsConfig = Field(default_factory=ExpertsConfig)
     update: UpdateConfig = Field(default_factory=UpdateConfig)
     options: OptionsConfig = Field(default_factory=OptionsConfig)
-    trial_exploration: TrialExplorationConfig = Field(default_factory=TrialExplorationConfig)
-    subgoal_search: SubgoalSearchConfig = Field(default_factory=SubgoalSearchConfig)
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
     shield: ShieldSection = Field(default_factory=ShieldSection)
@@ -249,15 +206,6 @@ class RunConfig(_Section):
     def _consistent(self) -> RunConfig:
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
-        if self.trial_exploration.enabled and not (
-            self.options.enabled and self.gate.partition and self.experts.learning
-        ):
-            raise ValueError(
-                "trial_exploration.enabled=true needs options.enabled=true, gate.partition=true "
-                "and experts.learning=true (the options' critic of each region is its baseline)"
-            )
-        if self.subgoal_search.enabled and not self.options.enabled:
-            raise ValueError("subgoal_search.enabled=true needs options.enabled=true")
         robot = self.env.robot
         if self.reflex.n_rays != robot.n_sensors:
             raise ValueError(
@@ -463,9 +411,7 @@ def describe_keys() -> str:
     sections: list[tuple[str, type]] = [
         ("env", EnvConfig), ("env.robot", RobotConfig), ("gate", GateConfig),
         ("experts", ExpertsConfig), ("update", UpdateConfig), ("options", OptionsConfig),
-        ("trial_exploration", TrialExplorationConfig), ("subgoal_search", SubgoalSearchConfig),
-        ("reflex", ReflexConfig),
-        ("shield", ShieldSection), ("run", RunSection),
+        ("reflex", ReflexConfig), ("shield", ShieldSection), ("run", RunSection),
     ]  # fmt: skip
     for prefix, cls in sections:
         names = (

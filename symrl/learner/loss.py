@@ -32,7 +32,6 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule
 
 from symrl.learner.policy import MixtureOfExpertsPolicy
-from symrl.learner.trial_exploration import option_advantage
 
 __all__ = ["TeseoLoss"]
 
@@ -58,7 +57,6 @@ class TeseoLoss(LossModule):
         taken: str = "taken"
         region: str = "region"
         option_entry: str = "option_entry"
-        kick: str = "kick"
         state_reward: str = "state_reward"
         sonar: str = "sonar"
         odometry: str = "odometry"
@@ -93,8 +91,6 @@ class TeseoLoss(LossModule):
         k = self.tensor_keys
         own = [k.expert, k.winner, k.novel, k.x, k.proto, k.xi, k.taken, k.region,
                k.option_entry, k.state_reward]  # fmt: skip
-        if self.policy.perturbation is not None:
-            own.append(k.kick)
         nxt = [("next", key) for key in (k.sonar, k.odometry, k.goal, k.reward, k.terminated,
                                           k.truncated)]  # fmt: skip
         return own + nxt
@@ -136,9 +132,6 @@ class TeseoLoss(LossModule):
         index = bank.flat_index(expert, winner)  # after any growth: the capacity may change
         bank.taken.view(-1).index_copy_(0, index, td[k.taken])
         bank.used.view(-1).index_fill_(0, index, True)
-        if policy.perturbation is not None:
-            kick = td[k.kick]
-            policy.perturbation.mark(expert, winner, kick != 0, bank.capacity)
 
         # 2. the utility of the state reached
         terminated = nxt[k.terminated].view(-1)
@@ -200,9 +193,6 @@ class TeseoLoss(LossModule):
             policy.experts.clear_trial(rows)
         if policy.options is not None:
             returns = self.trial_return[rows, None] - self.entry_return[rows]
-            if policy.perturbation is not None:  # its baseline: the critic before this trial
-                advantage = option_advantage(policy.options, rows, returns)
-                policy.perturbation.learn(rows, advantage, policy.experts.means)
             policy.options.learn(rows, returns)
             self.trial_return[rows] = 0.0
             self.entry_return[rows] = 0.0

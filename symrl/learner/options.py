@@ -21,7 +21,6 @@ import torch
 from torch import nn
 
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
-from symrl.learner.trial_exploration import SubgoalSearch, option_advantage
 from symrl.world.worldmap import WorldMap
 
 __all__ = ["SubgoalOptions", "subgoal_config", "with_planner_waypoints"]
@@ -64,10 +63,7 @@ class SubgoalOptions(nn.Module):
         config: object,
         seeds: list[int],
         table: SubgoalTable | None = None,
-        search: object | None = None,
     ) -> None:
-        """``search``: a ``SubgoalSearchConfig`` whose ``enabled`` learns the points' offsets
-        (:class:`SubgoalSearch`); None or disabled: the map's points."""
         super().__init__()
         self.config = config
         self.table = table or build_subgoals(world, subgoal_config(config))
@@ -95,11 +91,6 @@ class SubgoalOptions(nn.Module):
         # each controller's own stream (not the exploration noise's): set k of a batch draws
         # the same numbers as the same seed alone
         self.generators = [torch.Generator().manual_seed(int(s) + 7919) for s in seeds]
-        self.search = (
-            SubgoalSearch(list(seeds), r, k, search)
-            if search is not None and search.enabled  # type: ignore[attr-defined]
-            else None
-        )
 
     # -- acting (called by the policy) ----------------------------------------------------
     def steer(
@@ -120,8 +111,6 @@ class SubgoalOptions(nn.Module):
         self.visit.copy_(region)
         xy = odometry[:, :2].to(torch.float64)
         point = self.points.view(-1, 2).index_select(0, region * self.points.shape[1] + chosen)
-        if self.search is not None:
-            point = point + self.search.shift(region, chosen, greedy)
         reached = torch.linalg.vector_norm(point - xy, dim=-1) < self.config.reach  # type: ignore[attr-defined]
         self.stage.masked_fill_(reached, _GOAL_STAGE)
         target = torch.where((self.stage == _GOAL_STAGE)[:, None], self._goal, point)
@@ -156,8 +145,6 @@ class SubgoalOptions(nn.Module):
         self.choice[rows] = -1
         self.stage[rows] = 0
         self.visit[rows] = -1
-        if self.search is not None:
-            self.search.begin_trial(rows, self.trials[rows])
 
     # -- learning (called by the update) --------------------------------------------------
     @torch.no_grad()
@@ -165,8 +152,6 @@ class SubgoalOptions(nn.Module):
         """Critic step at the end of a trial: ``returns`` (k, R) is the return-to-go from each
         region's first entry for controllers ``rows``; then epsilon decays."""
         choice = self.choice[rows]
-        if self.search is not None:  # against the critic before this trial
-            self.search.learn(rows, option_advantage(self, rows, returns), choice)
         entered = choice >= 0
         regions = torch.arange(choice.shape[1]).expand_as(choice)
         b = rows[:, None].expand_as(choice)[entered]

@@ -41,7 +41,6 @@ from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
-from symrl.learner.trial_exploration import TrialPerturbation
 from symrl.world.worldmap import WorldMap, load_map
 
 __all__ = ["Perception", "MixtureOfExpertsPolicy", "OBS_KEYS", "is_greedy"]
@@ -51,8 +50,7 @@ _GREEDY = (ExplorationType.DETERMINISTIC, ExplorationType.MODE, ExplorationType.
 _PI = math.pi
 _PER_ROBOT = {
     "temperature", "best_total", "trials_done", "options.q", "options.n", "options.epsilon",
-    "options.trials", "options.choice", "options.stage", "options.visit", "options.search.offset",
-    "options.search.jitter", "perturbation.trial",
+    "options.trials", "options.choice", "options.stage", "options.visit",
 }  # fmt: skip
 """State-dict entries with one row per robot (besides every ``experts.*`` buffer)."""
 _BLOCK = 1024  # random draws per robot per refill: one call per robot instead of one per step
@@ -85,14 +83,13 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ``action`` (B, 1) and the decision: ``region``, ``expert``, ``winner`` (-1 when novel),
     ``novel``, ``x``, ``proto`` (the action a new neuron here gets), ``xi`` (exploration draw),
     ``sigma``, ``taken`` (the action relative to its base, remembered for action replacement),
-    ``shielded``, ``kick`` (the neuron's per-trial perturbation, 0 without trial exploration), and
-    with options ``option`` and ``option_entry``.
+    ``shielded``, and with options ``option`` and ``option_entry``.
     """
 
     in_keys = list(OBS_KEYS)
     out_keys = [
         "action", "region", "expert", "winner", "novel", "x", "proto", "xi", "sigma", "taken",
-        "shielded", "kick", "option", "option_entry",
+        "shielded", "option", "option_entry",
     ]  # fmt: skip
 
     temperature: torch.Tensor
@@ -125,15 +122,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             names=self.expert_names,
         )  # fmt: skip
         self.options = (
-            SubgoalOptions(
-                self.world, batch, config.options, self.seeds, subgoals, config.subgoal_search
-            )
+            SubgoalOptions(self.world, batch, config.options, self.seeds, subgoals)
             if config.options.enabled
-            else None
-        )
-        self.perturbation = (
-            TrialPerturbation(self.seeds, len(self.expert_names), config.trial_exploration)
-            if config.trial_exploration.enabled
             else None
         )
         self.shield = (
@@ -231,7 +221,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             reflex_action = self.reflex(sonar.to(torch.float64), target)
         else:
             reflex_action = zero
-        xi = sigma = kick = zero
+        xi = sigma = zero
         if not xc.learning:
             base = proto = zero
             alpha = reflex_action
@@ -256,10 +246,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 u = torch.where(known, bank.utilities.take(index), u_new)
                 sigma = self.temperature / (1.0 + u.clamp(max=60.0).exp())
                 xi = mu + sigma * z
-            if self.perturbation is not None and not greedy:
-                kick = self.perturbation.at(per.expert, per.winner.clamp(min=0), bank.capacity)
-                kick = torch.where(known, kick, zero)  # a neuron born now has none yet
-            alpha = (base + p + xi + kick).clamp_(-_PI, _PI)
+            alpha = (base + p + xi).clamp_(-_PI, _PI)
         shielded = self._no_entry
         if self.shield is not None:
             alpha, shielded = self.shield(td.get("ir"), alpha)
@@ -276,7 +263,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 "sigma": sigma,
                 "taken": alpha - base,
                 "shielded": shielded,
-                "kick": kick,
                 "option": option,
                 "option_entry": entered,
             }
@@ -288,8 +274,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         """Forget the per-trial decisions of robots ``rows`` (they start a new trial)."""
         if self.options is not None:
             self.options.begin_trial(rows)
-        if self.perturbation is not None:
-            self.perturbation.begin_trial(rows, self.trials_done[rows])
 
     # -- per-robot state ------------------------------------------------------------------
     def robot_state(self, b: int) -> dict[str, torch.Tensor]:
