@@ -249,7 +249,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             alpha = (base + p + xi).clamp_(-_PI, _PI)
         shielded = self._no_entry
         if self.shield is not None:
-            alpha, shielded = self.shield(td.get("ir"), alpha)
+            toward = target if self.config.shield.toward_target else None
+            alpha, shielded = self.shield(td.get("ir"), alpha, toward)
         td.update(
             {
                 "action": alpha.to(torch.float32).unsqueeze(-1),
