@@ -113,11 +113,8 @@ class IRShield(nn.Module):
         return centre.min(dim=-1).values - self.radius
 
     def forward(
-        self, reflectance: torch.Tensor, action: torch.Tensor, toward: torch.Tensor | None = None
+        self, reflectance: torch.Tensor, action: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        """``toward`` (...): the angle the reflex steers at (left positive). When given, an
-        unsafe action becomes the nearest safe angle on the side of ``toward`` (turning toward
-        the target), and the nearest on the other side only if none is safe there."""
         action = action.to(torch.float64)
         margin = self.config.margin
         near = reflectance.amax(dim=-1) > self.quiet  # the rows where a move could be unsafe
@@ -145,12 +142,7 @@ class IRShield(nn.Module):
         room = self._clearance(rho, bearings, grid)  # (k, m)
         safe = room >= margin
         turn = torch.remainder(grid - act[..., None] + math.pi, 2 * math.pi) - math.pi
-        cost = turn.abs()
-        if toward is not None:  # a turn away from the target costs a half circle more
-            side = torch.remainder(toward.to(torch.float64)[rows] - act + math.pi, 2 * math.pi)
-            away = (turn * (side - math.pi)[..., None]) < 0
-            cost = cost + math.pi * away
-        cost = torch.where(safe, cost, torch.inf)
+        cost = torch.where(safe, turn.abs(), torch.inf)
         nearest = torch.gather(grid, -1, cost.argmin(dim=-1, keepdim=True))[..., 0]
         widest = torch.gather(grid, -1, room.argmax(dim=-1, keepdim=True))[..., 0]
         out = action.clone()

@@ -174,9 +174,6 @@ class ShieldSection(_Section):
     """Veto moves that would leave less than ``margin`` rim clearance (nearest safe turn)."""
     margin: float = Field(0.06, ge=0, le=1)
     """Smallest predicted rim clearance a shielded move may leave (m)."""
-    toward_target: StrictBool = False
-    """A vetoed move becomes the nearest safe turn toward the point the reflex steers at (the
-    goal or the sub-goal); False: the nearest safe turn either way."""
 
 
 class RunSection(_Section):

@@ -249,8 +249,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             alpha = (base + p + xi).clamp_(-_PI, _PI)
         shielded = self._no_entry
         if self.shield is not None:
-            toward = target if self.config.shield.toward_target else None
-            alpha, shielded = self.shield(td.get("ir"), alpha, toward)
+            alpha, shielded = self.shield(td.get("ir"), alpha)
         td.update(
             {
                 "action": alpha.to(torch.float32).unsqueeze(-1),

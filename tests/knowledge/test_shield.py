@@ -135,29 +135,3 @@ def test_rows_far_from_walls_are_skipped_exactly(near_row, far_row, angle):
     full = shield.clearance(refl, action[:, None])[:, 0] < shield.config.margin
     assert vetoed.tolist() == full.tolist()
     assert not bool(full[1])  # a row below the quiet reflectance is never unsafe
-
-
-@pytest.mark.parametrize("toward, side", [(-1.0, -1.0), (1.0, 1.0), (-3.0, -1.0)])
-def test_a_vetoed_move_turns_toward_the_target_when_asked(toward, side):
-    shield = IRShield()
-    ir = torch.zeros(1, 24)
-    ir[0, [23, 0, 1]] = 20.0  # a wall dead ahead, both ways round equally free
-    proposed = torch.tensor([0.05])  # nearest safe turn: to the left
-    nearest, vetoed = shield(ir, proposed)
-    assert bool(vetoed[0]) and float(nearest[0]) > 0.5
-    turned, vetoed = shield(ir, proposed, torch.tensor([toward]))
-    assert bool(vetoed[0]) and float(turned[0]) * side > 0.5
-    assert float(turned[0]) == pytest.approx(side * abs(float(nearest[0])), abs=0.05)
-    # the move is as safe as the nearest one, and a safe action is never changed
-    assert float(shield.clearance(ir, turned[:, None])[0, 0]) >= shield.config.margin
-    kept, vetoed = shield(ir, torch.tensor([2.0]), torch.tensor([toward]))
-    assert not bool(vetoed[0]) and float(kept[0]) == 2.0
-
-
-def test_toward_the_target_falls_back_to_the_other_side_when_boxed_in_on_its_own():
-    shield = IRShield()
-    ir = torch.zeros(1, 24)
-    ir[0, [23, *range(13)]] = 40.0  # walls ahead and all along the left
-    turned, vetoed = shield(ir, torch.tensor([0.0]), torch.tensor([1.5]))
-    assert bool(vetoed[0]) and float(turned[0]) < 0  # no safe left turn: the nearest right one
-    assert float(shield.clearance(ir, turned[:, None])[0, 0]) >= shield.config.margin
