@@ -183,21 +183,19 @@ def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: floa
     import numpy as np
 
     from symrl.studies.planner import shortest_path  # the planner is a study tool: import late
+    from symrl.world.geometry import Walls
 
     plan = shortest_path(world)
-    seg = world.segments
-    a, b = seg[:, :2], seg[:, 2:]
-    d = b - a
+    walls = Walls(world.segments)
     last: dict[str, tuple[float, float]] = {}
     start = plan.points[0]
     for x, y in plan.waypoints[:-1]:  # the tangent points; the last one is in the goal disc
         p = np.array((x, y))
         if float(np.hypot(*(p - start))) < 0.05:
             continue
-        t = np.clip(((p - a) * d).sum(1) / (d * d).sum(1), 0.0, 1.0)
-        near = a + t[:, None] * d
-        q = near[int(np.hypot(*(near - p).T).argmin())]
-        out = q + (p - q) / max(float(np.hypot(*(p - q))), 1e-9) * clearance
+        ex, ey, gap = walls.closest(float(x), float(y))  # wall points relative to p
+        j = int(np.argmin(ex * ex + ey * ey))
+        out = p - np.array((ex[j], ey[j])) / max(gap, 1e-9) * (clearance - gap)
         last[world.regions.region_of(float(x), float(y))] = (float(out[0]), float(out[1]))
     names = list(table.region_names)
     r, k = table.valid.shape

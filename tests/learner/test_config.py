@@ -56,7 +56,7 @@ def test_paper_sets_its_switches_and_keeps_the_budget():
     assert paper.shield.enabled and paper.shield.margin == 0.06
     # softer avoidance behind the shield; the rules and the other sectors unchanged
     assert paper.reflex.d_a == 0.5 and paper.reflex.rules == literal.reflex.rules
-    assert paper.reflex.near["FL"] == paper.reflex.near["FR"] == (0.10, 0.35)
+    assert paper.reflex.near["FL"] == paper.reflex.near["FR"] == (0.10, 0.30)
     assert paper.reflex.near["F"] == literal.reflex.near["F"]
 
 
@@ -67,7 +67,7 @@ def test_paper_reflex_ignores_a_wall_alongside_that_the_literal_reflex_swerves_f
     paper = FuzzyReflex(load_config("paper").reflex)
     assert literal > math.radians(10)  # FR near -> LEFT: a turn away from a harmless wall
     assert paper.angle(sonar, 0.0) == pytest.approx(0.0)  # the goal straight ahead wins
-    sonar[[20, 21, 22]] = 0.15 / 5.0  # closer than 0.35 m: the paper reflex avoids it too
+    sonar[[20, 21, 22]] = 0.15 / 5.0  # closer than 0.30 m: the paper reflex avoids it too
     assert paper.angle(sonar, 0.0) > math.radians(10)
 
 
@@ -101,8 +101,8 @@ def test_reflex_mappings_merge_entry_by_entry():
     }
     assert c.reflex.d_g == 0.25
     # over a recipe that sets FL and FR itself, FR is kept
-    paper = load_config("paper", ["reflex.near.FL=[0.1, 0.3]"])
-    assert paper.reflex.near["FR"] == (0.10, 0.35) and paper.reflex.near["FL"] == (0.1, 0.3)
+    paper = load_config("paper", ["reflex.near.FL=[0.1, 0.35]"])
+    assert paper.reflex.near["FR"] == (0.10, 0.30) and paper.reflex.near["FL"] == (0.1, 0.35)
 
 
 def _error(overrides: list[str], recipe: str = "paper_literal") -> str:
