@@ -30,20 +30,10 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
+from bench_train import _timed  # the same CPU-time wrapper (this script's folder)
+
 CASES = (("sac", False, 3), ("sac", True, 20), ("ppo", False, 21), ("ppo", True, 140))
 """(algorithm, residual, episodes): about 600 SAC steps, 2 PPO updates."""
-
-
-def _timed(cls: type, name: str, key: str, totals: dict[str, float]) -> None:
-    original = getattr(cls, name)
-
-    def wrapper(*args, **kwargs):
-        t0 = time.process_time()
-        out = original(*args, **kwargs)
-        totals[key] += time.process_time() - t0
-        return out
-
-    setattr(cls, name, wrapper)
 
 
 def one(algorithm: str, residual: bool, episodes: int) -> dict[str, float | str]:
