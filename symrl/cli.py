@@ -12,6 +12,7 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 START_HELP = "start pose X,Y,HEADING_DEG (metres, metres, degrees; heading 0 if left out)"
 
@@ -78,9 +79,10 @@ def _at_least(flag: str, value: int | None, low: int) -> None:
         raise ValueError(f"{flag} {value}: must be >= {low}")
 
 
-def _train(args: argparse.Namespace) -> int:
-    """``symrl train``: SIGINT and SIGTERM only ask the run to stop (after the current step,
-    with its finished trials saved), from the start of the command on."""
+def _stoppable(run: Any) -> int:
+    """``run(signalled)`` with SIGINT and SIGTERM only asking it to stop (``signalled`` gets
+    their numbers; the run stops after its current step, with its state saved), from the start
+    of the command on."""
     import signal
 
     signalled: list[int] = []
@@ -92,10 +94,15 @@ def _train(args: argparse.Namespace) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM):
         handlers[sig] = signal.signal(sig, on_signal)
     try:
-        return _train_run(args, signalled)
+        return int(run(signalled))
     finally:
         for sig, handler in handlers.items():
             signal.signal(sig, handler)
+
+
+def _train(args: argparse.Namespace) -> int:
+    """``symrl train`` (stoppable: see :func:`_stoppable`)."""
+    return _stoppable(lambda signalled: _train_run(args, signalled))
 
 
 def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
@@ -254,9 +261,12 @@ def _plan(args: argparse.Namespace) -> int:
 
 
 def _baseline(args: argparse.Namespace) -> int:
+    """``symrl baseline`` (stoppable with one worker: see :func:`_stoppable`)."""
     from symrl.studies.baseline import baseline_command
 
-    return baseline_command(args)
+    if args.workers != 1:  # worker processes keep their periodic checkpoints
+        return baseline_command(args)
+    return _stoppable(lambda signalled: baseline_command(args, signalled))
 
 
 def _generalise(args: argparse.Namespace) -> int:
@@ -396,6 +406,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None,
                    help="results folder (default results/baseline-ALGO-VARIANT)")
     p.add_argument("--overwrite", action="store_true", help="replace runs already in --out")
+    p.add_argument("--resume", action="store_true",
+                   help="go on with the runs already in --out (same settings; --episodes may "
+                   "extend the budget); seeds without a run there start fresh")
+    p.add_argument("--checkpoint-every", type=int, default=50, metavar="N",
+                   help="save the whole run state every N trials (default 50), on Ctrl-C / "
+                   "SIGTERM (one worker) and at the end")
     p.set_defaults(handler=_baseline)
 
     p = sub.add_parser(

@@ -42,7 +42,7 @@ from symrl.learner.config import RunConfig
 __all__ = [
     "TrainResult", "train", "train_batch", "make_env", "TrialRecorder", "run_snapshot",
     "check_memory",
-    "restore_snapshot",
+    "restore_snapshot", "env_state", "restore_env_state",
 ]  # fmt: skip
 
 
@@ -75,6 +75,9 @@ def make_env(
 
 # ---------------------------------------------------------------------------------------------
 # Trial bookkeeping
+
+
+_RECORDER_ARRAYS = ("steps", "total", "collisions", "shielded", "td_error", "_start", "_first")
 
 
 class TrialRecorder:
@@ -135,6 +138,30 @@ class TrialRecorder:
         self._start[b] = self._offset + hi
         self._trim()
         return record
+
+    def state(self) -> dict[str, Any]:
+        """The accumulators of the trials in progress, as tensors (a run snapshot between two
+        steps, the baselines' resume)."""
+        arrays = {k: getattr(self, k) for k in _RECORDER_ARRAYS}
+        reached = getattr(self, "reached", None)
+        return {
+            **{k: torch.from_numpy(v.copy()) for k, v in arrays.items()},
+            "poses": torch.from_numpy(np.array(self._poses).reshape(-1, self.batch, 2)),
+            "winners": torch.from_numpy(np.array(self._winners, dtype=np.int64).reshape(
+                -1, self.batch)),
+            "offset": int(self._offset),
+            "reached": None if reached is None else reached.clone(),
+        }
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        """Go on from :meth:`state`."""
+        for k in _RECORDER_ARRAYS:
+            setattr(self, k, state[k].numpy().copy())
+        self._poses = list(state["poses"].numpy().copy())
+        self._winners = list(state["winners"].numpy().copy())
+        self._offset = int(state["offset"])
+        if state["reached"] is not None:
+            self.reached = state["reached"].clone()
 
     def _trim(self) -> None:
         drop = int(self._start.min()) - self._offset
@@ -358,7 +385,6 @@ def run_snapshot(env, policy, loss, trials: list[dict[str, Any]], td) -> dict[st
     keeps its path for the trajectory figure). Tensors and plain Python values only."""
     rows = [{k: v for k, v in r.items() if k not in _ROW_SKIP} for r in trials[:-1]]
     rows += [dict(r) for r in trials[-1:]]
-    physics = env.physics
     return {
         "format": SNAPSHOT_FORMAT,
         "trials": rows,
@@ -372,11 +398,30 @@ def run_snapshot(env, policy, loss, trials: list[dict[str, Any]], td) -> dict[st
         "normals": policy._normals.clone(),
         "uniforms": policy._uniforms.clone(),
         "drawn": int(policy._drawn),
+        **env_state(env),
+        "td": td.clone().to_dict(),
+    }
+
+
+def env_state(env) -> dict[str, Any]:
+    """The state of a :class:`~symrl.world.batched_env.BatchedWorldEnv` of B robots between two
+    steps: every robot's world generator, physics state and the outputs of its last reset or
+    step (tensors and plain Python values)."""
+    physics = env.physics
+    return {
         "env_rngs": [rng.bit_generator.state for rng in env.rngs],
         "physics": {n: torch.from_numpy(np.array(getattr(physics, n))) for n in _PHYSICS_STATE},
         "last": {k: torch.from_numpy(np.array(v)) for k, v in (env._last or {}).items()},
-        "td": td.clone().to_dict(),
     }
+
+
+def restore_env_state(env, state: dict[str, Any]) -> None:
+    """Put ``env`` (fresh, same map, robots and seeds) into the state of :func:`env_state`."""
+    for rng, saved in zip(env.rngs, state["env_rngs"], strict=True):
+        rng.bit_generator.state = saved
+    for name in _PHYSICS_STATE:
+        setattr(env.physics, name, state["physics"][name].numpy().copy())
+    env._last = {k: v.numpy().copy() for k, v in state["last"].items()}
 
 
 def _trimmed(state: dict[str, torch.Tensor], neurons: int) -> dict[str, torch.Tensor]:
@@ -405,10 +450,6 @@ def restore_snapshot(state: dict[str, Any], env, policy, loss):
     policy._normals = state["normals"].clone()
     policy._uniforms = state["uniforms"].clone()
     policy._drawn = int(state["drawn"])
-    for rng, saved in zip(env.rngs, state["env_rngs"], strict=True):
-        rng.bit_generator.state = saved
-    for name in _PHYSICS_STATE:
-        setattr(env.physics, name, state["physics"][name].numpy().copy())
-    env._last = {k: v.numpy().copy() for k, v in state["last"].items()}
+    restore_env_state(env, state)
     return TensorDict(state["td"], batch_size=env.batch_size).clone()
 

@@ -31,15 +31,16 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 import torch
-from tensordict import TensorDictBase
+from tensordict import TensorDict, TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from symrl.learner.config import RunConfig, config_to_dict, load_config
@@ -55,11 +56,14 @@ __all__ = [
     "first_reliable",
     "BaselineController",
     "load_baseline",
+    "load_run_state",
     "baseline_command",
     "CHECKPOINT_KIND",
 ]
 
 CHECKPOINT_KIND = "baseline"
+SNAPSHOT_FORMAT = 1
+"""Format of the run state a baseline checkpoint holds (``symrl baseline ... --resume``)."""
 RELIABLE_WINDOW, RELIABLE_LEVEL = 20, 0.8
 
 
@@ -77,6 +81,15 @@ class Agent(Protocol):
 
     def observe(self, td: TensorDictBase) -> None:
         """Learn from one batch [B] of transitions (root + ``next``)."""
+        ...
+
+    def state(self) -> dict[str, Any]:
+        """Everything the agent has learnt and holds (networks, optimiser, data), as tensors
+        and plain values: with it a run goes on between two steps (resume)."""
+        ...
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        """Go on from :meth:`state` (a fresh agent of the same settings)."""
         ...
 
 
@@ -173,13 +186,17 @@ def summarise(rows: Sequence[dict[str, Any]], budget: int) -> dict[str, Any]:
 
 
 def save_baseline(path: Path, algorithm: str, agent: Agent, priors: Priors, config: RunConfig,
-                  world: Any, seed: int, n_obs: int) -> None:  # fmt: skip
-    """The actor, how to rebuild it, the priors, config and map content: self-contained."""
+                  world: Any, seed: int, n_obs: int,
+                  resume: dict[str, Any] | None = None) -> None:  # fmt: skip
+    """The actor, how to rebuild it, the priors, config and map content: self-contained; with
+    ``resume`` also the run state to go on from (:func:`load_run_state`). Written atomically: a
+    crash leaves the previous file."""
     from symrl.about import provenance
     from symrl.runs import CHECKPOINT_FORMAT, _atomic_save, _map_content
 
     _atomic_save(
         {
+            **({"resume": resume} if resume is not None else {}),
             "format": CHECKPOINT_FORMAT,
             "kind": CHECKPOINT_KIND,
             "algorithm": algorithm,
@@ -193,6 +210,60 @@ def save_baseline(path: Path, algorithm: str, agent: Agent, priors: Priors, conf
         },
         path,
     )
+
+
+def load_run_state(logdir: str | Path, settings: dict[str, Any],
+                   episodes: int) -> dict[str, Any]:  # fmt: skip
+    """The run state in ``logdir/checkpoint.pt`` to go on to ``episodes`` trials, checked
+    against this run's ``settings`` (algorithm, priors, seed, robots, hyper-parameters). Every
+    fault is one line naming the folder: no run there, no run state, another format, other
+    settings, a budget below what is done."""
+    from symrl.runs import CheckpointError
+
+    folder = Path(logdir)
+    path = folder / "checkpoint.pt"
+    if not path.is_file():
+        raise CheckpointError(f"--resume {str(folder)!r}: no checkpoint.pt in it")
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as err:  # noqa: BLE001 - any unreadable file is the same user error
+        detail = str(err).splitlines()[0][:120] if str(err) else type(err).__name__
+        raise CheckpointError(f"--resume {str(folder)!r}: unreadable checkpoint ({detail})"
+                              ) from None  # fmt: skip
+    state = data.get("resume") if isinstance(data, dict) else None
+    if not isinstance(data, dict) or data.get("kind") != CHECKPOINT_KIND:
+        raise CheckpointError(f"--resume {str(folder)!r}: not a baseline run")
+    if not isinstance(state, dict):
+        raise CheckpointError(f"--resume {str(folder)!r}: the checkpoint holds the actor only, "
+                              "no run state to go on from")  # fmt: skip
+    if state.get("format") != SNAPSHOT_FORMAT:
+        raise CheckpointError(
+            f"--resume {str(folder)!r}: run state format {state.get('format')!r}, this symrl "
+            f"resumes format {SNAPSHOT_FORMAT}"
+        )
+    saved, given = _flat(state.get("settings", {})), _flat(settings)
+    for key in sorted(set(saved) | set(given)):
+        if saved.get(key) != given.get(key):
+            raise CheckpointError(
+                f"--resume {str(folder)!r}: the run has {key} {saved.get(key)!r}, this command "
+                f"{given.get(key)!r}"
+            )
+    done = len(state["rows"])
+    if episodes < done:
+        raise ValueError(f"--episodes {episodes}: the run in {str(folder)!r} has done {done} "
+                         "trials already")  # fmt: skip
+    return state
+
+
+def _flat(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested settings as ``{"ppo.hidden": 64, ...}`` (an error names the one that differs)."""
+    out: dict[str, Any] = {}
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            out.update(_flat(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
 
 
 class BaselineController(TensorDictModuleBase):
@@ -286,39 +357,57 @@ def train_baseline(
     logdir: str | Path | None = None,
     progress: bool = True,
     overwrite: bool = False,
+    resume: bool = False,
+    checkpoint_every: int = 50,
+    stop: Callable[[], bool] | None = None,
     **settings: Any,
 ) -> dict[str, Any]:
     """Train one baseline for ``episodes`` trials; write its run folder ``logdir`` (if given).
 
     ``settings`` override the algorithm's defaults (``SACConfig`` / ``PPOConfig`` fields).
-    Returns the trial rows, the summaries at 20 trials and at the end, and timings. Runs on
-    one torch thread (small networks: as fast, and it shares the machine)."""
+    The checkpoint holds the whole run state, written every ``checkpoint_every`` trials, when
+    ``stop()`` turns true (checked between two steps: the run stops there) and at the end;
+    ``resume`` goes on from the run in ``logdir`` (to a budget at least its own), and the
+    trial table is the uninterrupted run's. Returns the trial rows, the summaries at 20 trials
+    and at the end, and timings. Runs on one torch thread (small networks: as fast, and it
+    shares the machine)."""
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
         return _train_baseline(algorithm, seed, episodes, priors, map, envs, logdir, progress,
-                               overwrite, settings)  # fmt: skip
+                               overwrite, resume, checkpoint_every, stop,
+                               settings)  # fmt: skip
     finally:
         torch.set_num_threads(threads)
 
 
 def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | None, map: str,
                     envs: int | None, logdir: str | Path | None, progress: bool,
-                    overwrite: bool, settings: dict[str, Any]) -> dict[str, Any]:  # fmt: skip
+                    overwrite: bool, resume: bool, checkpoint_every: int,
+                    stop: Callable[[], bool] | None,
+                    settings: dict[str, Any]) -> dict[str, Any]:  # fmt: skip
     from tqdm.auto import tqdm
 
     from symrl.runs import BASE_COLUMNS, RunWriter
-    from symrl.train import TrialRecorder
+    from symrl.train import TrialRecorder, env_state, restore_env_state
     from symrl.world.worldmap import load_map
 
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise ValueError(f"--episodes {episodes!r}: must be an integer >= 1")
+    if checkpoint_every < 1:
+        raise ValueError(f"--checkpoint-every {checkpoint_every!r}: must be >= 1")
     priors = priors or Priors()
     agent_cls, cfg_cls = _algorithms()[algorithm]
     cfg = cfg_cls(**settings)
     envs = cfg.envs if envs is None else envs
     if isinstance(envs, bool) or not isinstance(envs, int) or envs < 1:
         raise ValueError(f"--envs {envs!r}: must be an integer >= 1")
+    run_settings = _settings(algorithm, priors, seed, envs, cfg)
+    state = None
+    if resume:
+        if logdir is None:
+            raise ValueError("resume: needs the run folder (logdir)")
+        state = load_run_state(logdir, run_settings, episodes)
     torch.manual_seed(seed)
     t0, cpu0 = time.perf_counter(), time.process_time()
     config = run_config(map, seed, episodes)
@@ -327,23 +416,62 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
     n_obs = env.observation_spec["observation"].shape[-1]
     agent = agent_cls(cfg, n_obs, envs)
     to_action = PriorAction(priors, config)
-    writer = None
-    if logdir is not None:
-        settings_out = {"baseline": algorithm, "priors": asdict(priors), "seed": seed,
-                        "episodes": episodes, "envs": envs, algorithm: asdict(cfg),
-                        **{k: config_to_dict(config)[k] for k in ("env", "reflex", "shield")}}
-        writer = RunWriter(logdir, config, world, overwrite=overwrite,
-                           columns=list(BASE_COLUMNS), settings=settings_out)  # fmt: skip
     recorder = TrialRecorder(envs)
     rows: list[dict[str, Any]] = []
-    frames, at20 = 0, None
-    bar = tqdm(total=episodes, desc=f"{algorithm} {priors.label()} seed {seed}", unit="trial",
-               disable=not progress, mininterval=5)  # fmt: skip
+    pending: list[dict[str, Any]] = []  # trials that ended in the step the budget was reached
+    frames, at20, wall0, cpu_before = 0, None, 0.0, 0.0
+    writer = None
+    if logdir is not None:
+        settings_out = {**run_settings, "episodes": episodes,
+                        **{k: config_to_dict(config)[k] for k in ("env", "reflex", "shield")}}
+        writer = RunWriter(logdir, config, world, overwrite=overwrite,
+                           resume_rows=state["rows"] if state is not None else None,
+                           columns=list(BASE_COLUMNS), settings=settings_out)  # fmt: skip
+    if state is not None:
+        agent.load_state(state["agent"])
+        restore_env_state(env.base_env, state["env"])
+        recorder.load_state(state["recorder"])
+        torch.set_rng_state(state["torch_rng"])
+        rows, pending = list(state["rows"]), list(state["pending"])
+        frames, wall0, cpu_before = int(state["frames"]), state["wall_s"], state["cpu_s"]
+        at20 = tuple(state["at20"]) if state["at20"] is not None else None
+    bar = tqdm(total=episodes, initial=len(rows), unit="trial", disable=not progress,
+               desc=f"{algorithm} {priors.label()} seed {seed}", mininterval=5)  # fmt: skip
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
+    def elapsed() -> tuple[float, float]:
+        return (wall0 + time.perf_counter() - t0,
+                cpu_before + time.process_time() - cpu0)  # fmt: skip
+
+    def snapshot(td: TensorDictBase) -> None:
+        if writer is None:
+            return
+        wall, cpu = elapsed()
+        run_state = {
+            "format": SNAPSHOT_FORMAT, "settings": run_settings, "rows": rows,
+            "pending": pending, "agent": agent.state(), "env": env_state(env.base_env),
+            "recorder": recorder.state(), "torch_rng": torch.get_rng_state(),
+            "td": td.to_dict(), "frames": frames, "wall_s": wall, "cpu_s": cpu,
+            "at20": list(at20) if at20 is not None else None,
+        }  # fmt: skip
+        save_baseline(writer.dir / "checkpoint.pt", algorithm, agent, priors, config,
+                      world, seed, n_obs, resume=run_state)  # fmt: skip
+
+    def take(record: dict[str, Any]) -> None:
+        rows.append(record)
+        if writer is not None:
+            writer.trial(record, last=len(rows) == episodes)
+        nonlocal at20
+        if len(rows) == min(20, episodes) and at20 is None:
+            at20 = (round(elapsed()[0], 1), frames)
+        bar.update()
+
+    stopped = False
     try:
         with set_exploration_type(ExplorationType.RANDOM):
-            td = env.reset()
+            td = env.reset() if state is None else TensorDict(state["td"], batch_size=[envs])
+            while pending and len(rows) < episodes:
+                take(pending.pop(0))
             while len(rows) < episodes:
                 agent.act(td)
                 to_action(td)
@@ -351,32 +479,34 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
                 frames += envs
                 done = recorder.step(td, torch.zeros(envs))
                 agent.observe(td)
-                for b in np.flatnonzero(done):
-                    if len(rows) == episodes:
-                        break
+                before = len(rows)
+                for b in np.flatnonzero(done):  # robots in index order
                     record = recorder.finish(int(b))
                     del record["mean_abs_td_error"]  # the paper learner's column
-                    record.update(trial=len(rows) + 1, reached_goal=bool(recorder.reached[b]))
-                    rows.append(record)
-                    if writer is not None:
-                        writer.trial(record, last=len(rows) == episodes)
-                    if len(rows) == min(20, episodes):
-                        at20 = (round(time.perf_counter() - t0, 1), frames)
-                    bar.update()
+                    record.update(trial=len(rows) + len(pending) + 1,
+                                  reached_goal=bool(recorder.reached[b]))  # fmt: skip
+                    if len(rows) < episodes:
+                        take(record)
+                    else:
+                        pending.append(record)
                 if done.any():
                     rate = np.mean([r["reached_goal"] for r in rows[-20:]]) if rows else 0.0
                     bar.set_postfix(success20=f"{rate:.2f}")
                 td = next_td
-        if writer is not None:
-            save_baseline(writer.dir / "checkpoint.pt", algorithm, agent, priors, config,
-                          world, seed, n_obs)  # fmt: skip
+                if len(rows) // checkpoint_every > before // checkpoint_every:
+                    snapshot(td)
+                if stop is not None and stop() and len(rows) < episodes:
+                    stopped = True
+                    break
+        snapshot(td)
+        if writer is not None and not stopped:
             writer.finish(None, seed)
     finally:
         bar.close()
         if writer is not None:
             writer.close()
         env.close()
-    wall = round(time.perf_counter() - t0, 1)
+    wall, cpu = elapsed()
     return {
         "algorithm": algorithm,
         "variant": priors.label(),
@@ -386,10 +516,11 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
         "envs": envs,
         "settings": asdict(cfg),
         "rows": rows,
+        "stopped": stopped,
         "at20": {**summarise(rows, 20), "wall_time_s": at20[0] if at20 else None,
                  "frames": at20[1] if at20 else None},  # fmt: skip
-        "end": {**summarise(rows, episodes), "wall_time_s": wall, "frames": frames},
-        "cpu_time_s": round(time.process_time() - cpu0, 1),
+        "end": {**summarise(rows, episodes), "wall_time_s": round(wall, 1), "frames": frames},
+        "cpu_time_s": round(cpu, 1),
     }
 
 
@@ -426,6 +557,19 @@ def parse_seeds(text: str) -> list[int]:
     return seeds
 
 
+def _settings(algorithm: str, priors: Priors, seed: int, envs: int, cfg: Any) -> dict[str, Any]:
+    """What a run records as its settings (``config.yaml``; checked on ``--resume``)."""
+    return {"baseline": algorithm, "priors": asdict(priors), "seed": seed, "envs": envs,
+            algorithm: asdict(cfg)}  # fmt: skip
+
+
+def _run_settings(args: argparse.Namespace, priors: Priors, seed: int) -> dict[str, Any]:
+    """The settings of the run of ``args`` for ``seed``."""
+    cfg = _algorithms()[args.algorithm][1]()
+    return _settings(args.algorithm, priors, seed, cfg.envs if args.envs is None else args.envs,
+                     cfg)  # fmt: skip
+
+
 def summary_markdown(results: list[dict[str, Any]]) -> str:
     """One row per seed and budget."""
     lines = [
@@ -445,8 +589,10 @@ def summary_markdown(results: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def baseline_command(args: argparse.Namespace) -> int:
-    """``symrl baseline ALGO``: one run folder per seed (``OUT/seed-S``), a summary table."""
+def baseline_command(args: argparse.Namespace, signalled: list[int] | None = None) -> int:
+    """``symrl baseline ALGO``: one run folder per seed (``OUT/seed-S``), a summary table.
+    ``signalled`` (one worker): the signals received; the first stops the run between two steps
+    with its state saved (``--resume`` goes on)."""
     from symrl.studies.runner import run_jobs
 
     seeds = parse_seeds(args.seeds)
@@ -456,22 +602,53 @@ def baseline_command(args: argparse.Namespace) -> int:
         raise ValueError(f"--envs {args.envs}: must be >= 1")
     if args.workers < 1:
         raise ValueError(f"--workers {args.workers}: must be >= 1")
+    if args.checkpoint_every < 1:
+        raise ValueError(f"--checkpoint-every {args.checkpoint_every}: must be >= 1")
+    if args.resume and args.overwrite:
+        raise ValueError("--resume goes on with the runs in --out, --overwrite replaces them: "
+                         "give one")  # fmt: skip
     priors = Priors(residual=args.residual, regions=args.regions, correction=args.correction)
     out = Path(args.out or f"results/baseline-{args.algorithm}-{priors.label()}")
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {str(out)!r}: exists and is not a folder")
     runs = [out / f"seed-{s}" for s in seeds]
-    for run in runs:
-        if (run / "config.yaml").exists() and not args.overwrite:
+    resumed = [args.resume and (run / "checkpoint.pt").is_file() for run in runs]
+    for run, goes_on in zip(runs, resumed, strict=True):
+        if (run / "config.yaml").exists() and not (args.overwrite or goes_on):
+            hint = ("it has no checkpoint.pt to go on from" if args.resume
+                    else "pass --overwrite to replace it, or --resume to go on with it")
             raise FileExistsError(f"--out {str(out)!r}: {run.name} already holds a run "
-                                  "(pass --overwrite to replace it)")  # fmt: skip
+                                  f"({hint})")  # fmt: skip
+    for run, goes_on, seed in zip(runs, resumed, seeds, strict=True):
+        if goes_on:  # every run's settings are checked before any of them trains
+            load_run_state(run, _run_settings(args, priors, seed), args.episodes)
     t0 = time.perf_counter()
+    stop = (lambda: bool(signalled)) if signalled is not None else None
     jobs = [{"algorithm": args.algorithm, "seed": s, "episodes": args.episodes,
              "priors": priors, "map": args.map, "envs": args.envs, "logdir": str(run),
-             "overwrite": args.overwrite}
-            for s, run in zip(seeds, runs, strict=True)]  # fmt: skip
-    results = run_jobs(train_baseline, jobs, workers=args.workers,
-                       desc=f"{args.algorithm} {priors.label()}")  # fmt: skip
+             "overwrite": args.overwrite, "resume": goes_on,
+             "checkpoint_every": args.checkpoint_every, **({"stop": stop} if stop else {})}
+            for s, run, goes_on in zip(seeds, runs, resumed, strict=True)]  # fmt: skip
+    if stop is None:
+        results = run_jobs(train_baseline, jobs, workers=args.workers,
+                           desc=f"{args.algorithm} {priors.label()}")  # fmt: skip
+    else:  # one worker: here, seed after seed, until a signal stops the current run
+        results = []
+        for job in jobs:
+            if signalled:
+                break
+            results.append(train_baseline(**job))
+    if signalled:
+        import signal
+
+        where = "before its first run"
+        if results:
+            last = results[-1]
+            where = (f"after {len(last['rows'])} of {args.episodes} trials of seed "
+                     f"{last['seed']} (its state is saved in {out}/seed-{last['seed']}/)")
+        print(f"symrl baseline: stopped by {signal.Signals(signalled[0]).name} {where}; go "
+              "on with the same command and --resume", file=sys.stderr)  # fmt: skip
+        return 128 + int(signalled[0])
     wall = round(time.perf_counter() - t0, 1)
     summary = [{k: v for k, v in r.items() if k != "rows"} for r in results]
     before = out / "summary.json"  # runs of other seeds in the same folder are kept

@@ -110,3 +110,23 @@ class PPOAgent:
                 torch.nn.utils.clip_grad_norm_(self.loss.parameters(), self.cfg.max_grad_norm)
                 self.optim.step()
                 self.updates += 1
+
+    def state(self) -> dict[str, Any]:
+        return {
+            "loss": self.loss.state_dict(),  # actor and critic
+            "actor": self.actor.state_dict(),
+            "critic": self.gae.value_network.state_dict(),
+            "optim": self.optim.state_dict(),
+            "steps": [td.to_dict() for td in self.steps],  # the batch being collected
+            "updates": self.updates,
+        }
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        from tensordict import TensorDict
+
+        self.loss.load_state_dict(state["loss"])
+        self.actor.load_state_dict(state["actor"])
+        self.gae.value_network.load_state_dict(state["critic"])
+        self.optim.load_state_dict(state["optim"])
+        self.steps = [TensorDict(d, batch_size=[self.envs]) for d in state["steps"]]
+        self.updates = int(state["updates"])

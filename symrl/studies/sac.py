@@ -104,3 +104,25 @@ class SACAgent:
             self.optim.step()
             self.target.step()
             self.updates += 1
+
+    def state(self) -> dict[str, Any]:
+        n = len(self.buffer)
+        return {
+            "loss": self.loss.state_dict(),  # actor, critics, target critics, temperature
+            "actor": self.actor.state_dict(),
+            "optim": self.optim.state_dict(),
+            "buffer": self.buffer.storage[:n].to_dict() if n else None,
+            "frames": self.frames,
+            "updates": self.updates,
+        }
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        from tensordict import TensorDict
+
+        self.loss.load_state_dict(state["loss"])
+        self.actor.load_state_dict(state["actor"])
+        self.optim.load_state_dict(state["optim"])
+        if state["buffer"] is not None:  # one extend: the same rows in the same slots
+            data = TensorDict(state["buffer"])
+            self.buffer.extend(data.auto_batch_size_(batch_dims=1))
+        self.frames, self.updates = int(state["frames"]), int(state["updates"])

@@ -250,3 +250,53 @@ def test_the_report_compares_every_learner_it_finds(tmp_path):
     assert "| 3 | 1 |" in row  # 3 trials, 1 seed
     assert "| SAC residual | *not run*" in table and list(curves) == ["PPO residual"]
     assert len(curves["PPO residual"][0]) == 3
+
+
+@pytest.mark.parametrize("algorithm", ["sac", "ppo"])
+def test_a_resumed_run_is_the_uninterrupted_run(algorithm, tmp_path):
+    kwargs = {"seed": 4, "priors": Priors(residual=True), "progress": False, **TINY[algorithm]}
+    train_baseline(algorithm, episodes=4, logdir=tmp_path / "whole", **kwargs)
+    # stopped from outside in the middle of a trial (and, for PPO, of a batch), then resumed
+    calls = iter(range(10_000))
+    stopped = train_baseline(algorithm, episodes=4, logdir=tmp_path / "parts",
+                             stop=lambda: next(calls) >= 37, **kwargs)  # fmt: skip
+    assert stopped["stopped"] and len(stopped["rows"]) < 4
+    # a finished run extended to a larger budget is also the same run
+    train_baseline(algorithm, episodes=len(stopped["rows"]) + 1, logdir=tmp_path / "parts",
+                   resume=True, **kwargs)  # fmt: skip
+    train_baseline(algorithm, episodes=4, logdir=tmp_path / "parts", resume=True, **kwargs)
+    whole = (tmp_path / "whole" / "trials.csv").read_text()
+    assert (tmp_path / "parts" / "trials.csv").read_text() == whole
+    assert len(whole.splitlines()) == 5
+
+
+def test_periodic_checkpoints_hold_the_run_state(tmp_path):
+    from symrl.studies.baseline import load_run_state
+
+    train_baseline("ppo", seed=6, episodes=3, priors=Priors(residual=True), progress=False,
+                   logdir=tmp_path, checkpoint_every=1, **TINY["ppo"])  # fmt: skip
+    state = torch.load(tmp_path / "checkpoint.pt", weights_only=True)["resume"]
+    assert load_run_state(tmp_path, state["settings"], 3)["rows"] == state["rows"]
+    other = {**state["settings"], "ppo": {**state["settings"]["ppo"], "hidden": 64}}
+    with pytest.raises(ValueError, match="the run has ppo.hidden 16, this command 64$"):
+        load_run_state(tmp_path, other, 3)
+    assert [r["trial"] for r in state["rows"]] == [1, 2, 3]
+    assert state["frames"] == sum(r["steps"] for r in state["rows"]) + int(
+        state["recorder"]["steps"].sum()
+    )  # the robots still in a trial are part of the state
+
+
+def test_resume_from_the_command_line(tmp_path, capsys):
+    argv = ["baseline", "ppo", "--seeds", "0", "--residual", "--out", str(tmp_path)]
+    assert main([*argv, "--episodes", "1"]) == 0
+    assert main([*argv, "--episodes", "2", "--resume"]) == 0
+    assert len(read_trials_csv(tmp_path / "seed-0" / "trials.csv")) == 2
+    capsys.readouterr()
+    for extra, message in (
+        (["--episodes", "2", "--resume", "--regions"], "the run has priors.regions False"),
+        (["--episodes", "1", "--resume"], "has done 2 trials already"),
+        (["--episodes", "3", "--resume", "--overwrite"], "give one"),
+    ):
+        assert main([*argv, *extra]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and message in err, err
