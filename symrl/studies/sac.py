@@ -111,7 +111,8 @@ class SACAgent:
             "loss": self.loss.state_dict(),  # actor, critics, target critics, temperature
             "actor": self.actor.state_dict(),
             "optim": self.optim.state_dict(),
-            "buffer": self.buffer.storage[:n].to_dict() if n else None,
+            # a copy of the rows in use: a view would save the whole 1e6-row storage
+            "buffer": self.buffer.storage[:n].clone().to_dict() if n else None,
             "frames": self.frames,
             "updates": self.updates,
         }

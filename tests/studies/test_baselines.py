@@ -300,3 +300,12 @@ def test_resume_from_the_command_line(tmp_path, capsys):
         assert main([*argv, *extra]) == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and message in err, err
+
+
+def test_the_sac_checkpoint_holds_only_the_transitions_collected(tmp_path):
+    train_baseline("sac", seed=2, episodes=1, priors=Priors(residual=True), progress=False,
+                   logdir=tmp_path, **TINY["sac"])  # fmt: skip
+    state = torch.load(tmp_path / "checkpoint.pt", weights_only=True)["resume"]
+    buffer = state["agent"]["buffer"]
+    assert buffer["observation"].shape[0] == state["frames"] == state["rows"][0]["steps"]
+    assert buffer["observation"].untyped_storage().nbytes() == buffer["observation"].nbytes
