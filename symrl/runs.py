@@ -41,6 +41,7 @@ __all__ = [
     "save_checkpoint",
     "load_checkpoint",
     "load_resume",
+    "read_checkpoint_file",
     "CheckpointError",
     "run_one",
     "finished_trials",
@@ -209,6 +210,16 @@ def load_resume(run_dir: str | Path) -> tuple[RunConfig, int, dict[str, Any]]:
     return config, int(data["seed"]), state
 
 
+def read_checkpoint_file(path: Path, name: str) -> Any:
+    """The content of the checkpoint file ``path`` (tensors and plain values only); a file
+    that cannot be read is a one-line :class:`CheckpointError` that starts with ``name``."""
+    try:
+        return torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as err:  # noqa: BLE001 - any unreadable file is the same user error
+        detail = str(err).splitlines()[0][:120] if str(err) else type(err).__name__
+        raise CheckpointError(f"{name}: not a readable symrl checkpoint ({detail})") from None
+
+
 def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
     """Rebuild ``(policy, config)`` from :func:`save_checkpoint`; every fault of the file is a
     one-line :class:`CheckpointError`."""
@@ -218,13 +229,7 @@ def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"checkpoint {str(path)!r}: no such file")
-    try:
-        data = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as err:  # noqa: BLE001 - any unreadable file is the same user error
-        detail = str(err).splitlines()[0][:120] if str(err) else type(err).__name__
-        raise CheckpointError(
-            f"checkpoint {str(path)!r}: not a readable symrl checkpoint ({detail})"
-        ) from None
+    data = read_checkpoint_file(path, f"checkpoint {str(path)!r}")
     if not isinstance(data, dict) or "config" not in data or "policy" not in data:
         raise CheckpointError(f"checkpoint {str(path)!r}: not written by symrl train")
     if data.get("format") != CHECKPOINT_FORMAT:

@@ -218,18 +218,13 @@ def load_run_state(logdir: str | Path, settings: dict[str, Any],
     against this run's ``settings`` (algorithm, priors, seed, robots, hyper-parameters). Every
     fault is one line naming the folder: no run there, no run state, another format, other
     settings, a budget below what is done."""
-    from symrl.runs import CheckpointError
+    from symrl.runs import CheckpointError, read_checkpoint_file
 
     folder = Path(logdir)
     path = folder / "checkpoint.pt"
     if not path.is_file():
         raise CheckpointError(f"--resume {str(folder)!r}: no checkpoint.pt in it")
-    try:
-        data = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as err:  # noqa: BLE001 - any unreadable file is the same user error
-        detail = str(err).splitlines()[0][:120] if str(err) else type(err).__name__
-        raise CheckpointError(f"--resume {str(folder)!r}: unreadable checkpoint ({detail})"
-                              ) from None  # fmt: skip
+    data = read_checkpoint_file(path, f"--resume {str(folder)!r}")
     state = data.get("resume") if isinstance(data, dict) else None
     if not isinstance(data, dict) or data.get("kind") != CHECKPOINT_KIND:
         raise CheckpointError(f"--resume {str(folder)!r}: not a baseline run")

@@ -300,6 +300,11 @@ def test_resume_from_the_command_line(tmp_path, capsys):
         assert main([*argv, *extra]) == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and message in err, err
+    (tmp_path / "seed-0" / "checkpoint.pt").write_bytes(b"cut short")
+    assert main([*argv, "--episodes", "3", "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "not a readable symrl checkpoint" in err
+    assert len(read_trials_csv(tmp_path / "seed-0" / "trials.csv")) == 2  # nothing lost
 
 
 def test_the_sac_checkpoint_holds_only_the_transitions_collected(tmp_path):
