@@ -76,14 +76,17 @@ def trial_step(
     baseline: torch.Tensor,
     rate: float,
     clip: float,
+    limit: float,
 ) -> None:
     """End-of-trial REINFORCE step of the offsets' means for controllers ``rows``: every neuron
     of expert e used in the trial moves mu += rate * clip(G_e - q_e, +-clip) * (xi - mu), with
     ``returns`` G (k, E) the return-to-go from region e's first entry and ``baseline`` q (k, E)
     the averaged return-to-go of the option chosen there (0 advantage where a region was not
-    entered). xi - mu is the neuron's last exploration in the trial (``taken - p - mu``)."""
+    entered). xi - mu is the neuron's last exploration in the trial (``taken - p - mu``); the
+    means stay within +-``limit`` (beyond it the offset is clipped and a mean only drifts)."""
     used = bank.used[rows]
     means = bank.means[rows]
     explored = bank.taken[rows] - bank.actions[rows] - means
     advantage = (returns - baseline).clamp(-clip, clip).unsqueeze(-1)
-    bank.means[rows] = torch.where(used, means + rate * advantage * explored, means)
+    stepped = (means + rate * advantage * explored).clamp(-limit, limit)
+    bank.means[rows] = torch.where(used, stepped, means)

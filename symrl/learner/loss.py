@@ -207,7 +207,7 @@ class TeseoLoss(LossModule):
                 var = self.adv_sq[rows] / self.adv_n[rows].clamp(min=1)
                 scale = torch.where(known, 1.0 / var.clamp(min=1e-3), 0.0)
                 baseline = returns - (returns - baseline) * scale
-            trial_step(policy.experts, rows, returns, baseline, a.rate, a.clip)
+            trial_step(policy.experts, rows, returns, baseline, a.rate, a.clip, a.limit)
         if cfg.experts.learning:
             improved = reached & (totals > policy.best_total[rows])
             policy.best_total[rows] = torch.where(improved, totals, policy.best_total[rows])

@@ -292,7 +292,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 limit = self.config.aim.limit
                 aimed = aimed_bearing(target, p + xi, limit)
                 alpha = self.reflex(sonar.to(torch.float64), aimed).clamp_(-_PI, _PI)
-                offset = (p + xi).clamp(-limit, limit)  # what action replacement copies
+                offset = p + xi  # unclipped: the trial rule reads xi - mu from it
             else:
                 alpha = (base + p + xi).clamp_(-_PI, _PI)
         shielded = self._no_entry

@@ -83,7 +83,7 @@ def test_a_neurons_offset_turns_the_reflexs_aim():
         td = p(obs.clone())
     expected = p.reflex(obs["sonar"].double(), torch.tensor([0.3 + 0.4], dtype=torch.float64))
     assert float(td["action"][0, 0]) == pytest.approx(float(expected[0]), abs=1e-6)
-    assert float(td["taken"][0]) == pytest.approx(0.4)
+    assert float(td["taken"][0]) == pytest.approx(0.4)  # the offset, before its clip
     clipped = policy("paper", *AIM, "aim.limit=0.1")
     place(clipped, obs, action=0.0, mean=0.4)
     with set_exploration_type(GREEDY):
@@ -126,10 +126,13 @@ def test_trial_step_moves_used_neurons_toward_exploration_that_beat_the_critic()
     bank.used[0, 0, 0] = bank.used[0, 1, 0] = True
     returns = torch.tensor([[-5.0, -1.0]], dtype=torch.float64)
     baseline = torch.tensor([[-6.0, -4.0]], dtype=torch.float64)  # both beat the critic
-    trial_step(bank, torch.tensor([0]), returns, baseline, rate=0.5, clip=2.0)
+    trial_step(bank, torch.tensor([0]), returns, baseline, rate=0.5, clip=2.0, limit=0.8)
     assert bank.means[0, 0, 0].item() == pytest.approx(0.1 + 0.5 * 1.0 * 0.2)
     assert bank.means[0, 1, 0].item() == pytest.approx(0.1 + 0.5 * 2.0 * 0.2)  # clipped 3 -> 2
     assert bank.means[0, :, 1].tolist() == [0.1, 0.1]  # unused neurons keep their means
+    bank.taken[0, 1, 0] = 5.0  # a huge exploration: the mean stops at the offset's limit
+    trial_step(bank, torch.tensor([0]), returns, baseline, rate=0.5, clip=2.0, limit=0.8)
+    assert bank.means[0, 1, 0].item() == pytest.approx(0.8)
 
 
 def test_aim_needs_residual_experts_and_the_trial_rule_needs_options():
