@@ -8,8 +8,7 @@ naming the key and the value (:class:`ConfigError`).
 
 The sections follow the data flow: ``env`` (world and robot) -> ``gate`` (regions) ->
 ``experts`` (growing RBF networks) -> ``options`` (sub-goals for the reflex) -> ``reflex`` ->
-``shield``; ``aim`` turns the reflex's target by the experts' correction; ``update`` is the
-TESEO learning rule; ``run`` the budget.
+``shield``; ``update`` is the TESEO learning rule; ``run`` the budget.
 """
 
 from __future__ import annotations
@@ -42,7 +41,6 @@ __all__ = [
     "UpdateConfig",
     "OptionsConfig",
     "ShieldSection",
-    "AimConfig",
     "RunSection",
     "RunConfig",
     "load_config",
@@ -169,32 +167,6 @@ class OptionsConfig(_Section):
     to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end."""
 
 
-class AimConfig(_Section):
-    """Aim corrections (``symrl.learner.aim``): the experts' correction turns the bearing the
-    reflex steers at instead of being added to the reflex's output action."""
-
-    enabled: StrictBool = False
-    """True: the winning neuron's p + xi is an offset of the target bearing (radians); the action
-    is the reflex's response to the turned bearing. Needs ``experts.residual``."""
-    limit: float = Field(0.8, gt=0, le=3.2)
-    """Largest aim offset, radians (the offset is clipped to +-limit)."""
-    hold: StrictBool = True
-    """Hold the exploration draw while the same neuron wins (False: a new draw every step)."""
-    learn: Literal["td", "trial"] = "td"
-    """How the offsets' means learn. ``td``: the update's per-step REINFORCE step on the TD
-    error. ``trial``: no per-step step; at a trial's end every neuron used steps its mean by
-    ``rate * clip(G - q, +-clip) * (xi - mu)``, G the return-to-go from its region's first
-    entry, q the option critic's mean for the option chosen there (needs options and the
-    region gate)."""
-    rate: float = Field(0.5, ge=0)
-    """Step size of the ``trial`` rule."""
-    clip: float = Field(2.0, gt=0)
-    """The ``trial`` rule's advantage G - q is clipped to +-clip."""
-    scale: Literal["none", "variance"] = "none"
-    """``variance``: the ``trial`` rule's advantage is divided by the region's mean squared
-    advantage so far (noisy regions step less) before clipping."""
-
-
 class ShieldSection(_Section):
     """The IR safety shield (``symrl.knowledge.shield``)."""
 
@@ -228,19 +200,12 @@ class RunConfig(_Section):
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
     shield: ShieldSection = Field(default_factory=ShieldSection)
-    aim: AimConfig = Field(default_factory=AimConfig)
     run: RunSection = Field(default_factory=RunSection)
 
     @model_validator(mode="after")
     def _consistent(self) -> RunConfig:
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
-        if self.aim.enabled and not self.experts.residual:
-            raise ValueError("aim.enabled=true needs experts.residual=true")
-        if self.aim.enabled and self.aim.learn == "trial" and not (
-            self.options.enabled and self.gate.partition
-        ):
-            raise ValueError("aim.learn='trial' needs options.enabled=true and gate.partition=true")
         robot = self.env.robot
         if self.reflex.n_rays != robot.n_sensors:
             raise ValueError(
@@ -446,8 +411,7 @@ def describe_keys() -> str:
     sections: list[tuple[str, type]] = [
         ("env", EnvConfig), ("env.robot", RobotConfig), ("gate", GateConfig),
         ("experts", ExpertsConfig), ("update", UpdateConfig), ("options", OptionsConfig),
-        ("reflex", ReflexConfig), ("shield", ShieldSection), ("aim", AimConfig),
-        ("run", RunSection),
+        ("reflex", ReflexConfig), ("shield", ShieldSection), ("run", RunSection),
     ]  # fmt: skip
     for prefix, cls in sections:
         names = (

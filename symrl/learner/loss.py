@@ -31,7 +31,6 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule
 
-from symrl.learner.aim import trial_step
 from symrl.learner.policy import MixtureOfExpertsPolicy
 
 __all__ = ["TeseoLoss"]
@@ -86,11 +85,6 @@ class TeseoLoss(LossModule):
         # option critics: return so far in the trial, and at each region's first entry
         self.register_buffer("trial_return", torch.zeros(batch, dtype=torch.float64))
         self.register_buffer("entry_return", torch.zeros(batch, regions, dtype=torch.float64))
-        # aim offsets learned once per trial from the option critic (symrl.learner.aim)
-        aim = self.config.aim
-        self._trial_aim = aim.enabled and aim.learn == "trial"
-        self.register_buffer("adv_sq", torch.zeros(batch, regions, dtype=torch.float64))
-        self.register_buffer("adv_n", torch.zeros(batch, regions, dtype=torch.long))
 
     @property
     def in_keys(self) -> list:
@@ -164,9 +158,8 @@ class TeseoLoss(LossModule):
         # TD(0) and REINFORCE on the rows that did not split (a split row keeps its values)
         step = delta.masked_fill(split, 0.0)
         bank.utilities.view(-1).index_copy_(0, index, u_prev + update.eta * step)
-        if not self._trial_aim:
-            mu = bank.means.take(index)
-            bank.means.view(-1).index_copy_(0, index, mu + update.beta * step * (td[k.xi] - mu))
+        mu = bank.means.take(index)
+        bank.means.view(-1).index_copy_(0, index, mu + update.beta * step * (td[k.xi] - mu))
         shift = keep & (delta > 0)
         if bool(shift.any()):
             a = shift.nonzero().flatten()
@@ -188,26 +181,6 @@ class TeseoLoss(LossModule):
         totals = totals.to(torch.float64)
         replaced = torch.zeros(rows.shape[0], dtype=torch.long)
         improved = torch.zeros(rows.shape[0], dtype=torch.bool)
-        if policy.options is not None:
-            returns = self.trial_return[rows, None] - self.entry_return[rows]
-        if cfg.experts.learning and self._trial_aim and policy.options is not None:
-            opts = policy.options
-            choice = opts.choice[rows]
-            q = opts.q[rows].gather(2, choice.clamp(min=0).unsqueeze(-1)).squeeze(-1)
-            # an option's first trial has no average yet: no step
-            n = opts.n[rows].gather(2, choice.clamp(min=0).unsqueeze(-1)).squeeze(-1)
-            known = (choice >= 0) & (n > 0)
-            baseline = torch.where(known, q, returns)
-            a = cfg.aim
-            if a.scale == "variance":
-                # the advantage in units of the region's mean squared advantage so far
-                sq = (returns - baseline).square()
-                self.adv_sq[rows] += torch.where(known, sq, 0.0)
-                self.adv_n[rows] += known.long()
-                var = self.adv_sq[rows] / self.adv_n[rows].clamp(min=1)
-                scale = torch.where(known, 1.0 / var.clamp(min=1e-3), 0.0)
-                baseline = returns - (returns - baseline) * scale
-            trial_step(policy.experts, rows, returns, baseline, a.rate, a.clip, a.limit)
         if cfg.experts.learning:
             improved = reached & (totals > policy.best_total[rows])
             policy.best_total[rows] = torch.where(improved, totals, policy.best_total[rows])
@@ -219,6 +192,7 @@ class TeseoLoss(LossModule):
             policy.temperature[rows] = cooled
             policy.experts.clear_trial(rows)
         if policy.options is not None:
+            returns = self.trial_return[rows, None] - self.entry_return[rows]
             policy.options.learn(rows, returns)
             self.trial_return[rows] = 0.0
             self.entry_return[rows] = 0.0

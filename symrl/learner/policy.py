@@ -38,7 +38,6 @@ from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.knowledge.subgoals import SubgoalTable
-from symrl.learner.aim import HeldDraws, aimed_bearing
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
@@ -137,9 +136,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             if config.options.enabled
             else None
         )
-        # aim corrections: the experts turn the reflex's target bearing (symrl.learner.aim)
-        self.aims = config.aim.enabled and xc.learning
-        self.held = HeldDraws(batch) if self.aims and config.aim.hold else None
         self.shield = (
             IRShield(ShieldConfig(margin=config.shield.margin), robot)
             if config.shield.enabled
@@ -251,20 +247,17 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             target, option, entered = self.options.steer(per.region, odometry, greedy)
         else:
             target = goal[:, 1].to(torch.float64)
-        aim = self.aims
-        if (xc.reflex or not xc.learning) and not aim:
+        if xc.reflex or not xc.learning:
             reflex_action = self.reflex(sonar.to(torch.float64), target)
         else:
             reflex_action = zero
-        xi = sigma = offset = zero
+        xi = sigma = zero
         if not xc.learning:
             base = proto = zero
             alpha = reflex_action
         else:
             z, uniform = (zero, zero) if greedy else self._draws()
-            if aim:
-                base = proto = zero
-            elif xc.residual:
+            if xc.residual:
                 base, proto = reflex_action, zero
             elif xc.reflex:
                 base, proto = zero, reflex_action
@@ -282,23 +275,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 u_new = td.get("state_reward").view(-1).to(torch.float64)
                 u = torch.where(known, bank.utilities.take(index), u_new)
                 sigma = self.temperature / (1.0 + u.clamp(max=60.0).exp())
-                if self.held is not None:
-                    # a novel state's key is the neuron the update grows there
-                    born = bank.count.take(bank._row_base + per.expert)
-                    neuron = torch.where(known, per.winner, born)
-                    z = self.held.hold(self.held.keys(per.expert, neuron), z)
                 xi = mu + sigma * z
-            if aim:
-                limit = self.config.aim.limit
-                aimed = aimed_bearing(target, p + xi, limit)
-                alpha = self.reflex(sonar.to(torch.float64), aimed).clamp_(-_PI, _PI)
-                offset = p + xi  # unclipped: the trial rule reads xi - mu from it
-            else:
-                alpha = (base + p + xi).clamp_(-_PI, _PI)
+            alpha = (base + p + xi).clamp_(-_PI, _PI)
         shielded = self._no_entry
         if self.shield is not None:
             alpha, shielded = self.shield(td.get("ir"), alpha)
-        taken = offset if self.aims else alpha - base
         td.update(
             {
                 "action": alpha.to(torch.float32).unsqueeze(-1),
@@ -310,7 +291,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 "proto": proto,
                 "xi": xi,
                 "sigma": sigma,
-                "taken": taken,
+                "taken": alpha - base,
                 "shielded": shielded,
                 "option": option,
                 "option_entry": entered,
@@ -323,8 +304,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         """Forget the per-trial decisions of robots ``rows`` (they start a new trial)."""
         if self.options is not None:
             self.options.begin_trial(rows)
-        if self.held is not None:
-            self.held.forget(rows)
 
     # -- per-robot state ------------------------------------------------------------------
     def robot_state(self, b: int) -> dict[str, torch.Tensor]:
