@@ -253,6 +253,29 @@ def baseline_table(results: Path) -> tuple[str, dict[str, list[list[dict[str, An
     return "\n".join(lines) + "\n", curves
 
 
+def baseline_blocks(results: Path, least: int = 200) -> str:
+    """Has a long run levelled? Per learner that ran at least ``least`` trials: its mean path
+    and total per block of trials (100, or 250 past 1,000 trials), mean ± sd over the seeds
+    that ran the whole block."""
+    lines = [
+        "| learner | trials | seeds | mean actions | mean total reinf. |",
+        "| --- | --- | ---: | ---: | ---: |",
+    ]
+    for name, label, _ in BASELINE_VARIANTS:
+        runs = [r for r in baseline_runs(results / name) if len(r["rows"]) >= least]
+        if not runs:
+            continue
+        longest = max(len(r["rows"]) for r in runs)
+        size = 100 if longest <= 1000 else 250
+        for lo in range(0, longest - size + 1, size):
+            blocks = [r["rows"][lo:lo + size] for r in runs if len(r["rows"]) >= lo + size]
+            actions = [sum(t["steps"] for t in b) / size for b in blocks]
+            totals = [sum(t["total_reinforcement"] for t in b) / size for b in blocks]
+            lines.append(f"| {label} | {lo + 1}-{lo + size} | {len(blocks)} "
+                         f"| {_mean_sd(actions)} | {_mean_sd(totals, 2)} |")  # fmt: skip
+    return "\n".join(lines) + "\n" if len(lines) > 2 else ""
+
+
 BASELINE_NOTES = Path(__file__).with_name("baselines_discussion.md")
 """Hand-written reading of the baseline comparison (settings, budgets, who wins)."""
 
@@ -281,6 +304,10 @@ def _section_baselines(results: Path, figures: Path) -> list[str]:
                          "The paper's learner and SAC / PPO (TorchRL), seeds 100-104",
                          optimum=25)  # fmt: skip
     out += [_fig(folder / "comparison.png", figures, "baselines.png"), ""]
+    blocks = baseline_blocks(folder)
+    if blocks:
+        out += ["Has a long run levelled? Mean path and total per block of trials (mean ± sd "
+                "over the seeds that ran the whole block):", "", blocks]  # fmt: skip
     if BASELINE_NOTES.is_file():
         out += [BASELINE_NOTES.read_text(), ""]
     return out

@@ -314,3 +314,22 @@ def test_the_sac_checkpoint_holds_only_the_transitions_collected(tmp_path):
     buffer = state["agent"]["buffer"]
     assert buffer["observation"].shape[0] == state["frames"] == state["rows"][0]["steps"]
     assert buffer["observation"].untyped_storage().nbytes() == buffer["observation"].nbytes
+
+
+def test_the_report_shows_a_long_run_in_blocks(tmp_path):
+    from symrl.runs import write_trials_csv
+    from symrl.studies.report import baseline_blocks
+
+    for seed, late in ((0, 30), (1, 34)):
+        rows = [{"trial": t + 1, "steps": 50 if t < 100 else late, "reached_goal": True,
+                 "total_reinforcement": -20.0 if t < 100 else -10.0, "collisions": 0}
+                for t in range(200 + 100 * seed)]  # fmt: skip
+        (tmp_path / "sac-residual" / f"seed-{seed}").mkdir(parents=True)
+        write_trials_csv(tmp_path / "sac-residual" / f"seed-{seed}" / "trials.csv", rows)
+    lines = baseline_blocks(tmp_path).splitlines()
+    assert lines[2:] == [
+        "| SAC residual | 1-100 | 2 | 50.0 ± 0.0 | -20.00 ± 0.00 |",
+        "| SAC residual | 101-200 | 2 | 32.0 ± 2.8 | -10.00 ± 0.00 |",
+        "| SAC residual | 201-300 | 1 | 34.0 ± 0.0 | -10.00 ± 0.00 |",
+    ]
+    assert baseline_blocks(tmp_path, least=400) == ""
