@@ -17,6 +17,7 @@ growth replaces rows, which an optimizer could not follow.
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -100,6 +101,10 @@ class ExpertBank(nn.Module):
         flattened per-neuron tensors (``bank.utilities.view(-1)[index]``): one gather or
         scatter instead of an advanced index over three dimensions."""
         return (self._row_base + expert) * self.capacity + neuron
+
+    def flat_index_np(self, expert: np.ndarray, neuron: np.ndarray) -> np.ndarray:
+        """:meth:`flat_index` on numpy arrays (for arithmetic on ``tensor.numpy()`` views)."""
+        return (self._row_base.numpy() + expert) * self.capacity + neuron
 
     def nearest(self, expert: torch.Tensor, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Winner (argmin distance = argmax activation) in each controller's ``expert`` for its
