@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numpy as np
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
@@ -41,6 +42,7 @@ from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
+from symrl.tensordicts import read, write
 from symrl.world.worldmap import WorldMap, load_map
 
 __all__ = ["Perception", "MixtureOfExpertsPolicy", "OBS_KEYS", "is_greedy"]
@@ -232,7 +234,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def forward(self, td: TensorDictBase) -> TensorDictBase:
         xc = self.config.experts
         greedy = is_greedy()
-        sonar, odometry, goal = td.get("sonar"), td.get("odometry"), td.get("goal")
+        sonar, odometry, goal = read(td, "sonar"), read(td, "odometry"), read(td, "goal")
         per = self.perceive(sonar, odometry, goal)
         zero = self._zeros
         option, entered = self._no_option, self._no_entry
@@ -249,46 +251,53 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             base = proto = zero
             alpha = reflex_action
         else:
+            # numpy on the tensors' memory (a handful of rows: a fraction of the torch
+            # dispatches); exp stays torch's, the rest is exact arithmetic in the same order
             z, uniform = (zero, zero) if greedy else self._draws()
             if xc.residual:
                 base, proto = reflex_action, zero
             elif xc.reflex:
                 base, proto = zero, reflex_action
             else:
-                base, proto = zero, uniform * (2 * _PI) - _PI
+                base, proto = zero, torch.from_numpy(uniform.numpy() * (2 * _PI) - _PI)
             bank = self.experts
-            index = bank.flat_index(per.expert, per.winner.clamp(min=0))
-            known = ~per.novel
-            p = torch.where(known, bank.actions.take(index), proto)
-            mu = torch.where(known, bank.means.take(index), zero)
+            index = bank.flat_index_np(per.expert.numpy(), np.maximum(per.winner.numpy(), 0))
+            known = ~per.novel.numpy()
+            p = np.where(known, bank.actions.numpy().reshape(-1)[index], proto.numpy())
+            mu = np.where(known, bank.means.numpy().reshape(-1)[index], 0.0)
             if greedy:
-                xi = mu
+                noisy = mu
             else:
                 # a novel state's neuron is born with u = r(state): the reward of arriving here
-                u_new = td.get("state_reward").view(-1).to(torch.float64)
-                u = torch.where(known, bank.utilities.take(index), u_new)
-                sigma = self.temperature / (1.0 + u.clamp(max=60.0).exp())
-                xi = mu + sigma * z
-            alpha = (base + p + xi).clamp_(-_PI, _PI)
+                u_new = read(td, "state_reward").numpy().reshape(-1).astype(np.float64)
+                u = np.where(known, bank.utilities.numpy().reshape(-1)[index], u_new)
+                e = torch.from_numpy(np.minimum(u, 60.0)).exp().numpy()
+                spread = self.temperature.numpy() / (1.0 + e)
+                noisy = mu + spread * z.numpy()
+                sigma = torch.from_numpy(spread)
+            xi = torch.from_numpy(noisy)
+            alpha = torch.from_numpy(np.clip(base.numpy() + p + noisy, -_PI, _PI))
         shielded = self._no_entry
         if self.shield is not None:
-            alpha, shielded = self.shield(td.get("ir"), alpha)
-        td.update(
+            alpha, shielded = self.shield(read(td, "ir"), alpha)
+        action = alpha.numpy()
+        write(
+            td,
             {
-                "action": alpha.to(torch.float32).unsqueeze(-1),
+                "action": torch.from_numpy(action.astype(np.float32).reshape(-1, 1)),
                 "region": per.region,
                 "expert": per.expert,
-                "winner": per.winner.masked_fill(per.novel, -1),
+                "winner": torch.from_numpy(np.where(per.novel.numpy(), -1, per.winner.numpy())),
                 "novel": per.novel,
                 "x": per.x,
                 "proto": proto,
                 "xi": xi,
                 "sigma": sigma,
-                "taken": alpha - base,
+                "taken": torch.from_numpy(action - base.numpy()),
                 "shielded": shielded,
                 "option": option,
                 "option_entry": entered,
-            }
+            },
         )
         return td
 
