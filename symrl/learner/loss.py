@@ -33,6 +33,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule
 
 from symrl.learner.policy import MixtureOfExpertsPolicy
+from symrl.tensordicts import read
 
 __all__ = ["TeseoLoss"]
 
@@ -111,13 +112,13 @@ class TeseoLoss(LossModule):
         k = self.tensor_keys
         policy, cfg = self.policy, self.config
         batch = policy.batch
-        nxt = td["next"]
-        r = nxt[k.reward].numpy().reshape(batch).astype(np.float64)
+        nxt = read(td, "next")
+        r = read(nxt, k.reward).numpy().reshape(batch).astype(np.float64)
         if policy.options is not None:
-            entered = td[k.option_entry].numpy()
+            entered = read(td, k.option_entry).numpy()
             if entered.any():
                 rows = np.flatnonzero(entered)
-                region = td[k.region].numpy()
+                region = read(td, k.region).numpy()
                 self.entry_return.numpy()[rows, region[rows]] = self.trial_return.numpy()[rows]
             self.trial_return.numpy()[:] += r
         if not cfg.experts.learning:
@@ -125,29 +126,29 @@ class TeseoLoss(LossModule):
             return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
                               neurons=policy.neurons().sum(-1), batch_size=[batch])  # fmt: skip
         bank = policy.experts
-        expert_t, x_t, proto_t = td[k.expert], td[k.x], td[k.proto]
-        expert, winner = expert_t.numpy(), td[k.winner].numpy()
+        expert_t, x_t, proto_t = read(td, k.expert), read(td, k.x), read(td, k.proto)
+        expert, winner = expert_t.numpy(), read(td, k.winner).numpy()
         grown = np.zeros(batch, dtype=np.int64)
 
         # 1. the neuron the policy acted as at a novel state is born now
-        novel = td[k.novel].numpy()
+        novel = read(td, k.novel).numpy()
         if novel.any():
             new = torch.from_numpy(np.flatnonzero(novel))
-            u0 = td[k.state_reward].view(-1)[new]
+            u0 = read(td, k.state_reward).view(-1)[new]
             winner = winner.copy()
             winner[new.numpy()] = bank.add(new, expert_t[new], x_t[new], proto_t[new], u0).numpy()
             grown += novel
         # flat views of the storage, taken after any growth (the capacity may have doubled)
         utilities, means = bank.utilities.numpy().reshape(-1), bank.means.numpy().reshape(-1)
         index = bank.flat_index_np(expert, winner)
-        bank.taken.numpy().reshape(-1)[index] = td[k.taken].numpy()
+        bank.taken.numpy().reshape(-1)[index] = read(td, k.taken).numpy()
         bank.used.numpy().reshape(-1)[index] = True
 
         # 2. the utility of the state reached
-        terminated = nxt[k.terminated].numpy().reshape(-1)
-        truncated = nxt[k.truncated].numpy().reshape(-1)
+        terminated = read(nxt, k.terminated).numpy().reshape(-1)
+        truncated = read(nxt, k.truncated).numpy().reshape(-1)
         u_prev = utilities[index]
-        seen = policy.perceive(nxt[k.sonar], nxt[k.odometry], nxt[k.goal])
+        seen = policy.perceive(read(nxt, k.sonar), read(nxt, k.odometry), read(nxt, k.goal))
         seen_winner = seen.winner.numpy()
         u_seen = utilities[bank.flat_index_np(seen.expert.numpy(), np.maximum(seen_winner, 0))]
         # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
@@ -171,7 +172,7 @@ class TeseoLoss(LossModule):
         step = np.where(split, 0.0, delta)
         utilities[index] = u_prev + update.eta * step
         mu = means[index]
-        means[index] = mu + update.beta * step * (td[k.xi].numpy() - mu)
+        means[index] = mu + update.beta * step * (read(td, k.xi).numpy() - mu)
         shift = ~split & (delta > 0)
         if shift.any():
             a = torch.from_numpy(np.flatnonzero(shift))
