@@ -175,9 +175,12 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def encode_pose(self, odometry: torch.Tensor) -> torch.Tensor:
         """x = (x, y, h cos theta, h sin theta) of the odometry pose, h = ``heading_scale``."""
         h = self.config.experts.heading_scale
-        pose = odometry.to(torch.float32)
-        theta = pose[:, 2]
-        return torch.stack((pose[:, 0], pose[:, 1], h * theta.cos(), h * theta.sin()), dim=-1)
+        # numpy on the tensor's memory (four columns of a handful of rows); cos and sin stay
+        # torch's, whose last bit differs from numpy's
+        pose = odometry.numpy().astype(np.float32, copy=False)
+        theta = torch.from_numpy(pose[:, 2])
+        cos, sin = theta.cos().numpy(), theta.sin().numpy()
+        return torch.from_numpy(np.stack((pose[:, 0], pose[:, 1], h * cos, h * sin), axis=-1))
 
     def perceive(
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
@@ -208,7 +211,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         last = self._last_seen
         if last is not None and last[0] == key:
             return last[1]
-        region = self.mapper.ids(odometry[:, :2].to(torch.float64))
+        region = self.mapper.ids(torch.from_numpy(odometry.numpy()[:, :2].astype(np.float64)))
         expert = region if self.config.gate.partition else torch.zeros_like(region)
         x = self.encode_pose(odometry) if pose else self.encode(sonar, goal[:, 0])
         self._last_seen = (key, (region, expert, x))
