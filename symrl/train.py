@@ -118,8 +118,9 @@ class TrialRecorder:
     def finish(self, b: int) -> dict[str, Any]:
         """Robot ``b``'s trial record (its path and ghosts included); resets its accumulators."""
         lo, hi = self._start[b] - self._offset, len(self._poses)
-        path = np.vstack([self._first[b][None], np.stack([p[b] for p in self._poses[lo:hi]])])
-        ids = np.array([w[b] for w in self._winners[lo:hi]])
+        # one array of the steps, then robot b's column (not a Python loop over the steps)
+        path = np.vstack([self._first[b][None], np.array(self._poses[lo:hi])[:, b]])
+        ids = np.array(self._winners[lo:hi])[:, b]
         change = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
         record: dict[str, Any] = {
             "steps": int(self.steps[b]),

@@ -167,15 +167,17 @@ class ExpertBank(nn.Module):
     def replace_actions(self, rows: torch.Tensor) -> torch.Tensor:
         """p <- the action taken, mu <- 0, for every neuron used this trial by controllers
         ``rows``; returns how many per row."""
-        used = self.used[rows]
-        self.actions[rows] = torch.where(used, self.taken[rows], self.actions[rows])
-        self.means[rows] = self.means[rows].masked_fill(used, 0.0)
-        return used.flatten(1).sum(-1)
+        r = rows.numpy()
+        used = self.used.numpy()[r]
+        actions, means = self.actions.numpy(), self.means.numpy()
+        actions[r] = np.where(used, self.taken.numpy()[r], actions[r])
+        means[r] = np.where(used, 0.0, means[r])
+        return torch.from_numpy(used.reshape(len(r), -1).sum(-1))
 
     @torch.no_grad()
     def clear_trial(self, rows: torch.Tensor) -> None:
         """Forget which neurons controllers ``rows`` used (a new trial starts)."""
-        self.used[rows] = False
+        self.used.numpy()[rows.numpy()] = False
 
     def neurons(self) -> torch.Tensor:
         """Neurons per controller and expert, (B, E)."""

@@ -194,26 +194,31 @@ class TeseoLoss(LossModule):
         action replacement after a better success, cooling, the option critics. Returns
         ``replaced`` (neurons per row), ``improved`` and ``best_total``."""
         policy, cfg = self.policy, self.config
-        totals = totals.to(torch.float64)
-        replaced = torch.zeros(rows.shape[0], dtype=torch.long)
-        improved = torch.zeros(rows.shape[0], dtype=torch.bool)
+        # numpy on the buffers' memory (a handful of rows), the same operations
+        rows_np, n = rows.numpy(), rows.shape[0]
+        totals_np = totals.numpy().astype(np.float64)
+        best = policy.best_total.numpy()
+        replaced = np.zeros(n, dtype=np.int64)
+        improved = np.zeros(n, dtype=bool)
         if cfg.experts.learning:
-            improved = reached & (totals > policy.best_total[rows])
-            policy.best_total[rows] = torch.where(improved, totals, policy.best_total[rows])
-            if cfg.update.replace_actions and bool(improved.any()):
-                replaced[improved] = policy.experts.replace_actions(rows[improved])
-            cooled = (cfg.update.cooling * policy.temperature[rows]).clamp(
-                min=cfg.update.temperature_min
+            improved = reached.numpy() & (totals_np > best[rows_np])
+            best[rows_np] = np.where(improved, totals_np, best[rows_np])
+            if cfg.update.replace_actions and improved.any():
+                better = torch.from_numpy(rows_np[improved])
+                replaced[improved] = policy.experts.replace_actions(better).numpy()
+            temperature, update = policy.temperature.numpy(), cfg.update
+            temperature[rows_np] = np.maximum(
+                update.cooling * temperature[rows_np], update.temperature_min
             )
-            policy.temperature[rows] = cooled
             policy.experts.clear_trial(rows)
         if policy.options is not None:
-            returns = self.trial_return[rows, None] - self.entry_return[rows]
-            policy.options.learn(rows, returns)
-            self.trial_return[rows] = 0.0
-            self.entry_return[rows] = 0.0
-        policy.trials_done[rows] += 1
-        return {"replaced": replaced, "improved": improved, "best_total": policy.best_total[rows]}
+            returns = self.trial_return.numpy()[rows_np, None] - self.entry_return.numpy()[rows_np]
+            policy.options.learn(rows, torch.from_numpy(returns))
+            self.trial_return.numpy()[rows_np] = 0.0
+            self.entry_return.numpy()[rows_np] = 0.0
+        policy.trials_done.numpy()[rows_np] += 1
+        return {"replaced": torch.from_numpy(replaced), "improved": torch.from_numpy(improved),
+                "best_total": torch.from_numpy(best[rows_np])}  # fmt: skip
 
     def extra_repr(self) -> str:
         u = self.config.update

@@ -161,19 +161,22 @@ class SubgoalOptions(nn.Module):
     def learn(self, rows: torch.Tensor, returns: torch.Tensor) -> None:
         """Critic step at the end of a trial: ``returns`` (k, R) is the return-to-go from each
         region's first entry for controllers ``rows``; then epsilon decays."""
-        choice = self.choice[rows]
+        # numpy on the buffers' memory: a few advanced indexes of a handful of rows
+        rows_np, returns_np = rows.numpy(), returns.numpy()
+        choice = self.choice.numpy()[rows_np]
         entered = choice >= 0
-        regions = torch.arange(choice.shape[1]).expand_as(choice)
-        b = rows[:, None].expand_as(choice)[entered]
-        r, k, ret = regions[entered], choice[entered], returns[entered]
-        self.n[b, r, k] += 1
+        b = np.broadcast_to(rows_np[:, None], choice.shape)[entered]
+        r = np.broadcast_to(np.arange(choice.shape[1]), choice.shape)[entered]
+        k, ret = choice[entered], returns_np[entered]
+        n, q = self.n.numpy(), self.q.numpy()
+        n[b, r, k] += 1  # (b, r) pairs are distinct: one option per region and trial
         if self.config.critic == "best":  # type: ignore[attr-defined]
-            first = self.n[b, r, k] == 1
-            self.q[b, r, k] = torch.where(first, ret, torch.maximum(self.q[b, r, k], ret))
+            first = n[b, r, k] == 1
+            q[b, r, k] = np.where(first, ret, np.maximum(q[b, r, k], ret))
         else:
-            self.q[b, r, k] += (ret - self.q[b, r, k]) / self.n[b, r, k]
-        self.epsilon[rows] *= float(self.config.epsilon_decay)  # type: ignore[attr-defined]
-        self.trials[rows] += 1
+            q[b, r, k] += (ret - q[b, r, k]) / n[b, r, k]
+        self.epsilon.numpy()[rows_np] *= float(self.config.epsilon_decay)  # type: ignore[attr-defined]
+        self.trials.numpy()[rows_np] += 1
 
     def greedy(self, row: int) -> list[int]:
         """The option each region of controller ``row`` would choose greedily (-1: none tried)."""
