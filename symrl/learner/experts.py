@@ -17,6 +17,8 @@ growth replaces rows, which an optimizer could not follow.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import torch
 from torch import nn
@@ -25,6 +27,26 @@ __all__ = ["ExpertBank"]
 
 # Per-neuron tensors (B, E, N[, D]); every one is resized together when storage doubles.
 _ROWS = ("centres", "actions", "utilities", "means", "taken", "used")
+
+
+class FlatViews(NamedTuple):
+    """Numpy views of an :class:`ExpertBank`'s storage, one row per (controller, expert,
+    neuron) slot: index them with :meth:`ExpertBank.flat_index_np`."""
+
+    centres: np.ndarray
+    """(B * E * N, D)"""
+    actions: np.ndarray
+    """(B * E * N,), as are ``utilities``, ``means``, ``taken`` and ``used``."""
+    utilities: np.ndarray
+    means: np.ndarray
+    taken: np.ndarray
+    used: np.ndarray
+    count: np.ndarray
+    """(B * E,) neurons per (controller, expert)."""
+    row_base: np.ndarray
+    """(B,) b * E."""
+    arange: np.ndarray
+    """(N,) 0 .. N - 1."""
 
 
 class ExpertBank(nn.Module):
@@ -88,6 +110,31 @@ class ExpertBank(nn.Module):
             setattr(self, name, new)  # nn.Module keeps it registered as a buffer
         self._arange = torch.arange(capacity)
 
+    @property
+    def flat(self) -> FlatViews:
+        """Numpy views of the storage for the control loop's arithmetic (a ``.numpy()`` call
+        costs about a microsecond and the loop asks ~40 times a step). Cached until a buffer
+        is replaced: growth beyond the capacity, ``.to()``, loading with ``assign``."""
+        views = self.__dict__.get("_flat")
+        if views is None:
+            views = FlatViews(
+                self.centres.numpy().reshape(-1, self.dim),
+                *(getattr(self, name).numpy().reshape(-1) for name in _ROWS[1:]),
+                self.count.numpy().reshape(-1),
+                self._row_base.numpy(),
+                self._arange.numpy(),
+            )
+            self.__dict__["_flat"] = views
+        return views
+
+    def __setattr__(self, name: str, value) -> None:
+        self.__dict__["_flat"] = None  # a buffer may be replaced: views taken again
+        super().__setattr__(name, value)
+
+    def _apply(self, fn, recurse=True):  # .to() / .double(): new tensors, views taken again
+        self.__dict__["_flat"] = None
+        return super()._apply(fn, recurse)
+
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):  # type: ignore[override]
         """Resize storage to the saved size first, so a grown bank loads into a fresh one."""
         saved = state_dict.get(prefix + "centres")
@@ -104,7 +151,7 @@ class ExpertBank(nn.Module):
 
     def flat_index_np(self, expert: np.ndarray, neuron: np.ndarray) -> np.ndarray:
         """:meth:`flat_index` on numpy arrays (for arithmetic on ``tensor.numpy()`` views)."""
-        return (self._row_base.numpy() + expert) * self.capacity + neuron
+        return (self.flat.row_base + expert) * self.capacity + neuron
 
     def nearest(self, expert: torch.Tensor, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Winner (argmin distance = argmax activation) in each controller's ``expert`` for its
@@ -113,15 +160,15 @@ class ExpertBank(nn.Module):
         In numpy on the tensors' memory (a fraction of the cost of ~20 torch dispatches for a
         handful of rows); the differences and squares are exact in either, and the sum over D
         stays a torch reduction, so the distances are those of the torch version bit for bit."""
-        row = self._row_base.numpy() + expert.numpy()
-        counts = self.count.numpy().reshape(-1)[row]
+        flat = self.flat
+        row = flat.row_base + expert.numpy()
+        counts = flat.count[row]
         n = int(counts.max())
         if n == 0:
             return torch.full_like(expert, -1), torch.full((self.batch,), torch.inf)
-        batch, experts, capacity, dim = self.centres.shape
-        centres = self.centres.numpy().reshape(batch * experts, capacity, dim)[row, :n]
+        centres = flat.centres.reshape(len(flat.count), self.capacity, self.dim)[row, :n]
         d2 = torch.from_numpy(np.square(centres - x.numpy()[:, None, :])).sum(-1).numpy()
-        d2[self._arange.numpy()[:n] >= counts[:, None]] = np.inf
+        d2[flat.arange[:n] >= counts[:, None]] = np.inf
         winner = d2.argmin(axis=-1)  # the first of equal distances, as torch's min
         distance = np.sqrt(d2[np.arange(len(row)), winner])
         winner[counts == 0] = -1

@@ -139,10 +139,11 @@ class TeseoLoss(LossModule):
             winner[new.numpy()] = bank.add(new, expert_t[new], x_t[new], proto_t[new], u0).numpy()
             grown += novel
         # flat views of the storage, taken after any growth (the capacity may have doubled)
-        utilities, means = bank.utilities.numpy().reshape(-1), bank.means.numpy().reshape(-1)
+        flat = bank.flat
+        utilities, means = flat.utilities, flat.means
         index = bank.flat_index_np(expert, winner)
-        bank.taken.numpy().reshape(-1)[index] = read(td, k.taken).numpy()
-        bank.used.numpy().reshape(-1)[index] = True
+        flat.taken[index] = read(td, k.taken).numpy()
+        flat.used[index] = True
 
         # 2. the utility of the state reached
         terminated = read(nxt, k.terminated).numpy().reshape(-1)
@@ -166,7 +167,7 @@ class TeseoLoss(LossModule):
             utility = torch.from_numpy(u_prev + delta)[s]
             bank.add(s, expert_t[s], x_t[s], proto_t[s], utility)
             grown += split
-            utilities, means = bank.utilities.numpy().reshape(-1), bank.means.numpy().reshape(-1)
+            utilities, means = bank.flat.utilities, bank.flat.means
             index = bank.flat_index_np(expert, winner)  # the capacity may have doubled
         # TD(0) and REINFORCE on the rows that did not split (a split row keeps its values)
         step = np.where(split, 0.0, delta)
@@ -177,12 +178,12 @@ class TeseoLoss(LossModule):
         if shift.any():
             a = torch.from_numpy(np.flatnonzero(shift))
             rows = torch.from_numpy(index).index_select(0, a)
-            flat = bank.centres.view(-1, bank.dim)
-            moved = flat.index_select(0, rows).lerp_(x_t.index_select(0, a), update.kappa)
-            flat.index_copy_(0, rows, moved)
+            centres = bank.centres.view(-1, bank.dim)
+            moved = centres.index_select(0, rows).lerp_(x_t.index_select(0, a), update.kappa)
+            centres.index_copy_(0, rows, moved)
         return TensorDict._new_unsafe(
             {"td_error": torch.from_numpy(delta), "grown": torch.from_numpy(grown),
-             "neurons": torch.from_numpy(bank.count.numpy().sum(-1))},
+             "neurons": torch.from_numpy(bank.flat.count.reshape(batch, -1).sum(-1))},
             batch_size=torch.Size([batch]),
         )  # fmt: skip
 

@@ -266,14 +266,15 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             bank = self.experts
             index = bank.flat_index_np(per.expert.numpy(), np.maximum(per.winner.numpy(), 0))
             known = ~per.novel.numpy()
-            p = np.where(known, bank.actions.numpy().reshape(-1)[index], proto.numpy())
-            mu = np.where(known, bank.means.numpy().reshape(-1)[index], 0.0)
+            flat = bank.flat
+            p = np.where(known, flat.actions[index], proto.numpy())
+            mu = np.where(known, flat.means[index], 0.0)
             if greedy:
                 noisy = mu
             else:
                 # a novel state's neuron is born with u = r(state): the reward of arriving here
                 u_new = read(td, "state_reward").numpy().reshape(-1).astype(np.float64)
-                u = np.where(known, bank.utilities.numpy().reshape(-1)[index], u_new)
+                u = np.where(known, flat.utilities[index], u_new)
                 e = torch.from_numpy(np.minimum(u, 60.0)).exp().numpy()
                 spread = self.temperature.numpy() / (1.0 + e)
                 noisy = mu + spread * z.numpy()
