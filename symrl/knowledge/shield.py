@@ -128,9 +128,9 @@ class IRShield(nn.Module):
         if not near.any():
             return action, torch.from_numpy(near)
         some = np.flatnonzero(near)
-        rho = np.repeat(self._distances(refl_np[some]) + self.radius, 3, axis=-1)
+        centre = np.repeat(self._distances(refl_np[some]) + self.radius, 3, axis=-1)
         unsafe_np = np.zeros_like(near)
-        room_np = self._clearance(rho, self.bearings.numpy(), action_np[some][:, None])[:, 0]
+        room_np = self._clearance(centre, self.bearings.numpy(), action_np[some][:, None])[:, 0]
         unsafe_np[some] = room_np < margin
         unsafe = torch.from_numpy(unsafe_np)
         if not bool(unsafe.any()):

@@ -41,7 +41,7 @@ class FlatViews(NamedTuple):
     means: np.ndarray
     taken: np.ndarray
     used: np.ndarray
-    count: np.ndarray
+    counts: np.ndarray
     """(B * E,) neurons per (controller, expert)."""
     row_base: np.ndarray
     """(B,) b * E."""
@@ -118,11 +118,15 @@ class ExpertBank(nn.Module):
         views = self.__dict__.get("_flat")
         if views is None:
             views = FlatViews(
-                self.centres.numpy().reshape(-1, self.dim),
-                *(getattr(self, name).numpy().reshape(-1) for name in _ROWS[1:]),
-                self.count.numpy().reshape(-1),
-                self._row_base.numpy(),
-                self._arange.numpy(),
+                centres=self.centres.numpy().reshape(-1, self.dim),
+                actions=self.actions.numpy().reshape(-1),
+                utilities=self.utilities.numpy().reshape(-1),
+                means=self.means.numpy().reshape(-1),
+                taken=self.taken.numpy().reshape(-1),
+                used=self.used.numpy().reshape(-1),
+                counts=self.count.numpy().reshape(-1),
+                row_base=self._row_base.numpy(),
+                arange=self._arange.numpy(),
             )
             self.__dict__["_flat"] = views
         return views
@@ -162,11 +166,11 @@ class ExpertBank(nn.Module):
         stays a torch reduction, so the distances are those of the torch version bit for bit."""
         flat = self.flat
         row = flat.row_base + expert.numpy()
-        counts = flat.count[row]
+        counts = flat.counts[row]
         n = int(counts.max())
         if n == 0:
             return torch.full_like(expert, -1), torch.full((self.batch,), torch.inf)
-        centres = flat.centres.reshape(len(flat.count), self.capacity, self.dim)[row, :n]
+        centres = flat.centres.reshape(len(flat.counts), self.capacity, self.dim)[row, :n]
         d2 = torch.from_numpy(np.square(centres - x.numpy()[:, None, :])).sum(-1).numpy()
         d2[flat.arange[:n] >= counts[:, None]] = np.inf
         winner = d2.argmin(axis=-1)  # the first of equal distances, as torch's min

@@ -177,13 +177,13 @@ class TeseoLoss(LossModule):
         shift = ~split & (delta > 0)
         if shift.any():
             a = torch.from_numpy(np.flatnonzero(shift))
-            rows = torch.from_numpy(index).index_select(0, a)
+            slots = torch.from_numpy(index).index_select(0, a)
             centres = bank.centres.view(-1, bank.dim)
-            moved = centres.index_select(0, rows).lerp_(x_t.index_select(0, a), update.kappa)
-            centres.index_copy_(0, rows, moved)
+            moved = centres.index_select(0, slots).lerp_(x_t.index_select(0, a), update.kappa)
+            centres.index_copy_(0, slots, moved)
         return TensorDict._new_unsafe(
             {"td_error": torch.from_numpy(delta), "grown": torch.from_numpy(grown),
-             "neurons": torch.from_numpy(bank.flat.count.reshape(batch, -1).sum(-1))},
+             "neurons": torch.from_numpy(bank.flat.counts.reshape(batch, -1).sum(-1))},
             batch_size=torch.Size([batch]),
         )  # fmt: skip
 
