@@ -38,6 +38,7 @@ import numpy as np
 import torch
 
 from symrl.learner.config import RunConfig
+from symrl.tensordicts import read
 
 __all__ = [
     "TrainResult", "train", "train_batch", "make_env", "TrialRecorder", "run_snapshot",
@@ -98,30 +99,31 @@ class TrialRecorder:
 
     def step(self, td, td_error: torch.Tensor) -> np.ndarray:
         """Record one transition of every robot; return the mask of robots whose trial ended."""
-        nxt = td.get("next")
+        nxt = read(td, "next")
         fresh = self.steps == 0
         if fresh.any():
-            self._first[fresh] = td.get("true_pose")[:, :2].numpy()[fresh]
+            self._first[fresh] = read(td, "true_pose")[:, :2].numpy()[fresh]
         self.steps += 1
         # numpy on the tensors' memory: a numpy call costs a fraction of a torch op's dispatch
-        self.total += nxt.get("reward").numpy().reshape(-1)  # float32 widened exactly
-        self.collisions += nxt.get("collision").numpy().reshape(-1)
-        self.shielded += td.get("shielded").numpy()
+        self.total += read(nxt, "reward").numpy().reshape(-1)  # float32 widened exactly
+        self.collisions += read(nxt, "collision").numpy().reshape(-1)
+        self.shielded += read(td, "shielded").numpy()
         self.td_error += np.abs(td_error.numpy())
-        self.reached = nxt.get("reached_goal").reshape(-1)
-        self._poses.append(nxt.get("true_pose").numpy()[:, :2].copy())
+        self.reached = read(nxt, "reached_goal").reshape(-1)
+        self._poses.append(read(nxt, "true_pose").numpy()[:, :2].copy())
         expert, winner = td.get("expert", None), td.get("winner", None)
         if expert is None:  # a controller without neurons (the baselines): no ghosts
             self._winners.append(np.zeros(self.batch, dtype=np.int64))
         else:
             self._winners.append(expert.numpy() * 1_000_003 + winner.numpy())
-        return nxt.get("done").numpy().reshape(-1).copy()
+        return read(nxt, "done").numpy().reshape(-1).copy()
 
     def finish(self, b: int) -> dict[str, Any]:
         """Robot ``b``'s trial record (its path and ghosts included); resets its accumulators."""
         lo, hi = self._start[b] - self._offset, len(self._poses)
-        path = np.vstack([self._first[b][None], np.stack([p[b] for p in self._poses[lo:hi]])])
-        ids = np.array([w[b] for w in self._winners[lo:hi]])
+        # one array of the steps, then robot b's column (not a Python loop over the steps)
+        path = np.vstack([self._first[b][None], np.array(self._poses[lo:hi])[:, b]])
+        ids = np.array(self._winners[lo:hi])[:, b]
         change = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
         record: dict[str, Any] = {
             "steps": int(self.steps[b]),

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -118,11 +119,14 @@ class RegionMapper(nn.Module):
     def ids(self, xy: torch.Tensor) -> torch.Tensor:
         """:meth:`forward` without the input checks, for finite float64 ``xy`` (..., 2): the
         control loop's call (its poses come from the env, finite by construction)."""
-        # (..., R, C): whether each condition holds (padding always does)
-        holds = (torch.matmul(xy, self.select) > self.bound).unflatten(-1, self.axis.shape)
-        # First matching rule: argmax over a 0/1 integer tensor returns the first maximum.
-        first = holds.all(dim=-1).to(torch.uint8).argmax(dim=-1)
-        return self.rule_region[first]
+        # numpy on the tensors' memory (a handful of poses: a fraction of the torch dispatches;
+        # the product is exact, see _derive). (..., R, C): whether each condition holds
+        # (padding always does)
+        holds = xy.numpy() @ self.select.numpy() > self.bound.numpy()
+        holds = holds.reshape(*holds.shape[:-1], *self.axis.shape)
+        # First matching rule: argmax over booleans returns the first True.
+        first = holds.all(axis=-1).argmax(axis=-1)
+        return torch.from_numpy(np.asarray(self.rule_region.numpy()[first]))
 
     def extra_repr(self) -> str:
         return f"names={self.names}, rules={self.rule_region.numel()}"

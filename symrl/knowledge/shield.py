@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -89,44 +90,49 @@ class IRShield(nn.Module):
 
     def distances(self, reflectance: torch.Tensor) -> torch.Tensor:
         """Rim distance per IR sensor (metres); ``inf`` where it sees nothing (reflectance 0)."""
-        refl = reflectance.to(torch.float64).clamp(0.0, 100.0)
-        d = self.ir_range * (1.0 - (refl / 100.0) ** (1.0 / 3.0))
-        return torch.where(refl > 0, d, torch.inf)
+        return torch.from_numpy(self._distances(reflectance.numpy()))
+
+    def _distances(self, reflectance: np.ndarray) -> np.ndarray:
+        # numpy on a handful of rows (a fraction of the torch dispatches); the cube root stays
+        # torch's pow, whose last bit differs from libm's for some readings
+        refl = np.clip(reflectance.astype(np.float64), 0.0, 100.0)
+        root = torch.from_numpy(refl / 100.0).pow_(1.0 / 3.0).numpy()
+        return np.where(refl > 0, self.ir_range * (1.0 - root), np.inf)
 
     def clearance(self, reflectance: torch.Tensor, angles: torch.Tensor) -> torch.Tensor:
         """Predicted smallest rim clearance along the move for each angle.
 
         ``reflectance`` (..., n), ``angles`` (..., m) -> (..., m) metres (inf: nothing seen)."""
-        rho = (self.distances(reflectance) + self.radius).repeat_interleave(3, dim=-1)
-        return self._clearance(rho, self.bearings, angles)
+        rho = np.repeat(self._distances(reflectance.numpy()) + self.radius, 3, axis=-1)
+        return torch.from_numpy(self._clearance(rho, self.bearings.numpy(), angles.numpy()))
 
-    def _clearance(
-        self, rho: torch.Tensor, bearings: torch.Tensor, angles: torch.Tensor
-    ) -> torch.Tensor:
+    def _clearance(self, rho: np.ndarray, bearings: np.ndarray, angles: np.ndarray) -> np.ndarray:
         """:meth:`clearance` from centre distances ``rho`` (..., b) at ``bearings`` (b,) or
-        (..., b)."""
-        cos = torch.cos(bearings[..., None, :] - angles.to(torch.float64)[..., :, None])
+        (..., b), in numpy with torch's cos (whose last bit differs from libm's)."""
+        diff = bearings[..., None, :] - angles.astype(np.float64)[..., :, None]
+        cos = torch.from_numpy(diff).cos_().numpy()
         rho = rho[..., None, :]  # (..., 1, b) against cos (..., m, b)
-        along = (rho * cos).clamp(0.0, self.step)  # closest point of the straight move
-        sq = rho.square() - 2.0 * rho * along * cos + along.square()
-        centre = torch.where(torch.isfinite(rho), sq.clamp_min(0.0).sqrt(), torch.inf)
-        return centre.min(dim=-1).values - self.radius
+        with np.errstate(invalid="ignore"):  # inf * cos for a sensor that sees nothing
+            along = np.clip(rho * cos, 0.0, self.step)  # closest point of the straight move
+            sq = np.square(rho) - 2.0 * rho * along * cos + np.square(along)
+        centre = np.where(np.isfinite(rho), np.sqrt(np.maximum(sq, 0.0)), np.inf)
+        return centre.min(axis=-1) - self.radius
 
     def forward(
         self, reflectance: torch.Tensor, action: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
         action = action.to(torch.float64)
         margin = self.config.margin
-        near = reflectance.amax(dim=-1) > self.quiet  # the rows where a move could be unsafe
-        if not bool(near.any()):
-            return action, near
-        if bool(near.all()):
-            unsafe = self.clearance(reflectance, action[..., None])[..., 0] < margin
-        else:
-            some = near.nonzero(as_tuple=True)
-            unsafe = torch.zeros_like(near)
-            room = self.clearance(reflectance[some], action[some][..., None])[..., 0]
-            unsafe[some] = room < margin
+        refl_np, action_np = reflectance.numpy(), action.numpy()
+        near = refl_np.max(axis=-1) > self.quiet  # the rows where a move could be unsafe
+        if not near.any():
+            return action, torch.from_numpy(near)
+        some = np.flatnonzero(near)
+        centre = np.repeat(self._distances(refl_np[some]) + self.radius, 3, axis=-1)
+        unsafe_np = np.zeros_like(near)
+        room_np = self._clearance(centre, self.bearings.numpy(), action_np[some][:, None])[:, 0]
+        unsafe_np[some] = room_np < margin
+        unsafe = torch.from_numpy(unsafe_np)
         if not bool(unsafe.any()):
             return action, unsafe
         # the candidate search runs only on the rows whose action is unsafe (the rare case)
@@ -139,7 +145,7 @@ class IRShield(nn.Module):
         rho = (self.distances(refl.gather(-1, sensors)) + self.radius).repeat_interleave(3, -1)
         bearings = self.bearings.view(-1, 3)[sensors].flatten(-2)  # (k, 3 * width)
         grid = self.candidates.expand(*act.shape, -1)
-        room = self._clearance(rho, bearings, grid)  # (k, m)
+        room = torch.from_numpy(self._clearance(rho.numpy(), bearings.numpy(), grid.numpy()))
         safe = room >= margin
         turn = torch.remainder(grid - act[..., None] + math.pi, 2 * math.pi) - math.pi
         cost = torch.where(safe, turn.abs(), torch.inf)
@@ -171,7 +177,7 @@ class IRShield(nn.Module):
         rho = (self.distances(reflectance) + self.radius).repeat_interleave(3)[index]
         bearings = self.bearings[index]
         grid = self.candidates
-        room = self._clearance(rho, bearings, grid)
+        room = torch.from_numpy(self._clearance(rho.numpy(), bearings.numpy(), grid.numpy()))
         safe = room >= margin
         if not bool(safe.any()):
             return float(grid[room.argmax()]), True

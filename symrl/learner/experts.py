@@ -17,6 +17,9 @@ growth replaces rows, which an optimizer could not follow.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import numpy as np
 import torch
 from torch import nn
 
@@ -24,6 +27,26 @@ __all__ = ["ExpertBank"]
 
 # Per-neuron tensors (B, E, N[, D]); every one is resized together when storage doubles.
 _ROWS = ("centres", "actions", "utilities", "means", "taken", "used")
+
+
+class FlatViews(NamedTuple):
+    """Numpy views of an :class:`ExpertBank`'s storage, one row per (controller, expert,
+    neuron) slot: index them with :meth:`ExpertBank.flat_index_np`."""
+
+    centres: np.ndarray
+    """(B * E * N, D)"""
+    actions: np.ndarray
+    """(B * E * N,), as are ``utilities``, ``means``, ``taken`` and ``used``."""
+    utilities: np.ndarray
+    means: np.ndarray
+    taken: np.ndarray
+    used: np.ndarray
+    counts: np.ndarray
+    """(B * E,) neurons per (controller, expert)."""
+    row_base: np.ndarray
+    """(B,) b * E."""
+    arange: np.ndarray
+    """(N,) 0 .. N - 1."""
 
 
 class ExpertBank(nn.Module):
@@ -87,6 +110,35 @@ class ExpertBank(nn.Module):
             setattr(self, name, new)  # nn.Module keeps it registered as a buffer
         self._arange = torch.arange(capacity)
 
+    @property
+    def flat(self) -> FlatViews:
+        """Numpy views of the storage for the control loop's arithmetic (a ``.numpy()`` call
+        costs about a microsecond and the loop asks ~40 times a step). Cached until a buffer
+        is replaced: growth beyond the capacity, ``.to()``, loading with ``assign``."""
+        views = self.__dict__.get("_flat")
+        if views is None:
+            views = FlatViews(
+                centres=self.centres.numpy().reshape(-1, self.dim),
+                actions=self.actions.numpy().reshape(-1),
+                utilities=self.utilities.numpy().reshape(-1),
+                means=self.means.numpy().reshape(-1),
+                taken=self.taken.numpy().reshape(-1),
+                used=self.used.numpy().reshape(-1),
+                counts=self.count.numpy().reshape(-1),
+                row_base=self._row_base.numpy(),
+                arange=self._arange.numpy(),
+            )
+            self.__dict__["_flat"] = views
+        return views
+
+    def __setattr__(self, name: str, value) -> None:
+        self.__dict__["_flat"] = None  # a buffer may be replaced: views taken again
+        super().__setattr__(name, value)
+
+    def _apply(self, fn, recurse=True):  # .to() / .double(): new tensors, views taken again
+        self.__dict__["_flat"] = None
+        return super()._apply(fn, recurse)
+
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):  # type: ignore[override]
         """Resize storage to the saved size first, so a grown bank loads into a fresh one."""
         saved = state_dict.get(prefix + "centres")
@@ -101,21 +153,30 @@ class ExpertBank(nn.Module):
         scatter instead of an advanced index over three dimensions."""
         return (self._row_base + expert) * self.capacity + neuron
 
+    def flat_index_np(self, expert: np.ndarray, neuron: np.ndarray) -> np.ndarray:
+        """:meth:`flat_index` on numpy arrays (for arithmetic on ``tensor.numpy()`` views)."""
+        return (self.flat.row_base + expert) * self.capacity + neuron
+
     def nearest(self, expert: torch.Tensor, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Winner (argmin distance = argmax activation) in each controller's ``expert`` for its
-        input ``x`` (B, D), and the distance; (-1, inf) where that expert is empty."""
-        row = self._row_base + expert
-        counts = self.count.take(row)
+        input ``x`` (B, D), and the distance; (-1, inf) where that expert is empty.
+
+        In numpy on the tensors' memory (a fraction of the cost of ~20 torch dispatches for a
+        handful of rows); the differences and squares are exact in either, and the sum over D
+        stays a torch reduction, so the distances are those of the torch version bit for bit."""
+        flat = self.flat
+        row = flat.row_base + expert.numpy()
+        counts = flat.counts[row]
         n = int(counts.max())
         if n == 0:
-            return torch.full_like(counts, -1), torch.full((self.batch,), torch.inf)
-        batch, experts, capacity, dim = self.centres.shape
-        flat = self.centres.view(batch * experts, capacity, dim)
-        centres = flat[:, :n].index_select(0, row)  # (B, n, D)
-        d2 = (centres - x[:, None, :]).square_().sum(-1)
-        d2.masked_fill_(self._arange[:n] >= counts[:, None], torch.inf)
-        best = d2.min(dim=-1)
-        return best.indices.masked_fill_(counts == 0, -1), best.values.sqrt_()
+            return torch.full_like(expert, -1), torch.full((self.batch,), torch.inf)
+        centres = flat.centres.reshape(len(flat.counts), self.capacity, self.dim)[row, :n]
+        d2 = torch.from_numpy(np.square(centres - x.numpy()[:, None, :])).sum(-1).numpy()
+        d2[flat.arange[:n] >= counts[:, None]] = np.inf
+        winner = d2.argmin(axis=-1)  # the first of equal distances, as torch's min
+        distance = np.sqrt(d2[np.arange(len(row)), winner])
+        winner[counts == 0] = -1
+        return torch.from_numpy(winner), torch.from_numpy(distance)
 
     # -- growth ---------------------------------------------------------------------------
     @torch.no_grad()
@@ -157,15 +218,17 @@ class ExpertBank(nn.Module):
     def replace_actions(self, rows: torch.Tensor) -> torch.Tensor:
         """p <- the action taken, mu <- 0, for every neuron used this trial by controllers
         ``rows``; returns how many per row."""
-        used = self.used[rows]
-        self.actions[rows] = torch.where(used, self.taken[rows], self.actions[rows])
-        self.means[rows] = self.means[rows].masked_fill(used, 0.0)
-        return used.flatten(1).sum(-1)
+        r = rows.numpy()
+        used = self.used.numpy()[r]
+        actions, means = self.actions.numpy(), self.means.numpy()
+        actions[r] = np.where(used, self.taken.numpy()[r], actions[r])
+        means[r] = np.where(used, 0.0, means[r])
+        return torch.from_numpy(used.reshape(len(r), -1).sum(-1))
 
     @torch.no_grad()
     def clear_trial(self, rows: torch.Tensor) -> None:
         """Forget which neurons controllers ``rows`` used (a new trial starts)."""
-        self.used[rows] = False
+        self.used.numpy()[rows.numpy()] = False
 
     def neurons(self) -> torch.Tensor:
         """Neurons per controller and expert, (B, E)."""

@@ -27,11 +27,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule
 
 from symrl.learner.policy import MixtureOfExpertsPolicy
+from symrl.tensordicts import read
 
 __all__ = ["TeseoLoss"]
 
@@ -100,75 +102,90 @@ class TeseoLoss(LossModule):
 
     @torch.no_grad()
     def forward(self, td: TensorDictBase) -> TensorDictBase:
-        """Update every robot's previous winner from its transition (batch [B])."""
+        """Update every robot's previous winner from its transition (batch [B]).
+
+        The arithmetic runs in numpy on the tensors' memory: the batch is a handful of numbers
+        and a numpy call costs a fraction of a torch op's dispatch (the update took about a
+        third of the loop's time in torch ops, ``benchmarks/bench_train.py``). Every step is an
+        exactly rounded IEEE operation in the same order as the formulas, so the numbers are
+        those of the torch version; the centre shift stays a torch ``lerp``."""
         k = self.tensor_keys
         policy, cfg = self.policy, self.config
         batch = policy.batch
-        nxt = td["next"]
-        r = nxt[k.reward].reshape(batch).to(torch.float64)
+        nxt = read(td, "next")
+        r = read(nxt, k.reward).numpy().reshape(batch).astype(np.float64)
         if policy.options is not None:
-            entered = td[k.option_entry]
-            if bool(entered.any()):
-                rows = entered.nonzero().flatten()
-                self.entry_return[rows, td[k.region][rows]] = self.trial_return[rows]
-            self.trial_return += r
+            entered = read(td, k.option_entry).numpy()
+            if entered.any():
+                rows = np.flatnonzero(entered)
+                region = read(td, k.region).numpy()
+                self.entry_return.numpy()[rows, region[rows]] = self.trial_return.numpy()[rows]
+            self.trial_return.numpy()[:] += r
         if not cfg.experts.learning:
             zero = torch.zeros(batch, dtype=torch.float64)
             return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
                               neurons=policy.neurons().sum(-1), batch_size=[batch])  # fmt: skip
         bank = policy.experts
-        expert, x, proto = td[k.expert], td[k.x], td[k.proto]
-        winner = td[k.winner]
-        grown = torch.zeros(batch, dtype=torch.long)
+        expert_t, x_t, proto_t = read(td, k.expert), read(td, k.x), read(td, k.proto)
+        expert, winner = expert_t.numpy(), read(td, k.winner).numpy()
+        grown = np.zeros(batch, dtype=np.int64)
 
         # 1. the neuron the policy acted as at a novel state is born now
-        novel = td[k.novel]
-        if bool(novel.any()):
-            new = novel.nonzero().flatten()
-            u0 = td[k.state_reward].view(-1)[new]
-            winner = winner.clone()
-            winner[new] = bank.add(new, expert[new], x[new], proto[new], u0)
-            grown += novel.long()
-        index = bank.flat_index(expert, winner)  # after any growth: the capacity may change
-        bank.taken.view(-1).index_copy_(0, index, td[k.taken])
-        bank.used.view(-1).index_fill_(0, index, True)
+        novel = read(td, k.novel).numpy()
+        if novel.any():
+            new = torch.from_numpy(np.flatnonzero(novel))
+            u0 = read(td, k.state_reward).view(-1)[new]
+            winner = winner.copy()
+            winner[new.numpy()] = bank.add(new, expert_t[new], x_t[new], proto_t[new], u0).numpy()
+            grown += novel
+        # flat views of the storage, taken after any growth (the capacity may have doubled)
+        flat = bank.flat
+        utilities, means = flat.utilities, flat.means
+        index = bank.flat_index_np(expert, winner)
+        flat.taken[index] = read(td, k.taken).numpy()
+        flat.used[index] = True
 
         # 2. the utility of the state reached
-        terminated = nxt[k.terminated].view(-1)
-        truncated = nxt[k.truncated].view(-1)
-        u_prev = bank.utilities.take(index)
-        seen = policy.perceive(nxt[k.sonar], nxt[k.odometry], nxt[k.goal])
-        u_seen = bank.utilities.take(bank.flat_index(seen.expert, seen.winner.clamp(min=0)))
+        terminated = read(nxt, k.terminated).numpy().reshape(-1)
+        truncated = read(nxt, k.truncated).numpy().reshape(-1)
+        u_prev = utilities[index]
+        seen = policy.perceive(read(nxt, k.sonar), read(nxt, k.odometry), read(nxt, k.goal))
+        seen_winner = seen.winner.numpy()
+        u_seen = utilities[bank.flat_index_np(seen.expert.numpy(), np.maximum(seen_winner, 0))]
         # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
-        u_trunc = torch.where(seen.winner >= 0, u_seen, u_prev)
-        u_next = torch.where(seen.novel, r, u_seen)
-        u_next = torch.where(truncated, u_trunc, u_next)
-        u_next = u_next.masked_fill(terminated, 0.0)
+        u_trunc = np.where(seen_winner >= 0, u_seen, u_prev)
+        u_next = np.where(seen.novel.numpy(), r, u_seen)
+        u_next = np.where(truncated, u_trunc, u_next)
+        u_next[terminated] = 0.0
 
         # 3. TD error; error-driven growth or the TD / REINFORCE / centre steps
         update = cfg.update
         delta = r + update.gamma * u_next - u_prev
-        split = delta.abs() > update.error_threshold
-        if bool(split.any()):
-            s = split.nonzero().flatten()
-            bank.add(s, expert[s], x[s], proto[s], u_prev[s] + delta[s])
-            grown += split.long()
-            index = bank.flat_index(expert, winner)  # the capacity may have doubled
-        keep = ~split
+        split = np.abs(delta) > update.error_threshold
+        if split.any():
+            s = torch.from_numpy(np.flatnonzero(split))
+            utility = torch.from_numpy(u_prev + delta)[s]
+            bank.add(s, expert_t[s], x_t[s], proto_t[s], utility)
+            grown += split
+            utilities, means = bank.flat.utilities, bank.flat.means
+            index = bank.flat_index_np(expert, winner)  # the capacity may have doubled
         # TD(0) and REINFORCE on the rows that did not split (a split row keeps its values)
-        step = delta.masked_fill(split, 0.0)
-        bank.utilities.view(-1).index_copy_(0, index, u_prev + update.eta * step)
-        mu = bank.means.take(index)
-        bank.means.view(-1).index_copy_(0, index, mu + update.beta * step * (td[k.xi] - mu))
-        shift = keep & (delta > 0)
-        if bool(shift.any()):
-            a = shift.nonzero().flatten()
-            rows = index.index_select(0, a)
-            flat = bank.centres.view(-1, bank.dim)
-            moved = flat.index_select(0, rows).lerp_(x.index_select(0, a), update.kappa)
-            flat.index_copy_(0, rows, moved)
-        return TensorDict(td_error=delta, grown=grown, neurons=bank.count.sum(-1),
-                          batch_size=[batch])  # fmt: skip
+        step = np.where(split, 0.0, delta)
+        utilities[index] = u_prev + update.eta * step
+        mu = means[index]
+        means[index] = mu + update.beta * step * (read(td, k.xi).numpy() - mu)
+        shift = ~split & (delta > 0)
+        if shift.any():
+            a = torch.from_numpy(np.flatnonzero(shift))
+            slots = torch.from_numpy(index).index_select(0, a)
+            centres = bank.centres.view(-1, bank.dim)
+            moved = centres.index_select(0, slots).lerp_(x_t.index_select(0, a), update.kappa)
+            centres.index_copy_(0, slots, moved)
+        return TensorDict._new_unsafe(
+            {"td_error": torch.from_numpy(delta), "grown": torch.from_numpy(grown),
+             "neurons": torch.from_numpy(bank.flat.counts.reshape(batch, -1).sum(-1))},
+            batch_size=torch.Size([batch]),
+        )  # fmt: skip
 
     @torch.no_grad()
     def end_trial(
@@ -178,26 +195,31 @@ class TeseoLoss(LossModule):
         action replacement after a better success, cooling, the option critics. Returns
         ``replaced`` (neurons per row), ``improved`` and ``best_total``."""
         policy, cfg = self.policy, self.config
-        totals = totals.to(torch.float64)
-        replaced = torch.zeros(rows.shape[0], dtype=torch.long)
-        improved = torch.zeros(rows.shape[0], dtype=torch.bool)
+        # numpy on the buffers' memory (a handful of rows), the same operations
+        rows_np, n = rows.numpy(), rows.shape[0]
+        totals_np = totals.numpy().astype(np.float64)
+        best = policy.best_total.numpy()
+        replaced = np.zeros(n, dtype=np.int64)
+        improved = np.zeros(n, dtype=bool)
         if cfg.experts.learning:
-            improved = reached & (totals > policy.best_total[rows])
-            policy.best_total[rows] = torch.where(improved, totals, policy.best_total[rows])
-            if cfg.update.replace_actions and bool(improved.any()):
-                replaced[improved] = policy.experts.replace_actions(rows[improved])
-            cooled = (cfg.update.cooling * policy.temperature[rows]).clamp(
-                min=cfg.update.temperature_min
+            improved = reached.numpy() & (totals_np > best[rows_np])
+            best[rows_np] = np.where(improved, totals_np, best[rows_np])
+            if cfg.update.replace_actions and improved.any():
+                better = torch.from_numpy(rows_np[improved])
+                replaced[improved] = policy.experts.replace_actions(better).numpy()
+            temperature, update = policy.temperature.numpy(), cfg.update
+            temperature[rows_np] = np.maximum(
+                update.cooling * temperature[rows_np], update.temperature_min
             )
-            policy.temperature[rows] = cooled
             policy.experts.clear_trial(rows)
         if policy.options is not None:
-            returns = self.trial_return[rows, None] - self.entry_return[rows]
-            policy.options.learn(rows, returns)
-            self.trial_return[rows] = 0.0
-            self.entry_return[rows] = 0.0
-        policy.trials_done[rows] += 1
-        return {"replaced": replaced, "improved": improved, "best_total": policy.best_total[rows]}
+            returns = self.trial_return.numpy()[rows_np, None] - self.entry_return.numpy()[rows_np]
+            policy.options.learn(rows, torch.from_numpy(returns))
+            self.trial_return.numpy()[rows_np] = 0.0
+            self.entry_return.numpy()[rows_np] = 0.0
+        policy.trials_done.numpy()[rows_np] += 1
+        return {"replaced": torch.from_numpy(replaced), "improved": torch.from_numpy(improved),
+                "best_total": torch.from_numpy(best[rows_np])}  # fmt: skip
 
     def extra_repr(self) -> str:
         u = self.config.update

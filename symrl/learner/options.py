@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -99,26 +100,31 @@ class SubgoalOptions(nn.Module):
         """The signed angle (left positive) from each odometry heading to the point the reflex
         should aim at in ``region``; also the option in force (B,) and whether it was chosen
         at this step (the region's first entry in the trial) (B,) bool."""
-        column = region.unsqueeze(1)
-        chosen = self.choice.gather(1, column).squeeze(1)
+        # numpy on the buffers' memory (a handful of rows: a fraction of the torch dispatches);
+        # the norm and atan2 stay torch's, the rest is exact arithmetic in the same order
+        region_np = region.numpy()
+        rows = np.arange(len(region_np))
+        choice = self.choice.numpy()
+        chosen = choice[rows, region_np]
         entered = chosen < 0
-        if bool(entered.any()):
-            regions = region.tolist()
-            for b in entered.nonzero().flatten().tolist():
-                self.choice[b, regions[b]] = self._choose(b, regions[b], greedy)
-            chosen = self.choice.gather(1, column).squeeze(1)
+        if entered.any():
+            for b in np.flatnonzero(entered).tolist():
+                choice[b, region_np[b]] = self._choose(b, int(region_np[b]), greedy)
+            chosen = choice[rows, region_np]
         # a new visit of a region aims at its sub-goal again
-        self.stage.masked_fill_(region != self.visit, 0)
-        self.visit.copy_(region)
-        xy = odometry[:, :2].to(torch.float64)
-        point = self.points.view(-1, 2).index_select(0, region * self.points.shape[1] + chosen)
-        reached = torch.linalg.vector_norm(point - xy, dim=-1) < self.config.reach  # type: ignore[attr-defined]
-        self.stage.masked_fill_(reached, _GOAL_STAGE)
-        target = torch.where((self.stage == _GOAL_STAGE)[:, None], self._goal, point)
-        d = target - xy
-        bearing = torch.atan2(d[:, 1], d[:, 0]) - odometry[:, 2].to(torch.float64)
-        angle = torch.remainder(bearing + math.pi, 2 * math.pi) - math.pi
-        return angle, chosen, entered
+        stage, visit = self.stage.numpy(), self.visit.numpy()
+        stage[region_np != visit] = 0
+        visit[:] = region_np
+        pose = odometry.numpy().astype(np.float64)
+        xy = pose[:, :2]
+        points = self.points.numpy()
+        point = points.reshape(-1, 2)[region_np * points.shape[1] + chosen]
+        distance = torch.linalg.vector_norm(torch.from_numpy(point - xy), dim=-1).numpy()
+        stage[distance < self.config.reach] = _GOAL_STAGE  # type: ignore[attr-defined]
+        d = np.where((stage == _GOAL_STAGE)[:, None], self._goal.numpy(), point) - xy
+        heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
+        angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
+        return torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered)
 
     def _choose(self, b: int, region: int, greedy: bool) -> int:
         """Controller ``b``'s option for ``region`` at its first entry in a trial (on Python
@@ -155,19 +161,22 @@ class SubgoalOptions(nn.Module):
     def learn(self, rows: torch.Tensor, returns: torch.Tensor) -> None:
         """Critic step at the end of a trial: ``returns`` (k, R) is the return-to-go from each
         region's first entry for controllers ``rows``; then epsilon decays."""
-        choice = self.choice[rows]
+        # numpy on the buffers' memory: a few advanced indexes of a handful of rows
+        rows_np, returns_np = rows.numpy(), returns.numpy()
+        choice = self.choice.numpy()[rows_np]
         entered = choice >= 0
-        regions = torch.arange(choice.shape[1]).expand_as(choice)
-        b = rows[:, None].expand_as(choice)[entered]
-        r, k, ret = regions[entered], choice[entered], returns[entered]
-        self.n[b, r, k] += 1
+        b = np.broadcast_to(rows_np[:, None], choice.shape)[entered]
+        r = np.broadcast_to(np.arange(choice.shape[1]), choice.shape)[entered]
+        k, ret = choice[entered], returns_np[entered]
+        n, q = self.n.numpy(), self.q.numpy()
+        n[b, r, k] += 1  # (b, r) pairs are distinct: one option per region and trial
         if self.config.critic == "best":  # type: ignore[attr-defined]
-            first = self.n[b, r, k] == 1
-            self.q[b, r, k] = torch.where(first, ret, torch.maximum(self.q[b, r, k], ret))
+            first = n[b, r, k] == 1
+            q[b, r, k] = np.where(first, ret, np.maximum(q[b, r, k], ret))
         else:
-            self.q[b, r, k] += (ret - self.q[b, r, k]) / self.n[b, r, k]
-        self.epsilon[rows] *= float(self.config.epsilon_decay)  # type: ignore[attr-defined]
-        self.trials[rows] += 1
+            q[b, r, k] += (ret - q[b, r, k]) / n[b, r, k]
+        self.epsilon.numpy()[rows_np] *= float(self.config.epsilon_decay)  # type: ignore[attr-defined]
+        self.trials.numpy()[rows_np] += 1
 
     def greedy(self, row: int) -> list[int]:
         """The option each region of controller ``row`` would choose greedily (-1: none tried)."""

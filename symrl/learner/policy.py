@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numpy as np
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
@@ -41,6 +42,7 @@ from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
+from symrl.tensordicts import read, write
 from symrl.world.worldmap import WorldMap, load_map
 
 __all__ = ["Perception", "MixtureOfExpertsPolicy", "OBS_KEYS", "is_greedy"]
@@ -57,13 +59,6 @@ _BLOCK = 1024  # random draws per robot per refill: one call per robot instead o
 
 
 _GateAndInputs = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
-
-
-def _bits(t: torch.Tensor) -> torch.Tensor:
-    """The tensor's bits as integers (so equality is bitwise: -0.0 is not 0.0, NaN is NaN)."""
-    if t.is_floating_point():
-        return t.view({2: torch.int16, 4: torch.int32, 8: torch.int64}[t.element_size()])
-    return t
 
 
 def is_greedy() -> bool:
@@ -158,7 +153,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self._no_option = torch.full((batch,), -1, dtype=torch.long)
         self._no_entry = torch.zeros(batch, dtype=torch.bool)
         # the observation of the last perception and its (region, expert, x)
-        self._last_seen: tuple[tuple[torch.Tensor, ...], _GateAndInputs] | None = None
+        self._last_seen: tuple[tuple, _GateAndInputs] | None = None
 
     @property
     def subgoals(self) -> SubgoalTable | None:
@@ -180,9 +175,12 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def encode_pose(self, odometry: torch.Tensor) -> torch.Tensor:
         """x = (x, y, h cos theta, h sin theta) of the odometry pose, h = ``heading_scale``."""
         h = self.config.experts.heading_scale
-        pose = odometry.to(torch.float32)
-        theta = pose[:, 2]
-        return torch.stack((pose[:, 0], pose[:, 1], h * theta.cos(), h * theta.sin()), dim=-1)
+        # numpy on the tensor's memory (four columns of a handful of rows); cos and sin stay
+        # torch's, whose last bit differs from numpy's
+        pose = odometry.numpy().astype(np.float32, copy=False)
+        theta = torch.from_numpy(pose[:, 2])
+        cos, sin = theta.cos().numpy(), theta.sin().numpy()
+        return torch.from_numpy(np.stack((pose[:, 0], pose[:, 1], h * cos, h * sin), axis=-1))
 
     def perceive(
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
@@ -207,16 +205,16 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         fifth of the cost of the two calls: ``benchmarks/bench_train.py``)."""
         pose = self.config.experts.input == "pose"
         seen = (odometry,) if pose else (sonar, odometry, goal)
+        # the observation's bits (bitwise: -0.0 is not 0.0, NaN is NaN), read through numpy:
+        # a byte string compares for a fraction of a torch.equal's cost
+        key = tuple((t.dtype, t.shape, t.numpy().tobytes()) for t in seen)
         last = self._last_seen
-        if last is not None and all(
-            a.shape == b.shape and a.dtype == b.dtype and torch.equal(_bits(a), _bits(b))
-            for a, b in zip(last[0], seen, strict=True)
-        ):
+        if last is not None and last[0] == key:
             return last[1]
-        region = self.mapper.ids(odometry[:, :2].to(torch.float64))
+        region = self.mapper.ids(torch.from_numpy(odometry.numpy()[:, :2].astype(np.float64)))
         expert = region if self.config.gate.partition else torch.zeros_like(region)
         x = self.encode_pose(odometry) if pose else self.encode(sonar, goal[:, 0])
-        self._last_seen = (tuple(t.clone() for t in seen), (region, expert, x))
+        self._last_seen = (key, (region, expert, x))
         return region, expert, x
 
     # -- random streams -------------------------------------------------------------------
@@ -239,7 +237,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def forward(self, td: TensorDictBase) -> TensorDictBase:
         xc = self.config.experts
         greedy = is_greedy()
-        sonar, odometry, goal = td.get("sonar"), td.get("odometry"), td.get("goal")
+        sonar, odometry, goal = read(td, "sonar"), read(td, "odometry"), read(td, "goal")
         per = self.perceive(sonar, odometry, goal)
         zero = self._zeros
         option, entered = self._no_option, self._no_entry
@@ -256,46 +254,54 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             base = proto = zero
             alpha = reflex_action
         else:
+            # numpy on the tensors' memory (a handful of rows: a fraction of the torch
+            # dispatches); exp stays torch's, the rest is exact arithmetic in the same order
             z, uniform = (zero, zero) if greedy else self._draws()
             if xc.residual:
                 base, proto = reflex_action, zero
             elif xc.reflex:
                 base, proto = zero, reflex_action
             else:
-                base, proto = zero, uniform * (2 * _PI) - _PI
+                base, proto = zero, torch.from_numpy(uniform.numpy() * (2 * _PI) - _PI)
             bank = self.experts
-            index = bank.flat_index(per.expert, per.winner.clamp(min=0))
-            known = ~per.novel
-            p = torch.where(known, bank.actions.take(index), proto)
-            mu = torch.where(known, bank.means.take(index), zero)
+            index = bank.flat_index_np(per.expert.numpy(), np.maximum(per.winner.numpy(), 0))
+            known = ~per.novel.numpy()
+            flat = bank.flat
+            p = np.where(known, flat.actions[index], proto.numpy())
+            mu = np.where(known, flat.means[index], 0.0)
             if greedy:
-                xi = mu
+                noisy = mu
             else:
                 # a novel state's neuron is born with u = r(state): the reward of arriving here
-                u_new = td.get("state_reward").view(-1).to(torch.float64)
-                u = torch.where(known, bank.utilities.take(index), u_new)
-                sigma = self.temperature / (1.0 + u.clamp(max=60.0).exp())
-                xi = mu + sigma * z
-            alpha = (base + p + xi).clamp_(-_PI, _PI)
+                u_new = read(td, "state_reward").numpy().reshape(-1).astype(np.float64)
+                u = np.where(known, flat.utilities[index], u_new)
+                e = torch.from_numpy(np.minimum(u, 60.0)).exp().numpy()
+                spread = self.temperature.numpy() / (1.0 + e)
+                noisy = mu + spread * z.numpy()
+                sigma = torch.from_numpy(spread)
+            xi = torch.from_numpy(noisy)
+            alpha = torch.from_numpy(np.clip(base.numpy() + p + noisy, -_PI, _PI))
         shielded = self._no_entry
         if self.shield is not None:
-            alpha, shielded = self.shield(td.get("ir"), alpha)
-        td.update(
+            alpha, shielded = self.shield(read(td, "ir"), alpha)
+        action = alpha.numpy()
+        write(
+            td,
             {
-                "action": alpha.to(torch.float32).unsqueeze(-1),
+                "action": torch.from_numpy(action.astype(np.float32).reshape(-1, 1)),
                 "region": per.region,
                 "expert": per.expert,
-                "winner": per.winner.masked_fill(per.novel, -1),
+                "winner": torch.from_numpy(np.where(per.novel.numpy(), -1, per.winner.numpy())),
                 "novel": per.novel,
                 "x": per.x,
                 "proto": proto,
                 "xi": xi,
                 "sigma": sigma,
-                "taken": alpha - base,
+                "taken": torch.from_numpy(action - base.numpy()),
                 "shielded": shielded,
                 "option": option,
                 "option_entry": entered,
-            }
+            },
         )
         return td
 

@@ -21,6 +21,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
+from symrl.tensordicts import read, write
 from symrl.world.physics import Readings, RobotBatch
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap, load_map
@@ -147,12 +148,17 @@ class BatchedWorldEnv(EnvBase):
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
         mask = None if tensordict is None else tensordict.get("_reset", None)
+        return self._tensordict(self._reset_arrays(mask))
+
+    def _reset_arrays(self, mask: torch.Tensor | None) -> dict[str, np.ndarray]:
+        """The reset's outputs of every robot as numpy arrays (``mask``: the robots to restart,
+        None for all)."""
         if mask is None or self._last is None:
             rows = np.arange(self.size)
         else:
             rows = np.flatnonzero(mask.reshape(self.size).cpu().numpy())
             if len(rows) == 0:
-                return self._tensordict(self._last)
+                return self._last
         r = self.physics.reset(rows, self._starts[rows], self._rngs)
         out = self._arrays(r)
         out.pop("reward")
@@ -167,7 +173,7 @@ class BatchedWorldEnv(EnvBase):
                 merged[key] = full
             out = merged
         self._last = out
-        return self._tensordict(out)
+        return out
 
     def maybe_reset(self, tensordict: TensorDictBase) -> TensorDictBase:
         """Restart the robots that are done (what ``step_and_maybe_reset`` calls after a step):
@@ -177,18 +183,25 @@ class BatchedWorldEnv(EnvBase):
         holds), so its tensors replace the old ones; a key the reset does not write (the
         action) reads 0 on the restarted rows, as in TorchRL's merge (``pad=0``). The merge
         was about half the cost of a partial reset (measured: ``benchmarks/bench_train.py``)."""
-        done = tensordict.get("done")
-        if not bool(done.any()):
+        done = read(tensordict, "done")
+        restarted = done.numpy().reshape(self.size)
+        if not restarted.any():
             return tensordict
-        reset = self._reset(TensorDict({"_reset": done}, batch_size=self.batch_size))
-        restarted = done.reshape(self.size)
+        reset = self._reset_arrays(done)
+        # numpy on the tensors' memory and TorchRL's unchecked setter (symrl.tensordicts): a
+        # partial reset writes every key of the batch (about 25 of them)
+        values = {}
         for key in list(tensordict.keys()):
-            if key not in reset:
-                value = tensordict.get(key)
-                rows = restarted.view(-1, *([1] * (value.dim() - 1)))
+            value = read(tensordict, key)
+            if key not in reset and type(value) is torch.Tensor:
+                zeroed = value.numpy().copy()
+                zeroed[restarted] = 0
+                values[key] = torch.from_numpy(zeroed)
+            elif key not in reset:
+                rows = torch.from_numpy(restarted).view(-1, *([1] * (value.dim() - 1)))
                 tensordict.set(key, value.masked_fill(rows, 0))
-        tensordict.update(reset)
-        return tensordict
+        values.update((key, torch.from_numpy(value)) for key, value in reset.items())
+        return write(tensordict, values)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         action = tensordict.get("action")

@@ -73,6 +73,7 @@ def samples(n: int, dtype: torch.dtype, seed: int = 0) -> tuple[torch.Tensor, to
 def test_batched_path_equals_the_uncompiled_rule_base(rules, dtype):
     reflex = FuzzyReflex(ReflexConfig() if rules is None else ReflexConfig(rules=rules))
     s, goal = samples(5000, dtype)
+    # a float64 (B, n) batch takes the numpy path, the (50, 100, n) view the tensor path
     assert torch.equal(reflex(s, goal), oracle(reflex, s, goal))
     assert torch.equal(
         reflex(s.view(50, 100, 24), goal.view(50, 100)), oracle(reflex, s, goal).view(50, 100)

@@ -1,0 +1,44 @@
+"""Reading and writing many entries of a plain TensorDict in the control loop.
+
+TensorDict's public ``get``/``set``/``update`` check every key and value (nesting, shape against
+the batch size, device) on each call: about 1.5 us per read and 10 us per written key on the
+shared 2-core VM, for entries whose keys are plain strings and whose shapes the loop builds
+itself. For a plain, unlocked ``TensorDict`` these helpers go through the unchecked accessors
+TorchRL's own ``step_mdp`` uses (``_get_str`` / ``_set_str(validated=True)``), with the shape
+checked once per call; any other TensorDict (or a nested key) takes the public path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import torch
+from tensordict import TensorDict, TensorDictBase
+from tensordict.utils import NestedKey
+
+__all__ = ["read", "write"]
+
+_MISSING = object()
+
+
+def read(td: TensorDictBase, key: NestedKey) -> torch.Tensor:
+    """``td[key]`` (a KeyError naming the key when it is missing)."""
+    if type(td) is TensorDict and type(key) is str:
+        value = td._tensordict.get(key, _MISSING)
+        if value is not _MISSING:
+            return value
+    return td[key]
+
+
+def write(td: TensorDictBase, values: Mapping[str, torch.Tensor]) -> TensorDictBase:
+    """``td.update(values)`` for tensors whose leading dims are ``td``'s batch size."""
+    if type(td) is not TensorDict or td.is_locked:
+        return td.update(values)
+    batch = td.batch_size
+    dims = len(batch)
+    for key, value in values.items():
+        if type(key) is not str or type(value) is not torch.Tensor or value.shape[:dims] != batch:
+            td.update({key: value})  # the checked path (and its error message)
+        else:
+            td._set_str(key, value, inplace=False, validated=True)
+    return td
