@@ -137,6 +137,29 @@ def main() -> None:
         print(f"{name:52s} {rate:11.0f} {1e6 / rate:8.1f} {cart / rate:10.1f} {noop / rate:8.1f}")
     print("(x CartPole / x no-op: how many times slower than that baseline, same run;")
     print(" BatchedWorldEnv rows count robot-steps: B per env.step)")
+    print(f"load_map of a 3,000-point boundary (validation): {map_validation(rep):.3f} CPU-s")
+
+
+def map_validation(repeats: int) -> float:
+    """CPU seconds to load and validate a map whose boundary has 3,000 points (best of
+    ``repeats``): the map checks must stay well under a second for hand-made outlines."""
+    from symrl.world.worldmap import load_map
+
+    t = np.linspace(0.0, 2 * np.pi, 3000, endpoint=False)
+    r = 10 + 0.5 * np.sin(7 * t)
+    data = {
+        "name": "wobbly",
+        "boundary": np.round(np.stack([r * np.cos(t), r * np.sin(t)], 1), 6).tolist(),
+        "start": {"x": 0.0, "y": 0.0},
+        "goal": {"x": 3.0, "y": 0.0, "radius": 0.4},
+        "regions": {"names": ["all"], "lines": {}, "rules": [{"region": "all"}]},
+    }
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.process_time()
+        load_map(data)
+        best = min(best, time.process_time() - t0)
+    return best
 
 
 if __name__ == "__main__":

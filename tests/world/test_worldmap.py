@@ -2,7 +2,6 @@
 
 import copy
 import math
-import time
 from importlib import resources
 from pathlib import Path
 
@@ -237,7 +236,8 @@ def test_closed_polygon_is_the_same_map(doc):
     np.testing.assert_array_equal(load_map(closed).boundary, load_map(doc).boundary)
 
 
-def test_a_3000_point_boundary_validates_in_a_second():
+def test_a_3000_point_boundary_validates():
+    """(Its speed, about 0.1 CPU-s here, is measured by benchmarks/bench_env.py.)"""
     n = 3000
     t = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
     r = 10 + 0.5 * np.sin(7 * t)
@@ -248,10 +248,9 @@ def test_a_3000_point_boundary_validates_in_a_second():
         "goal": {"x": 3.0, "y": 0.0, "radius": 0.4},
         "regions": {"names": ["all"], "lines": {}, "rules": [{"region": "all"}]},
     }
-    tic = time.perf_counter()
     world = load_map(data)
-    assert time.perf_counter() - tic <= 1.0
     assert len(world.boundary) == n
+    assert bool(world.contains_xy(3.0, 0.0)) and not bool(world.contains_xy(10.6, 0.0))
 
 
 def test_malformed_files(tmp_path):
