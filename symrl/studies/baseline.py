@@ -40,6 +40,7 @@ from typing import Any, Protocol
 
 import numpy as np
 import torch
+import yaml
 from tensordict import TensorDict, TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
@@ -56,7 +57,7 @@ __all__ = [
     "first_reliable",
     "BaselineController",
     "load_baseline",
-    "load_run_state",
+    "load_run_state", "knowledge_of",
     "baseline_command",
     "CHECKPOINT_KIND",
 ]
@@ -212,12 +213,14 @@ def save_baseline(path: Path, algorithm: str, agent: Agent, priors: Priors, conf
     )
 
 
-def load_run_state(logdir: str | Path, settings: dict[str, Any],
-                   episodes: int) -> dict[str, Any]:  # fmt: skip
+def load_run_state(logdir: str | Path, settings: dict[str, Any], episodes: int,
+                   knowledge: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
     """The run state in ``logdir/checkpoint.pt`` to go on to ``episodes`` trials, checked
-    against this run's ``settings`` (algorithm, priors, seed, robots, hyper-parameters). Every
-    fault is one line naming the folder: no run there, no run state, another format, other
-    settings, a budget below what is done."""
+    against this run's ``settings`` (algorithm, priors, seed, robots, hyper-parameters) and
+    ``knowledge`` (the ``env``, ``reflex`` and ``shield`` sections it would use, checked against
+    the run's ``config.yaml``: a recipe changed since the run started must not go on silently
+    with another reflex). Every fault is one line naming the folder: no run there, no run
+    state, another format, other settings or knowledge, a budget below what is done."""
     from symrl.runs import CheckpointError, read_checkpoint_file
 
     folder = Path(logdir)
@@ -237,6 +240,10 @@ def load_run_state(logdir: str | Path, settings: dict[str, Any],
             f"resumes format {SNAPSHOT_FORMAT}"
         )
     saved, given = _flat(state.get("settings", {})), _flat(settings)
+    if knowledge is not None:
+        recorded = _recorded_knowledge(folder)
+        saved.update(_flat({k: recorded.get(k) for k in knowledge}))
+        given.update(_flat(yaml.safe_load(yaml.safe_dump(knowledge))))  # as config.yaml has it
     for key in sorted(set(saved) | set(given)):
         if saved.get(key) != given.get(key):
             raise CheckpointError(
@@ -248,6 +255,24 @@ def load_run_state(logdir: str | Path, settings: dict[str, Any],
         raise ValueError(f"--episodes {episodes}: the run in {str(folder)!r} has done {done} "
                          "trials already")  # fmt: skip
     return state
+
+
+def _recorded_knowledge(folder: Path) -> dict[str, Any]:
+    """The sections of the run's ``config.yaml`` (empty if it has none or cannot be read)."""
+    try:
+        doc = yaml.safe_load((folder / "config.yaml").read_text())
+    except (OSError, yaml.YAMLError):
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def knowledge_of(config: RunConfig, priors: Priors | None = None) -> dict[str, Any]:
+    """The world and knowledge sections of ``config``: ``env``, ``reflex`` and ``shield``;
+    with ``priors`` only those a run with them uses (the reflex and the shield act only in a
+    residual run)."""
+    tree = config_to_dict(config)
+    used = ("env", "reflex", "shield") if priors is None or priors.residual else ("env",)
+    return {key: tree[key] for key in used}
 
 
 def _flat(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -398,14 +423,14 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
     if isinstance(envs, bool) or not isinstance(envs, int) or envs < 1:
         raise ValueError(f"--envs {envs!r}: must be an integer >= 1")
     run_settings = _settings(algorithm, priors, seed, envs, cfg)
+    config = run_config(map, seed, episodes)
     state = None
     if resume:
         if logdir is None:
             raise ValueError("resume: needs the run folder (logdir)")
-        state = load_run_state(logdir, run_settings, episodes)
+        state = load_run_state(logdir, run_settings, episodes, knowledge_of(config, priors))
     torch.manual_seed(seed)
     t0, cpu0 = time.perf_counter(), time.process_time()
-    config = run_config(map, seed, episodes)
     world = load_map(config.env.map)
     env = make_env(config, priors, robot_seeds(seed, envs), world)
     n_obs = env.observation_spec["observation"].shape[-1]
@@ -417,8 +442,7 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
     frames, at20, wall0, cpu_before = 0, None, 0.0, 0.0
     writer = None
     if logdir is not None:
-        settings_out = {**run_settings, "episodes": episodes,
-                        **{k: config_to_dict(config)[k] for k in ("env", "reflex", "shield")}}
+        settings_out = {**run_settings, "episodes": episodes, **knowledge_of(config)}
         writer = RunWriter(logdir, config, world, overwrite=overwrite,
                            resume_rows=state["rows"] if state is not None else None,
                            columns=list(BASE_COLUMNS), settings=settings_out)  # fmt: skip
@@ -616,7 +640,8 @@ def baseline_command(args: argparse.Namespace, signalled: list[int] | None = Non
                                   f"({hint})")  # fmt: skip
     for run, goes_on, seed in zip(runs, resumed, seeds, strict=True):
         if goes_on:  # every run's settings are checked before any of them trains
-            load_run_state(run, _run_settings(args, priors, seed), args.episodes)
+            load_run_state(run, _run_settings(args, priors, seed), args.episodes,
+                           knowledge_of(run_config(args.map, seed, args.episodes), priors))
     t0 = time.perf_counter()
     stop = (lambda: bool(signalled)) if signalled is not None else None
     jobs = [{"algorithm": args.algorithm, "seed": s, "episodes": args.episodes,

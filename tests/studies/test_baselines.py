@@ -280,6 +280,14 @@ def test_periodic_checkpoints_hold_the_run_state(tmp_path):
     other = {**state["settings"], "ppo": {**state["settings"]["ppo"], "hidden": 64}}
     with pytest.raises(ValueError, match="the run has ppo.hidden 16, this command 64$"):
         load_run_state(tmp_path, other, 3)
+    # a recipe whose reflex changed since the run started: refused, naming the value
+    from symrl.studies.baseline import knowledge_of, run_config
+
+    knowledge = knowledge_of(run_config("hailu2001", 6, 3), Priors(residual=True))
+    assert load_run_state(tmp_path, state["settings"], 3, knowledge)["rows"] == state["rows"]
+    changed = {**knowledge, "reflex": {**knowledge["reflex"], "d_a": 0.9}}
+    with pytest.raises(ValueError, match=r"the run has reflex.d_a 0.\d+, this command 0.9$"):
+        load_run_state(tmp_path, state["settings"], 3, changed)
     assert [r["trial"] for r in state["rows"]] == [1, 2, 3]
     assert state["frames"] == sum(r["steps"] for r in state["rows"]) + int(
         state["recorder"]["steps"].sum()
