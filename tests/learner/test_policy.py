@@ -89,6 +89,7 @@ def test_novel_state_acts_as_its_new_neuron_would():
     r = policy("paper", "options.enabled=false", "shield.enabled=false")
     td = r(obs.clone())
     assert float(td["proto"][0]) == 0.0
+    reflex = _reflex(r, obs)  # the paper recipe's own reflex (its output sets differ)
     assert float(td["action"][0, 0]) == pytest.approx(reflex + float(td["xi"][0]), abs=1e-6)
     assert float(td["taken"][0]) == pytest.approx(float(td["xi"][0]), abs=1e-6)  # minus base
     # no reflex: a uniform random action in [-pi, pi], a new one each time
