@@ -156,7 +156,8 @@ BASELINE_VARIANTS = (
      "--trials 20 --out results/baselines/paper-20"),
     ("reflex-20", "reference: the shielded reflex alone (no learning)", "symrl sweep --recipes "
      "paper --seeds 100-104 --trials 20 --out results/baselines/reflex-20 "
-     "experts.learning=false options.enabled=false"),
+     "experts.learning=false options.enabled=false "
+     "'reflex.peaks=[1.5707963267948966,0.0,-1.5707963267948966]'"),
     ("sac-scratch", "SAC from scratch", "symrl baseline sac --episodes {n} --seeds 100-104 "
      "--out results/baselines/sac-scratch"),
     ("sac-residual", "SAC residual", "symrl baseline sac --residual --episodes {n} "
