@@ -58,7 +58,8 @@ __all__ = [
     "first_reliable",
     "BaselineController",
     "load_baseline",
-    "load_run_state", "knowledge_of",
+    "load_run_state",
+    "knowledge_of",
     "baseline_command",
     "CHECKPOINT_KIND",
 ]
@@ -248,7 +249,7 @@ def load_run_state(logdir: str | Path, settings: dict[str, Any], episodes: int,
         )
     saved, given = _flat(state.get("settings", {})), _flat(settings)
     if knowledge is not None:
-        recorded = _recorded_knowledge(folder)
+        recorded = _config_yaml(folder)
         saved.update(_flat({k: recorded.get(k) for k in knowledge}))
         given.update(_flat(yaml.safe_load(yaml.safe_dump(knowledge))))  # as config.yaml has it
     for key in sorted(set(saved) | set(given)):
@@ -264,8 +265,8 @@ def load_run_state(logdir: str | Path, settings: dict[str, Any], episodes: int,
     return state
 
 
-def _recorded_knowledge(folder: Path) -> dict[str, Any]:
-    """The sections of the run's ``config.yaml`` (empty if it has none or cannot be read)."""
+def _config_yaml(folder: Path) -> dict[str, Any]:
+    """The run's ``config.yaml`` as written at its start (empty if missing or unreadable)."""
     try:
         doc = yaml.safe_load((folder / "config.yaml").read_text())
     except (OSError, yaml.YAMLError):
