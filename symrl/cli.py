@@ -355,11 +355,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(handler=_study)
 
     p = sub.add_parser("ablate", help="the study for every recipe with the same seeds")
-    p.add_argument("--sets", type=int, default=10)
-    p.add_argument("--trials", type=int, default=20)
+    p.add_argument("--sets", type=int, default=10, help="sets per recipe (default 10)")
+    p.add_argument("--trials", type=int, default=20, help="trials per set (default 20)")
     p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
-    p.add_argument("--seed", type=int, default=100)
-    p.add_argument("--recipes", default=None, help="comma-separated subset of recipes")
+    p.add_argument("--seed", type=int, default=100, help="first seed; set k uses seed + k")
+    p.add_argument("--recipes", default=None,
+                   help="comma-separated recipes (default: all six; with --changes-of: none)")
+    p.add_argument("--changes-of", default=None, metavar="RECIPE",
+                   help="RECIPE, then RECIPE with each setting in which it differs from --base "
+                        "put back in turn, and with experts.learning=false; writes changes.md "
+                        "(paired differences over the sets)")
+    p.add_argument("--base", default="paper_literal",
+                   help="the recipe --changes-of puts settings back to (default paper_literal)")
     p.add_argument("--map", default="hailu2001",
                    help="built-in map name or map file (env.map; default hailu2001)")
     p.add_argument("--out", default="results/ablate")

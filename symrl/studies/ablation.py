@@ -10,11 +10,17 @@ Summary columns (mean ± std over sets unless said):
 - steps / total reinforcement last 5: per set the mean over its last 5 trials (a failed trial
   counts with its 200 actions), then mean ± std over sets
 - neurons / collisions last trial, and collisions summed over all trials of a set
+
+``--changes-of RECIPE`` asks which of a recipe's settings matter: RECIPE, then RECIPE with each
+setting in which it differs from a base recipe (``paper_literal``) put back in turn, and RECIPE
+with the experts' learning off (their share). ``changes.md`` has one row per setting with the
+paired difference over sets (the same seeds, so the sets' luck cancels).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 from collections.abc import Sequence
@@ -22,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pydantic import BaseModel
 
 from symrl.runs import read_trials_csv
 from symrl.studies.repeatability import (
@@ -39,9 +46,165 @@ from symrl.studies.runner import (
     table1,
 )
 
-__all__ = ["RECIPES", "summarise", "summary_markdown", "run_ablation", "ablate_command"]
+__all__ = [
+    "RECIPES",
+    "Variant",
+    "changes_of",
+    "changes_markdown",
+    "summarise",
+    "summary_markdown",
+    "run_ablation",
+    "ablate_command",
+]
 
 RECIPES = ("paper", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only")
+
+# what a change ablation leaves alone: the recipe's name, and the budget, seed and logging
+_NOT_CHANGES = ("recipe", "run.")
+
+
+@dataclasses.dataclass(frozen=True)
+class Variant:
+    """One row of an ablation: ``recipe`` with ``overrides``, run and written as ``name``.
+    ``change``: the setting put back (``"key: recipe value -> base value"``), if any."""
+
+    name: str
+    recipe: str
+    overrides: tuple[str, ...] = ()
+    change: str | None = None
+
+
+def _leaves(node: Any, prefix: str = "") -> dict[str, Any]:
+    """Every setting of a config as dotted key -> plain value (sections recurse; a dict or
+    list valued setting, such as ``reflex.near``, is one setting)."""
+    if isinstance(node, BaseModel):
+        items = [(name, getattr(node, name)) for name in type(node).model_fields]
+    elif dataclasses.is_dataclass(node) and not isinstance(node, type):
+        items = [(f.name, getattr(node, f.name)) for f in dataclasses.fields(node)]
+    else:
+        return {prefix: _plain(node)}
+    out: dict[str, Any] = {}
+    for name, value in items:
+        out.update(_leaves(value, f"{prefix}.{name}" if prefix else name))
+    return out
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def changes_of(recipe: str, base: str = "paper_literal") -> list[Variant]:
+    """``recipe``, then ``recipe`` with each setting in which it differs from ``base`` set back
+    to ``base``'s value (one at a time, in config order), then ``recipe`` with
+    ``experts.learning=false`` if its experts learn. Names: ``RECIPE``, ``RECIPE-without-KEY``,
+    ``RECIPE-experts-off``. A setting that only matters under another (``options.*`` with
+    ``options.enabled``) is still its own row: put back with the rest of ``recipe`` kept."""
+    from symrl.learner.config import load_config
+
+    mine, theirs = load_config(recipe), load_config(base)
+    name = mine.recipe
+    ours, other = _leaves(mine), _leaves(theirs)
+    variants = [Variant(name, recipe)]
+    for key, value in ours.items():
+        if key.startswith(_NOT_CHANGES) or other.get(key) == value:
+            continue
+        back = other[key]
+        shown = (value, back)
+        if isinstance(value, dict) and isinstance(back, dict):  # only the entries that differ
+            keys = [k for k in {**back, **value} if value.get(k) != back.get(k)]
+            shown = ({k: value.get(k) for k in keys}, {k: back.get(k) for k in keys})
+        variants.append(Variant(
+            f"{name}-without-{key}", recipe, (f"{key}={json.dumps(back)}",),
+            f"{key}: {_short(shown[0])} -> {_short(shown[1])}",
+        ))  # fmt: skip
+    if mine.experts.learning:
+        variants.append(Variant(f"{name}-experts-off", recipe, ("experts.learning=false",),
+                                "experts.learning: true -> false"))  # fmt: skip
+    return variants
+
+
+def _short(value: Any) -> str:
+    """A setting's value for a table cell (floats to 4 significant digits)."""
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, list):
+        return "[" + ", ".join(_short(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k}: {_short(v)}" for k, v in value.items()) + "}"
+    return str(value)
+
+
+def _set_means(rows: Sequence[dict[str, Any]], key: str, last: int = LAST) -> dict[int, float]:
+    """Per set, the mean of ``key`` over its last ``last`` trials."""
+    by_set: dict[int, list[dict[str, Any]]] = {}
+    for r in rows:
+        by_set.setdefault(int(r["set"]), []).append(r)
+    return {
+        s: float(np.mean([float(r[key]) for r in sorted(v, key=lambda r: int(r["trial"]))[-last:]]))
+        for s, v in by_set.items()
+    }
+
+
+def changes_markdown(
+    variants: Sequence[Variant], rows: dict[str, Sequence[dict[str, Any]]], last: int = LAST
+) -> str:
+    """One row per variant: its total over the last ``last`` trials and over all trials (means
+    over sets), each with the paired difference from the first variant (the full recipe), mean
+    ± standard error over sets (positive: the recipe is better with the setting); the last
+    trials' actions, the neurons at the last trial, collisions (per trial in the last ``last``
+    / per set over all trials) and the trials from trial 5 on that failed."""
+    full = variants[0].name
+    windows = (last, 10**9)  # the last trials; all of them
+    refs = [_set_means(rows[full], "total_reinforcement", w) for w in windows]
+    lines = [
+        f"| variant | setting put back | total last {last} | Δ last {last} (paired) "
+        "| total, all trials | Δ all trials (paired) "
+        f"| actions last {last} | neurons last | collisions last {last} / all trials "
+        "| failed trials from 5 |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for v in variants:
+        r = rows[v.name]
+        cells = []
+        for ref, w in zip(refs, windows, strict=True):
+            total = _set_means(r, "total_reinforcement", w)
+            sets = sorted(total)
+            cells.append(f"{np.mean([total[s] for s in sets]):.2f}")
+            if v.name == full:
+                cells.append("-")
+                continue
+            d = np.array([ref[s] - total[s] for s in sets if s in ref])
+            se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
+            cells.append(f"{d.mean():+.2f} ± {se:.2f}")
+        steps = _set_means(r, "steps", last)
+        coll_last = _set_means(r, "collisions", last)
+        coll_all = {s: m * sum(1 for x in r if int(x["set"]) == s)
+                    for s, m in _set_means(r, "collisions", 10**9).items()}  # fmt: skip
+        sets = sorted(steps)
+        neurons = np.mean([
+            float(max((x for x in r if int(x["set"]) == s), key=lambda x: int(x["trial"]))
+                  .get("neurons") or 0)
+            for s in sets
+        ])  # fmt: skip
+        failed = sum(1 for x in r if int(x["trial"]) >= 5 and not _reached(x))
+        lines.append(
+            f"| {v.name} | {v.change or '-'} | {' | '.join(cells)} "
+            f"| {np.mean([steps[s] for s in sets]):.1f} | {neurons:.0f} "
+            f"| {np.mean([coll_last[s] for s in sets]):.2f} / "
+            f"{np.mean([coll_all[s] for s in sets]):.1f} | {failed} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _reached(row: dict[str, Any]) -> bool:
+    value = row["reached_goal"]
+    return value is True or str(value) == "True"
 
 def _pm(d: dict[str, float], fmt: str = ".1f") -> str:
     if not np.isfinite(d["mean"]):
@@ -83,7 +246,7 @@ def summary_markdown(summary: dict[str, dict[str, Any]], last: int = LAST) -> st
 
 
 def run_ablation(
-    recipes: Sequence[str] = RECIPES,
+    recipes: Sequence[str | Variant] = RECIPES,
     sets: int = 10,
     trials: int = 20,
     seed: int = 100,
@@ -94,9 +257,11 @@ def run_ablation(
     map: str = "hailu2001",
 ) -> dict[str, Any]:
     """Run every recipe's study on the same seeds in ``map`` (name or file; each recipe trained
-    with ``env.map=map``); return (and write) the summary. ``starts``: where the final
-    controllers are also driven from (default: the paper's four on its world, the map's own or
-    derived poses elsewhere, ``symrl.studies.placement.study_starts``)."""
+    with ``env.map=map``); return (and write) the summary. ``recipes``: names, or
+    :class:`Variant` rows (a recipe with overrides, e.g. from :func:`changes_of`; then
+    ``changes.md`` is written too). ``starts``: where the final controllers are also driven
+    from (default: the paper's four on its world, the map's own or derived poses elsewhere,
+    ``symrl.studies.placement.study_starts``)."""
     if sets < 1 or trials < 1:
         raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
     if not recipes:
@@ -111,14 +276,22 @@ def run_ablation(
     if starts is None:
         starts = study_starts(world)
     opt = optimum(map)
+    variants = [r if isinstance(r, Variant) else Variant(r, r) for r in recipes]
+    names = [v.name for v in variants]
+    if len(set(names)) != len(names):
+        raise ValueError(f"run_ablation: variant names repeat: {names}")
     summary: dict[str, Any] = {}
     studies: dict[str, StudyResult] = {}
-    for recipe in recipes:
+    for variant in variants:
+        recipe = variant.name
         r0 = time.perf_counter()
-        sets_r = run_sets(recipe, sets, trials, seed, [f"env.map={map}"], starts, workers)
+        sets_r = run_sets(variant.recipe, sets, trials, seed,
+                          [f"env.map={map}", *variant.overrides], starts, workers)  # fmt: skip
         rows = [r for s in sets_r for r in s.rows]
         table = table1(rows)
         table.update(optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1])
+        if variant.overrides:
+            table["overrides"] = list(variant.overrides)
         if world.name == "hailu2001":  # the paper's numbers are of its world only
             table["paper"] = PAPER_TABLE1
         table["other_starts"] = start_summary(sets_r)
@@ -144,11 +317,19 @@ def run_ablation(
         summary = _merge(out, summary, sets, trials, seed)
         (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         (out / "summary.md").write_text(summary_markdown(summary))
+        if any(v.change for v in variants):
+            (out / "changes.md").write_text(
+                changes_markdown(variants, {n: studies[n].rows for n in names}))
         if figures:
             from symrl.figures import plot_comparison
 
             qs = ("steps", "total_reinforcement", "neurons", "collisions")
-            every = [r for r in summary if not r.startswith("_")]
+            # one curve per recipe; of a change ablation only the full recipe and experts off
+            # (a curve per setting would hide them all: changes.md has those)
+            put_back = {
+                v.name for v in variants if v.change and not v.name.endswith("-experts-off")
+            }
+            every = [r for r in summary if not r.startswith("_") and r not in put_back]
             plot_comparison(
                 {r: {q: curves(read_trials_csv(out / r / "trials.csv"), q) for q in qs}
                  for r in every},
@@ -191,11 +372,21 @@ def _merge(
 
 
 def ablate_command(args: argparse.Namespace) -> int:
-    """`symrl ablate`: run, print the summary table and the wall time."""
-    recipes = tuple(r.strip() for r in args.recipes.split(",")) if args.recipes else RECIPES
+    """`symrl ablate`: run, print the summary table (and the changes table) and the wall
+    time."""
+    named = tuple(r.strip() for r in args.recipes.split(",")) if args.recipes else ()
+    changes = getattr(args, "changes_of", None)
+    recipes: list[str | Variant] = []
+    if changes:
+        recipes += changes_of(changes, args.base)
+    recipes += [r for r in named or (() if changes else RECIPES) if r not in
+                {v.name for v in recipes if isinstance(v, Variant)}]  # fmt: skip
     summary = run_ablation(recipes, args.sets, args.trials, args.seed, args.workers, args.out,
                            map=args.map)
     print(summary_markdown(summary))
-    print(f"wrote {args.out}/ (summary.md, summary.json, comparison.png, one folder per recipe); "
-          f"wall time {summary['_wall_time_s']:.1f} s")
+    written = "summary.md, summary.json, comparison.png, one folder per recipe"
+    if changes:
+        print((Path(args.out) / "changes.md").read_text())
+        written = "changes.md, " + written
+    print(f"wrote {args.out}/ ({written}); wall time {summary['_wall_time_s']:.1f} s")
     return 0
