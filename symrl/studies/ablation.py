@@ -74,27 +74,27 @@ class Variant:
     change: str | None = None
 
 
-def _leaves(node: Any, prefix: str = "") -> dict[str, Any]:
-    """Every setting of a config as dotted key -> plain value (sections recurse; a dict or
-    list valued setting, such as ``reflex.near``, is one setting)."""
-    if isinstance(node, BaseModel):
-        items = [(name, getattr(node, name)) for name in type(node).model_fields]
-    elif dataclasses.is_dataclass(node) and not isinstance(node, type):
-        items = [(f.name, getattr(node, f.name)) for f in dataclasses.fields(node)]
-    else:
-        return {prefix: _plain(node)}
+def _leaves(config: Any) -> dict[str, Any]:
+    """Every setting of a config as dotted key -> plain value (as ``config_to_dict`` writes it:
+    tuples as lists). Sections recurse; a setting whose value is a dict or a list, such as
+    ``reflex.near``, is one setting."""
+    from symrl.learner.config import config_to_dict
+
     out: dict[str, Any] = {}
-    for name, value in items:
-        out.update(_leaves(value, f"{prefix}.{name}" if prefix else name))
+
+    def walk(node: Any, plain: Any, prefix: str) -> None:
+        if isinstance(node, BaseModel):
+            names = list(type(node).model_fields)
+        elif dataclasses.is_dataclass(node) and not isinstance(node, type):
+            names = [f.name for f in dataclasses.fields(node)]
+        else:
+            out[prefix] = plain
+            return
+        for name in names:
+            walk(getattr(node, name), plain[name], f"{prefix}.{name}" if prefix else name)
+
+    walk(config, config_to_dict(config), "")
     return out
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    return value
 
 
 def changes_of(recipe: str, base: str = "paper_literal") -> list[Variant]:
