@@ -369,7 +369,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the recipe --changes-of puts settings back to (default paper_literal)")
     p.add_argument("--map", default="hailu2001",
                    help="built-in map name or map file (env.map; default hailu2001)")
-    p.add_argument("--out", default="results/ablate")
+    p.add_argument("--out", default="results/ablate",
+                   help="results folder (default results/ablate)")
     p.set_defaults(handler=_ablate)
 
     p = sub.add_parser("plan", help="shortest collision-free path to the goal (the optimum)")
