@@ -220,6 +220,22 @@ def _mirror_reflex(config: str) -> FuzzyReflex:
     return FuzzyReflex(load_config("paper").reflex if config == "paper" else None)
 
 
+@settings(max_examples=200, deadline=None)
+@given(
+    s=st.lists(st.floats(0.0, 0.3) | st.just(1.0), min_size=24, max_size=24),
+    goal=st.floats(-2 * PI, 2 * PI),
+    k=st.sampled_from([0.5, 0.25, 0.8]),
+)
+def test_scaling_the_side_peaks_scales_every_turn(s, goal, k):
+    # Height defuzzification is the activation-weighted mean of the peaks, and FORWARD's peak is
+    # 0: LEFT / RIGHT at k * 90 deg give k times the 90-deg output at every input, which is what
+    # `paper`'s 45-deg sets (k = 0.5) rely on (its turns are the literal reflex's, halved).
+    sonar_ = torch.tensor(s, dtype=torch.float64)
+    full = FuzzyReflex(ReflexConfig())
+    scaled = FuzzyReflex(ReflexConfig(peaks=(k * PI / 2, 0.0, -k * PI / 2)))
+    assert scaled.angle(sonar_, goal) == pytest.approx(k * full.angle(sonar_, goal), abs=1e-12)
+
+
 def test_symmetric_wall_ahead_no_longer_turns_left():
     # The rule base before the turning side ("F and not FL -> LEFT", "F and FL and FR -> LEFT")
     # turned 0.21 pi LEFT here with the goal dead ahead; the mirror-symmetric one goes on to 0.
