@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
-from torch import nn
 
+from symrl.buffers import BufferViews
 from symrl.world.robot import RobotConfig
 
 __all__ = ["ShieldConfig", "IRShield"]
@@ -56,7 +56,7 @@ class ShieldConfig:
             raise ValueError(f"ShieldConfig.resolution_deg must be in (0, 90], got {r!r}")
 
 
-class IRShield(nn.Module):
+class IRShield(BufferViews):
     """Replace an action whose move would bring the rim within ``margin`` of a wall.
 
     ``forward(reflectance, action)`` is batched: ``reflectance`` (..., n) IR readings in
@@ -130,7 +130,7 @@ class IRShield(nn.Module):
         some = np.flatnonzero(near)
         centre = np.repeat(self._distances(refl_np[some]) + self.radius, 3, axis=-1)
         unsafe_np = np.zeros_like(near)
-        room_np = self._clearance(centre, self.bearings.numpy(), action_np[some][:, None])[:, 0]
+        room_np = self._clearance(centre, self.arrays["bearings"], action_np[some][:, None])[:, 0]
         unsafe_np[some] = room_np < margin
         unsafe = torch.from_numpy(unsafe_np)
         if not bool(unsafe.any()):

@@ -189,11 +189,14 @@ class ExpertBank(nn.Module):
         utility: torch.Tensor,
     ) -> torch.Tensor:
         """Append one neuron to ``expert[i]`` of controller ``rows[i]`` (rows distinct); returns
-        the new neurons' indices. Storage doubles when any expert is full."""
-        row = self._row_base.index_select(0, rows) + expert  # (controller, expert) rows
-        index = self.count.take(row)
-        if rows.numel() == 0:
-            return index
+        the new neurons' indices. Storage doubles when any expert is full. (Numpy writes on the
+        storage's flat views: a handful of rows, a fraction of the torch dispatches; copies
+        and casts only, so the same numbers.)"""
+        flat = self.flat
+        row = flat.row_base[rows.numpy()] + expert.numpy()  # (controller, expert) rows
+        index = flat.counts[row]
+        if len(index) == 0:
+            return torch.from_numpy(index)
         top = int(index.max())
         if top >= self.capacity:
             if top >= self.max_neurons:
@@ -203,15 +206,16 @@ class ExpertBank(nn.Module):
                     "raise it or the novelty radius"
                 )
             self._resize(min(2 * self.capacity, self.max_neurons))
-        flat = row * self.capacity + index
-        self.centres.view(-1, self.dim).index_copy_(0, flat, centre.to(self.centres.dtype))
-        self.actions.view(-1).index_copy_(0, flat, action.to(torch.float64))
-        self.utilities.view(-1).index_copy_(0, flat, utility.to(torch.float64))
-        for name in ("means", "taken"):
-            getattr(self, name).view(-1).index_fill_(0, flat, 0.0)
-        self.used.view(-1).index_fill_(0, flat, False)
-        self.count.view(-1).index_copy_(0, row, index + 1)
-        return index
+            flat = self.flat
+        slot = row * self.capacity + index
+        flat.centres[slot] = centre.detach().numpy()
+        flat.actions[slot] = action.detach().numpy()
+        flat.utilities[slot] = utility.detach().numpy()
+        flat.means[slot] = 0.0
+        flat.taken[slot] = 0.0
+        flat.used[slot] = False
+        flat.counts[row] = index + 1
+        return torch.from_numpy(index)
 
     # -- end of trial ---------------------------------------------------------------------
     @torch.no_grad()

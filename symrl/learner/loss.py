@@ -175,12 +175,13 @@ class TeseoLoss(LossModule):
         mu = means[index]
         means[index] = mu + update.beta * step * (read(td, k.xi).numpy() - mu)
         shift = ~split & (delta > 0)
-        if shift.any():
-            a = torch.from_numpy(np.flatnonzero(shift))
-            slots = torch.from_numpy(index).index_select(0, a)
-            centres = bank.centres.view(-1, bank.dim)
-            moved = centres.index_select(0, slots).lerp_(x_t.index_select(0, a), update.kappa)
-            centres.index_copy_(0, slots, moved)
+        if shift.any():  # the gathers and the scatter in numpy, the lerp torch's
+            a = np.flatnonzero(shift)
+            slots = index[a]
+            centres = bank.flat.centres
+            moved = torch.from_numpy(centres[slots])
+            moved.lerp_(torch.from_numpy(x_t.numpy()[a]), update.kappa)
+            centres[slots] = moved.numpy()
         return TensorDict._new_unsafe(
             {"td_error": torch.from_numpy(delta), "grown": torch.from_numpy(grown),
              "neurons": torch.from_numpy(bank.flat.counts.reshape(batch, -1).sum(-1))},

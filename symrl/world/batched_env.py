@@ -200,8 +200,12 @@ class BatchedWorldEnv(EnvBase):
         write(tensordict, {"next": nxt})
         carried = {key: value for key, value in root.items() if key not in self._dropped_keys}
         carried.update((key, read(nxt, key)) for key in self._next_keys)
+        done = read(nxt, "done")
+        restarted = done.numpy().reshape(self.size)
+        if restarted.any():  # maybe_reset's values, without writing the TensorDict twice
+            carried = self._restarted(carried, done, restarted)
         following = TensorDict._new_unsafe(carried, batch_size=self.batch_size, device=self.device)
-        return tensordict, self.maybe_reset(following)
+        return tensordict, following
 
     def maybe_reset(self, tensordict: TensorDictBase) -> TensorDictBase:
         """Restart the robots that are done (what ``step_and_maybe_reset`` calls after a step):
@@ -215,21 +219,36 @@ class BatchedWorldEnv(EnvBase):
         restarted = done.numpy().reshape(self.size)
         if not restarted.any():
             return tensordict
-        reset = self._reset_arrays(done)
-        # numpy on the tensors' memory and TorchRL's unchecked setter (symrl.tensordicts): a
-        # partial reset writes every key of the batch (about 25 of them)
-        values = {}
+        tensors = {}
         for key in list(tensordict.keys()):
             value = read(tensordict, key)
-            if key not in reset and type(value) is torch.Tensor:
-                zeroed = value.numpy().copy()
-                zeroed[restarted] = 0
-                values[key] = torch.from_numpy(zeroed)
-            elif key not in reset:
+            if type(value) is torch.Tensor:
+                tensors[key] = value
+            else:  # a nested TensorDict: TorchRL's masked fill
                 rows = torch.from_numpy(restarted).view(-1, *([1] * (value.dim() - 1)))
                 tensordict.set(key, value.masked_fill(rows, 0))
-        values.update((key, torch.from_numpy(value)) for key, value in reset.items())
-        return write(tensordict, values)
+        # TorchRL's unchecked setter (symrl.tensordicts): a partial reset writes every key of
+        # the batch (about 25 of them)
+        return write(tensordict, self._restarted(tensors, done, restarted))
+
+    def _restarted(
+        self, values: dict[str, torch.Tensor], done: torch.Tensor, restarted: np.ndarray
+    ) -> dict[str, torch.Tensor]:
+        """``values`` (every key of a batch) with the robots ``restarted`` reset: the reset's
+        outputs replace their keys, every other key reads 0 on the restarted rows (new
+        tensors, in numpy on the tensors' memory; ``values``' tensors are left as they were)."""
+        reset = self._reset_arrays(done)
+        out = {}
+        for key, value in values.items():
+            fresh = reset.get(key)
+            if fresh is not None:
+                out[key] = torch.from_numpy(fresh)
+            else:
+                zeroed = value.numpy().copy()
+                zeroed[restarted] = 0
+                out[key] = torch.from_numpy(zeroed)
+        out.update((key, torch.from_numpy(value)) for key, value in reset.items() if key not in out)
+        return out
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         action = tensordict.get("action")
