@@ -47,6 +47,10 @@ class FlatViews(NamedTuple):
     """(B,) b * E."""
     arange: np.ndarray
     """(N,) 0 .. N - 1."""
+    capacity: int
+    """N."""
+    banks: np.ndarray
+    """(B * E, N, D) ``centres``, one row of neurons per (controller, expert)."""
 
 
 class ExpertBank(nn.Module):
@@ -127,6 +131,8 @@ class ExpertBank(nn.Module):
                 counts=self.count.numpy().reshape(-1),
                 row_base=self._row_base.numpy(),
                 arange=self._arange.numpy(),
+                capacity=self.capacity,
+                banks=self.centres.numpy().reshape(-1, self.capacity, self.dim),
             )
             self.__dict__["_flat"] = views
         return views
@@ -155,7 +161,8 @@ class ExpertBank(nn.Module):
 
     def flat_index_np(self, expert: np.ndarray, neuron: np.ndarray) -> np.ndarray:
         """:meth:`flat_index` on numpy arrays (for arithmetic on ``tensor.numpy()`` views)."""
-        return (self.flat.row_base + expert) * self.capacity + neuron
+        flat = self.flat
+        return (flat.row_base + expert) * flat.capacity + neuron
 
     def nearest(self, expert: torch.Tensor, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Winner (argmin distance = argmax activation) in each controller's ``expert`` for its
@@ -170,7 +177,7 @@ class ExpertBank(nn.Module):
         n = int(counts.max())
         if n == 0:
             return torch.full_like(expert, -1), torch.full((self.batch,), torch.inf)
-        centres = flat.centres.reshape(len(flat.counts), self.capacity, self.dim)[row, :n]
+        centres = flat.banks[row, :n]
         d2 = torch.from_numpy(np.square(centres - x.numpy()[:, None, :])).sum(-1).numpy()
         d2[flat.arange[:n] >= counts[:, None]] = np.inf
         winner = d2.argmin(axis=-1)  # the first of equal distances, as torch's min
@@ -207,7 +214,7 @@ class ExpertBank(nn.Module):
                 )
             self._resize(min(2 * self.capacity, self.max_neurons))
             flat = self.flat
-        slot = row * self.capacity + index
+        slot = row * flat.capacity + index
         flat.centres[slot] = centre.detach().numpy()
         flat.actions[slot] = action.detach().numpy()
         flat.utilities[slot] = utility.detach().numpy()
