@@ -11,6 +11,7 @@ checked once per call; any other TensorDict (or a nested key) takes the public p
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import torch
 from tensordict import TensorDict, TensorDictBase
@@ -21,13 +22,14 @@ __all__ = ["read", "write", "tensordict_items"]
 _MISSING = object()
 
 
-def read(td: TensorDictBase, key: NestedKey) -> torch.Tensor:
-    """``td[key]`` (a KeyError naming the key when it is missing)."""
+def read(td: TensorDictBase, key: NestedKey, default: Any = _MISSING) -> Any:
+    """``td[key]`` (a KeyError naming the key when it is missing), or ``td.get(key, default)``
+    when a default is given."""
     if type(td) is TensorDict and type(key) is str:
         value = td._tensordict.get(key, _MISSING)
         if value is not _MISSING:
             return value
-    return td[key]
+    return td[key] if default is _MISSING else td.get(key, default)
 
 
 def write(td: TensorDictBase, values: Mapping[str, torch.Tensor]) -> TensorDictBase:

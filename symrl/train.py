@@ -111,7 +111,7 @@ class TrialRecorder:
         self.td_error += np.abs(td_error.numpy())
         self.reached = read(nxt, "reached_goal").reshape(-1)
         self._poses.append(read(nxt, "true_pose").numpy()[:, :2].copy())
-        expert, winner = td.get("expert", None), td.get("winner", None)
+        expert, winner = read(td, "expert", None), read(td, "winner", None)
         if expert is None:  # a controller without neurons (the baselines): no ghosts
             self._winners.append(np.zeros(self.batch, dtype=np.int64))
         else:

@@ -78,7 +78,7 @@ class SubgoalOptions(BufferViews):
         self.labels = self.table.labels
         self.region_names = self.table.region_names
         self.goal = (float(world.goal.x), float(world.goal.y))
-        self._goal = torch.tensor(self.goal, dtype=torch.float64)
+        self._goal = np.array(self.goal, dtype=np.float64)
         self.register_buffer("points", self.table.points.to(torch.float64), persistent=False)
         self.register_buffer("valid", self.table.valid.clone(), persistent=False)
         self.register_buffer("q", torch.zeros(batch, r, k, dtype=torch.float64))
@@ -122,7 +122,7 @@ class SubgoalOptions(BufferViews):
         point = points.reshape(-1, 2)[region_np * points.shape[1] + chosen]
         distance = torch.linalg.vector_norm(torch.from_numpy(point - xy), dim=-1).numpy()
         stage[distance < self.config.reach] = _GOAL_STAGE  # type: ignore[attr-defined]
-        d = np.where((stage == _GOAL_STAGE)[:, None], self._goal.numpy(), point) - xy
+        d = np.where((stage == _GOAL_STAGE)[:, None], self._goal, point) - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
         return torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered)

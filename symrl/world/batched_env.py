@@ -251,7 +251,7 @@ class BatchedWorldEnv(EnvBase):
         return out
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        action = tensordict.get("action")
+        action = read(tensordict, "action")
         alpha = action.detach().cpu().numpy().reshape(self.size)  # float32; widened exactly
         r = self.physics.step(alpha, self._rngs)
         out = self._arrays(r)
