@@ -171,19 +171,26 @@ class ExpertBank(nn.Module):
         In numpy on the tensors' memory (a fraction of the cost of ~20 torch dispatches for a
         handful of rows); the differences and squares are exact in either, and the sum over D
         stays a torch reduction, so the distances are those of the torch version bit for bit."""
+        if int(self.flat.counts[self.flat.row_base + expert.numpy()].max()) == 0:
+            return torch.full_like(expert, -1), torch.full((self.batch,), torch.inf)
+        winner, distance = self.nearest_np(expert.numpy(), x.numpy())
+        return torch.from_numpy(winner), torch.from_numpy(distance)
+
+    def nearest_np(self, expert: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`nearest` on numpy arrays (the control loop's call: no tensors in between)."""
         flat = self.flat
-        row = flat.row_base + expert.numpy()
+        row = flat.row_base + expert
         counts = flat.counts[row]
         n = int(counts.max())
         if n == 0:
-            return torch.full_like(expert, -1), torch.full((self.batch,), torch.inf)
+            return np.full(len(row), -1, dtype=np.int64), np.full(len(row), np.inf)
         centres = flat.banks[row, :n]
-        d2 = torch.from_numpy(np.square(centres - x.numpy()[:, None, :])).sum(-1).numpy()
+        d2 = torch.from_numpy(np.square(centres - x[:, None, :])).sum(-1).numpy()
         d2[flat.arange[:n] >= counts[:, None]] = np.inf
         winner = d2.argmin(axis=-1)  # the first of equal distances, as torch's min
         distance = np.sqrt(d2[np.arange(len(row)), winner])
         winner[counts == 0] = -1
-        return torch.from_numpy(winner), torch.from_numpy(distance)
+        return winner, distance
 
     # -- growth ---------------------------------------------------------------------------
     @torch.no_grad()

@@ -149,12 +149,13 @@ class TeseoLoss(LossModule):
         terminated = read(nxt, k.terminated).numpy().reshape(-1)
         truncated = read(nxt, k.truncated).numpy().reshape(-1)
         u_prev = utilities[index]
-        seen = policy.perceive(read(nxt, k.sonar), read(nxt, k.odometry), read(nxt, k.goal))
-        seen_winner = seen.winner.numpy()
-        u_seen = utilities[bank.flat_index_np(seen.expert.numpy(), np.maximum(seen_winner, 0))]
+        _, seen_expert, _, seen_winner, seen_novel = policy.perceive_arrays(
+            read(nxt, k.sonar), read(nxt, k.odometry), read(nxt, k.goal)
+        )
+        u_seen = utilities[bank.flat_index_np(seen_expert.numpy(), np.maximum(seen_winner, 0))]
         # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
         u_trunc = np.where(seen_winner >= 0, u_seen, u_prev)
-        u_next = np.where(seen.novel.numpy(), r, u_seen)
+        u_next = np.where(seen_novel, r, u_seen)
         u_next = np.where(truncated, u_trunc, u_next)
         u_next[terminated] = 0.0
 

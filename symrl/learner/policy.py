@@ -188,13 +188,20 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ) -> Perception:
         """Gate and winner search for a batch of observations; changes nothing (the result's
         tensors are read-only: the gate and the inputs may be those of the previous call)."""
+        region, expert, x, winner, novel = self.perceive_arrays(sonar, odometry, goal)
+        return Perception(region, expert, x, torch.from_numpy(winner), torch.from_numpy(novel))
+
+    def perceive_arrays(
+        self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray, np.ndarray]:
+        """:meth:`perceive` with the winner and the novelty as numpy arrays (the control loop
+        reads them as numpy: no tensors in between)."""
         region, expert, x = self._gate_and_inputs(sonar, odometry, goal)
         if not self.config.experts.learning:
-            none = torch.full_like(region, -1)
-            return Perception(region, expert, x, none, torch.ones_like(region, dtype=torch.bool))
-        winner, distance = self.experts.nearest(expert, x)
+            return region, expert, x, np.full(len(region), -1), np.ones(len(region), dtype=bool)
+        winner, distance = self.experts.nearest_np(expert.numpy(), x.numpy())
         novel = distance > self.config.experts.novelty_radius  # inf for an empty expert
-        return Perception(region, expert, x, winner, novel)
+        return region, expert, x, winner, novel
 
     def _gate_and_inputs(
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
@@ -240,11 +247,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         xc = self.config.experts
         greedy = is_greedy()
         sonar, odometry, goal = read(td, "sonar"), read(td, "odometry"), read(td, "goal")
-        per = self.perceive(sonar, odometry, goal)
+        region, expert, x, winner, novel = self.perceive_arrays(sonar, odometry, goal)
         zero = self._zeros
         option, entered = self._no_option, self._no_entry
         if self.options is not None:
-            target, option, entered = self.options.steer(per.region, odometry, greedy)
+            target, option, entered = self.options.steer(region, odometry, greedy)
         else:
             target = goal[:, 1].to(torch.float64)
         if xc.reflex or not xc.learning:
@@ -266,8 +273,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             else:
                 base, proto = zero, torch.from_numpy(uniform * (2 * _PI) - _PI)
             bank = self.experts
-            index = bank.flat_index_np(per.expert.numpy(), np.maximum(per.winner.numpy(), 0))
-            known = ~per.novel.numpy()
+            index = bank.flat_index_np(expert.numpy(), np.maximum(winner, 0))
+            known = ~novel
             flat = bank.flat
             p = np.where(known, flat.actions[index], proto.numpy())
             mu = np.where(known, flat.means[index], 0.0)
@@ -292,11 +299,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             td,
             {
                 "action": torch.from_numpy(action.astype(np.float32).reshape(-1, 1)),
-                "region": per.region,
-                "expert": per.expert,
-                "winner": torch.from_numpy(np.where(per.novel.numpy(), -1, per.winner.numpy())),
-                "novel": per.novel,
-                "x": per.x,
+                "region": region,
+                "expert": expert,
+                "winner": torch.from_numpy(np.where(novel, -1, winner)),
+                "novel": torch.from_numpy(novel),
+                "x": x,
                 "proto": proto,
                 "xi": xi,
                 "sigma": sigma,
