@@ -299,7 +299,7 @@ def train_batch(
             td, next_td = env.step_and_maybe_reset(td)
             stats = loss(td)
             frames += batch
-            done = recorder.step(td, stats.get("td_error"))
+            done = recorder.step(td, read(stats, "td_error"))
             td = next_td
             if not done.any():
                 if stop is not None and stop():

@@ -123,7 +123,8 @@ class IRShield(BufferViews):
     def forward(
         self, reflectance: torch.Tensor, action: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        action = action.to(torch.float64)
+        if action.dtype is not torch.float64:
+            action = action.to(torch.float64)
         margin = self.config.margin
         refl_np, action_np = reflectance.numpy(), action.numpy()
         near = refl_np.max(axis=-1) > self.quiet  # the rows where a move could be unsafe

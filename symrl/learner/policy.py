@@ -255,7 +255,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         else:
             target = goal[:, 1].to(torch.float64)
         if xc.reflex or not xc.learning:
-            reflex_action = self.reflex(sonar.to(torch.float64), target)
+            # float32 widened exactly, in numpy (a torch cast is a dispatch more)
+            reflex_action = self.reflex(torch.from_numpy(sonar.numpy().astype(np.float64)), target)
         else:
             reflex_action = zero
         xi = sigma = zero

@@ -252,7 +252,9 @@ class BatchedWorldEnv(EnvBase):
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         action = read(tensordict, "action")
-        alpha = action.detach().cpu().numpy().reshape(self.size)  # float32; widened exactly
+        if action.requires_grad:
+            action = action.detach()
+        alpha = action.cpu().numpy().reshape(self.size)  # float32; widened exactly
         r = self.physics.step(alpha, self._rngs)
         out = self._arrays(r)
         out["terminated"] = r.reached_goal.reshape(-1, 1).copy()
