@@ -5,7 +5,8 @@ costs a fraction of a torch op's dispatch), but reaching a buffer costs about 1.
 shared 2-core VM (``nn.Module.__getattr__`` and ``Tensor.numpy()``), and the loop does that
 ~15 times a step. :class:`BufferViews` keeps ``{name: buffer.numpy()}`` until a buffer may
 have been replaced: any attribute set (a buffer assigned, ``load_state_dict(assign=True)``),
-``.to()`` / ``.double()`` (``_apply``), a state dict loaded, a buffer registered. In-place
+``.to()`` / ``.double()`` (``_apply``), a state dict loaded, a buffer registered, a copy or
+a pickle (whose buffers are new tensors). In-place
 writes (``buf[rows] = v``, ``load_state_dict``'s copies, numpy writes through the views) keep
 the same memory, so the views stay valid.
 """
@@ -47,6 +48,11 @@ class BufferViews(nn.Module):
     def _apply(self, fn, recurse=True):  # .to() / .double(): new tensors, views taken again
         self._forget_arrays()
         return super()._apply(fn, recurse)
+
+    def __getstate__(self) -> dict[str, Any]:  # a copy or a pickle has buffers of its own
+        state = dict(super().__getstate__())
+        state["_buffer_arrays"] = None
+        return state
 
     def _load_from_state_dict(self, *args, **kwargs):  # type: ignore[no-untyped-def]
         self._forget_arrays()

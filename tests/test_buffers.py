@@ -33,3 +33,14 @@ def test_views_are_taken_again_after_a_buffer_is_replaced():
     assert m.arrays["a"].dtype == np.float64 and np.shares_memory(m.arrays["a"], m.a.numpy())
     m.register_buffer("b", torch.arange(2))
     assert m.arrays["b"].tolist() == [0, 1]
+
+
+def test_a_copy_takes_views_of_its_own_buffers():
+    import copy
+    import pickle
+
+    m = _Module()
+    m.arrays["a"][0] = 1.0  # views cached
+    for other in (copy.deepcopy(m), pickle.loads(pickle.dumps(m))):
+        other.arrays["a"][1] = 3.0
+        assert other.a.tolist() == [1.0, 3.0, 0.0] and m.a.tolist() == [1.0, 0.0, 0.0]

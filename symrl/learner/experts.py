@@ -141,6 +141,11 @@ class ExpertBank(nn.Module):
         self.__dict__["_flat"] = None  # a buffer may be replaced: views taken again
         super().__setattr__(name, value)
 
+    def __getstate__(self) -> dict:  # a copy or a pickle has buffers of its own
+        state = dict(super().__getstate__())
+        state["_flat"] = None
+        return state
+
     def _apply(self, fn, recurse=True):  # .to() / .double(): new tensors, views taken again
         self.__dict__["_flat"] = None
         return super()._apply(fn, recurse)
