@@ -192,7 +192,8 @@ class BatchedWorldEnv(EnvBase):
         and done keys and ``"_reset"`` (the action and the policy's outputs are kept), then
         the observation and done keys of ``"next"``. The generic step and step_mdp walk the
         specs and every key through checked accessors: about a fifth of the loop around the
-        physics at B = 10 (measured: ``benchmarks/bench_train.py``)."""
+        physics at B = 10 (measured: ``benchmarks/bench_train.py``). It runs eagerly: a
+        ``compile()``d step_and_maybe_reset of TorchRL is not used by this env."""
         root = tensordict_items(tensordict, self.batch_size)
         if root is None or "next" in root or "_step" in root:
             return super().step_and_maybe_reset(tensordict)
