@@ -23,6 +23,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from symrl.grad import no_grad
+
 __all__ = ["ExpertBank"]
 
 # Per-neuron tensors (B, E, N[, D]); every one is resized together when storage doubles.
@@ -198,7 +200,7 @@ class ExpertBank(nn.Module):
         return winner, distance
 
     # -- growth ---------------------------------------------------------------------------
-    @torch.no_grad()
+    @no_grad
     def add(
         self,
         rows: torch.Tensor,
@@ -237,7 +239,7 @@ class ExpertBank(nn.Module):
         return torch.from_numpy(index)
 
     # -- end of trial ---------------------------------------------------------------------
-    @torch.no_grad()
+    @no_grad
     def replace_actions(self, rows: torch.Tensor) -> torch.Tensor:
         """p <- the action taken, mu <- 0, for every neuron used this trial by controllers
         ``rows``; returns how many per row."""
@@ -248,7 +250,7 @@ class ExpertBank(nn.Module):
         means[r] = np.where(used, 0.0, means[r])
         return torch.from_numpy(used.reshape(len(r), -1).sum(-1))
 
-    @torch.no_grad()
+    @no_grad
     def clear_trial(self, rows: torch.Tensor) -> None:
         """Forget which neurons controllers ``rows`` used (a new trial starts)."""
         self.used.numpy()[rows.numpy()] = False

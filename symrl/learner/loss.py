@@ -32,6 +32,7 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule
 
+from symrl.grad import no_grad
 from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.tensordicts import read
 
@@ -100,7 +101,7 @@ class TeseoLoss(LossModule):
     def _forward_value_estimator_keys(self, **kwargs) -> None:  # no value estimator
         pass
 
-    @torch.no_grad()
+    @no_grad
     def forward(self, td: TensorDictBase) -> TensorDictBase:
         """Update every robot's previous winner from its transition (batch [B]).
 
@@ -189,7 +190,7 @@ class TeseoLoss(LossModule):
             batch_size=torch.Size([batch]),
         )  # fmt: skip
 
-    @torch.no_grad()
+    @no_grad
     def end_trial(
         self, rows: torch.Tensor, totals: torch.Tensor, reached: torch.Tensor
     ) -> dict[str, torch.Tensor]:

@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from symrl.buffers import BufferViews
+from symrl.grad import no_grad
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
 from symrl.world.worldmap import WorldMap
 
@@ -151,7 +152,7 @@ class SubgoalOptions(BufferViews):
             return options[0]
         return tried.index(best)  # the first of equal values
 
-    @torch.no_grad()
+    @no_grad
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the choices of controllers ``rows`` (their robots start a new trial)."""
         a, r = self.arrays, rows.numpy()
@@ -160,7 +161,7 @@ class SubgoalOptions(BufferViews):
         a["visit"][r] = -1
 
     # -- learning (called by the update) --------------------------------------------------
-    @torch.no_grad()
+    @no_grad
     def learn(self, rows: torch.Tensor, returns: torch.Tensor) -> None:
         """Critic step at the end of a trial: ``returns`` (k, R) is the return-to-go from each
         region's first entry for controllers ``rows``; then epsilon decays."""

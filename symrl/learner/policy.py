@@ -35,6 +35,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torchrl.envs.utils import ExplorationType, exploration_type
 
+from symrl.grad import no_grad
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.shield import IRShield, ShieldConfig
@@ -242,7 +243,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         return self._normals.numpy()[:, i], self._uniforms.numpy()[:, i]
 
     # -- acting ---------------------------------------------------------------------------
-    @torch.no_grad()
+    @no_grad
     def forward(self, td: TensorDictBase) -> TensorDictBase:
         xc = self.config.experts
         greedy = is_greedy()
@@ -316,7 +317,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         )
         return td
 
-    @torch.no_grad()
+    @no_grad
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the per-trial decisions of robots ``rows`` (they start a new trial)."""
         if self.options is not None:
