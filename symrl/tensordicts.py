@@ -11,34 +11,55 @@ checked once per call; any other TensorDict (or a nested key) takes the public p
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import torch
 from tensordict import TensorDict, TensorDictBase
 from tensordict.utils import NestedKey
 
-__all__ = ["read", "write"]
+__all__ = ["read", "write", "tensordict_items"]
 
 _MISSING = object()
 
 
-def read(td: TensorDictBase, key: NestedKey) -> torch.Tensor:
-    """``td[key]`` (a KeyError naming the key when it is missing)."""
+def read(td: TensorDictBase, key: NestedKey, default: Any = _MISSING) -> Any:
+    """``td[key]`` (a KeyError naming the key when it is missing), or ``td.get(key, default)``
+    when a default is given."""
     if type(td) is TensorDict and type(key) is str:
         value = td._tensordict.get(key, _MISSING)
         if value is not _MISSING:
             return value
-    return td[key]
+    return td[key] if default is _MISSING else td.get(key, default)
 
 
 def write(td: TensorDictBase, values: Mapping[str, torch.Tensor]) -> TensorDictBase:
-    """``td.update(values)`` for tensors whose leading dims are ``td``'s batch size."""
+    """``td.update(values)`` for tensors (or plain TensorDicts) whose leading dims are ``td``'s
+    batch size."""
     if type(td) is not TensorDict or td.is_locked:
         return td.update(values)
     batch = td.batch_size
     dims = len(batch)
     for key, value in values.items():
-        if type(key) is not str or type(value) is not torch.Tensor or value.shape[:dims] != batch:
+        if (
+            type(key) is not str
+            or type(value) not in (torch.Tensor, TensorDict)
+            or value.shape[:dims] != batch
+        ):
             td.update({key: value})  # the checked path (and its error message)
         else:
             td._set_str(key, value, inplace=False, validated=True)
     return td
+
+
+def tensordict_items(td: TensorDictBase, batch: torch.Size) -> dict[str, torch.Tensor] | None:
+    """The entries of ``td`` (a read-only dict, do not change it) if it is a plain, unlocked
+    CPU TensorDict of batch size ``batch`` holding tensors only, else None (the caller then
+    takes TensorDict's checked path)."""
+    if type(td) is not TensorDict or td.is_locked or td.batch_size != batch:
+        return None
+    if td.device is None or td.device.type != "cpu":
+        return None
+    items = td._tensordict
+    if not all(type(value) is torch.Tensor for value in items.values()):
+        return None
+    return items

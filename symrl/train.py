@@ -111,7 +111,7 @@ class TrialRecorder:
         self.td_error += np.abs(td_error.numpy())
         self.reached = read(nxt, "reached_goal").reshape(-1)
         self._poses.append(read(nxt, "true_pose").numpy()[:, :2].copy())
-        expert, winner = td.get("expert", None), td.get("winner", None)
+        expert, winner = read(td, "expert", None), read(td, "winner", None)
         if expert is None:  # a controller without neurons (the baselines): no ghosts
             self._winners.append(np.zeros(self.batch, dtype=np.int64))
         else:
@@ -124,14 +124,15 @@ class TrialRecorder:
         # one array of the steps, then robot b's column (not a Python loop over the steps)
         path = np.vstack([self._first[b][None], np.array(self._poses[lo:hi])[:, b]])
         ids = np.array(self._winners[lo:hi])[:, b]
-        change = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
+        change = np.flatnonzero(np.concatenate(([True], ids[1:] != ids[:-1])))
         record: dict[str, Any] = {
             "steps": int(self.steps[b]),
             "total_reinforcement": float(self.total[b]),
             "collisions": int(self.collisions[b]),
             "shielded": int(self.shielded[b]),
             "mean_abs_td_error": float(self.td_error[b] / max(self.steps[b], 1)),
-            "path_length": float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()),
+            # np.linalg.norm(axis=1)'s own formula, without its argument handling
+            "path_length": float(np.sqrt(np.add.reduce(np.square(np.diff(path, axis=0)), 1)).sum()),
             "path": path.round(4).tolist(),
             "ghosts": path[change].round(4).tolist(),  # where the acting neuron changed
         }
@@ -299,7 +300,7 @@ def train_batch(
             td, next_td = env.step_and_maybe_reset(td)
             stats = loss(td)
             frames += batch
-            done = recorder.step(td, stats.get("td_error"))
+            done = recorder.step(td, read(stats, "td_error"))
             td = next_td
             if not done.any():
                 if stop is not None and stop():

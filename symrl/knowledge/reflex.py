@@ -470,14 +470,23 @@ class FuzzyReflex(nn.Module):
             }
         cfg = self.config
         s, g = sonar.numpy(), goal_angle.numpy()
-        if not (np.isfinite(s).all() and np.isfinite(g).all()):
+        # one reduction for the common case (a sum is finite only if every term is; a finite
+        # sum's overflow to inf is then told apart by the exact test)
+        finite = np.isfinite(s.sum() + g.sum())
+        if not finite and not (np.isfinite(s).all() and np.isfinite(g).all()):
             raise ValueError("FuzzyReflex: sonar or goal_angle contains a non-finite value")
         batch = s.shape[0]
         wrapped = _wrap(goal_angle).numpy()
         t = wrapped / cfg.goal_span
-        follow = np.clip(np.stack((t, 1.0 - np.abs(t), -t), axis=-1), 0.0, 1.0) * cfg.d_g
+        # (LEFT, FORWARD, RIGHT) columns clipped to [0, 1] (min/max: np.clip's dispatch costs
+        # about twice as much; the same numbers)
+        follow = np.empty((batch, 3))
+        follow[:, 0] = t
+        follow[:, 1] = 1.0 - np.abs(t)
+        follow[:, 2] = -t
+        follow = np.minimum(np.maximum(follow, 0.0), 1.0) * cfg.d_g
         sector = s[:, a["rays"]].reshape(batch, *a["rays_shape"]).min(axis=-1) * cfg.sonar_range
-        mu = np.clip((a["b"] - sector) / a["b_minus_a"], 0.0, 1.0)
+        mu = np.minimum(np.maximum((a["b"] - sector) / a["b_minus_a"], 0.0), 1.0)
         if a["uses_side"]:  # the turning side, as _side
             diff = mu @ a["side_diff"]
             keys = np.sign(diff) * (np.abs(diff) > cfg.side_margin)

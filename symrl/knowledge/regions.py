@@ -12,14 +12,14 @@ from typing import Any
 
 import numpy as np
 import torch
-from torch import nn
 
+from symrl.buffers import BufferViews
 from symrl.world.worldmap import RegionSpec, WorldMap, load_map
 
 __all__ = ["RegionMapper"]
 
 
-class RegionMapper(nn.Module):
+class RegionMapper(BufferViews):
     """Odometry poses ``(..., 2 or 3)`` -> region ids ``(...,)`` (long, in the order of ``names``).
 
     Each rule is a conjunction of strict comparisons ``axis > threshold`` / ``axis < threshold``
@@ -122,11 +122,12 @@ class RegionMapper(nn.Module):
         # numpy on the tensors' memory (a handful of poses: a fraction of the torch dispatches;
         # the product is exact, see _derive). (..., R, C): whether each condition holds
         # (padding always does)
-        holds = xy.numpy() @ self.select.numpy() > self.bound.numpy()
-        holds = holds.reshape(*holds.shape[:-1], *self.axis.shape)
+        a = self.arrays
+        holds = xy.numpy() @ a["select"] > a["bound"]
+        holds = holds.reshape(*holds.shape[:-1], *a["axis"].shape)
         # First matching rule: argmax over booleans returns the first True.
         first = holds.all(axis=-1).argmax(axis=-1)
-        return torch.from_numpy(np.asarray(self.rule_region.numpy()[first]))
+        return torch.from_numpy(np.asarray(a["rule_region"][first]))
 
     def extra_repr(self) -> str:
         return f"names={self.names}, rules={self.rule_region.numel()}"

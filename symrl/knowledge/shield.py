@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
-from torch import nn
 
+from symrl.buffers import BufferViews
 from symrl.world.robot import RobotConfig
 
 __all__ = ["ShieldConfig", "IRShield"]
@@ -56,7 +56,7 @@ class ShieldConfig:
             raise ValueError(f"ShieldConfig.resolution_deg must be in (0, 90], got {r!r}")
 
 
-class IRShield(nn.Module):
+class IRShield(BufferViews):
     """Replace an action whose move would bring the rim within ``margin`` of a wall.
 
     ``forward(reflectance, action)`` is batched: ``reflectance`` (..., n) IR readings in
@@ -95,7 +95,8 @@ class IRShield(nn.Module):
     def _distances(self, reflectance: np.ndarray) -> np.ndarray:
         # numpy on a handful of rows (a fraction of the torch dispatches); the cube root stays
         # torch's pow, whose last bit differs from libm's for some readings
-        refl = np.clip(reflectance.astype(np.float64), 0.0, 100.0)
+        # clipped by min/max (np.clip's dispatch costs about twice as much; the same numbers)
+        refl = np.minimum(np.maximum(reflectance.astype(np.float64), 0.0), 100.0)
         root = torch.from_numpy(refl / 100.0).pow_(1.0 / 3.0).numpy()
         return np.where(refl > 0, self.ir_range * (1.0 - root), np.inf)
 
@@ -113,7 +114,8 @@ class IRShield(nn.Module):
         cos = torch.from_numpy(diff).cos_().numpy()
         rho = rho[..., None, :]  # (..., 1, b) against cos (..., m, b)
         with np.errstate(invalid="ignore"):  # inf * cos for a sensor that sees nothing
-            along = np.clip(rho * cos, 0.0, self.step)  # closest point of the straight move
+            # the closest point of the straight move (min/max: the cheaper np.clip)
+            along = np.minimum(np.maximum(rho * cos, 0.0), self.step)
             sq = np.square(rho) - 2.0 * rho * along * cos + np.square(along)
         centre = np.where(np.isfinite(rho), np.sqrt(np.maximum(sq, 0.0)), np.inf)
         return centre.min(axis=-1) - self.radius
@@ -121,7 +123,8 @@ class IRShield(nn.Module):
     def forward(
         self, reflectance: torch.Tensor, action: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        action = action.to(torch.float64)
+        if action.dtype is not torch.float64:
+            action = action.to(torch.float64)
         margin = self.config.margin
         refl_np, action_np = reflectance.numpy(), action.numpy()
         near = refl_np.max(axis=-1) > self.quiet  # the rows where a move could be unsafe
@@ -130,10 +133,10 @@ class IRShield(nn.Module):
         some = np.flatnonzero(near)
         centre = np.repeat(self._distances(refl_np[some]) + self.radius, 3, axis=-1)
         unsafe_np = np.zeros_like(near)
-        room_np = self._clearance(centre, self.bearings.numpy(), action_np[some][:, None])[:, 0]
+        room_np = self._clearance(centre, self.arrays["bearings"], action_np[some][:, None])[:, 0]
         unsafe_np[some] = room_np < margin
         unsafe = torch.from_numpy(unsafe_np)
-        if not bool(unsafe.any()):
+        if not unsafe_np.any():
             return action, unsafe
         # the candidate search runs only on the rows whose action is unsafe (the rare case)
         rows = unsafe.nonzero(as_tuple=True)

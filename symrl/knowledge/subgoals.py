@@ -171,7 +171,7 @@ def _free_runs(
     for s in (-eps, eps):
         pts = (np.full_like(t, c + s), t) if axis == 0 else (t, np.full_like(t, c + s))
         free = world.in_free_area(*pts)
-        names = [world.regions.region_of(float(px), float(py)) for px, py in zip(*pts, strict=True)]
+        names = world.regions.regions_of(*pts)
         sides.append((free, names, _piece_of(pieces, *pts)))
     if len(world.extra_segments):
         ends = []

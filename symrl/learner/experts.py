@@ -23,6 +23,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from symrl.grad import no_grad
+
 __all__ = ["ExpertBank"]
 
 # Per-neuron tensors (B, E, N[, D]); every one is resized together when storage doubles.
@@ -47,6 +49,10 @@ class FlatViews(NamedTuple):
     """(B,) b * E."""
     arange: np.ndarray
     """(N,) 0 .. N - 1."""
+    capacity: int
+    """N."""
+    banks: np.ndarray
+    """(B * E, N, D) ``centres``, one row of neurons per (controller, expert)."""
 
 
 class ExpertBank(nn.Module):
@@ -127,6 +133,8 @@ class ExpertBank(nn.Module):
                 counts=self.count.numpy().reshape(-1),
                 row_base=self._row_base.numpy(),
                 arange=self._arange.numpy(),
+                capacity=self.capacity,
+                banks=self.centres.numpy().reshape(-1, self.capacity, self.dim),
             )
             self.__dict__["_flat"] = views
         return views
@@ -134,6 +142,11 @@ class ExpertBank(nn.Module):
     def __setattr__(self, name: str, value) -> None:
         self.__dict__["_flat"] = None  # a buffer may be replaced: views taken again
         super().__setattr__(name, value)
+
+    def __getstate__(self) -> dict:  # a copy or a pickle has buffers of its own
+        state = dict(super().__getstate__())
+        state["_flat"] = None
+        return state
 
     def _apply(self, fn, recurse=True):  # .to() / .double(): new tensors, views taken again
         self.__dict__["_flat"] = None
@@ -155,7 +168,8 @@ class ExpertBank(nn.Module):
 
     def flat_index_np(self, expert: np.ndarray, neuron: np.ndarray) -> np.ndarray:
         """:meth:`flat_index` on numpy arrays (for arithmetic on ``tensor.numpy()`` views)."""
-        return (self.flat.row_base + expert) * self.capacity + neuron
+        flat = self.flat
+        return (flat.row_base + expert) * flat.capacity + neuron
 
     def nearest(self, expert: torch.Tensor, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Winner (argmin distance = argmax activation) in each controller's ``expert`` for its
@@ -164,22 +178,29 @@ class ExpertBank(nn.Module):
         In numpy on the tensors' memory (a fraction of the cost of ~20 torch dispatches for a
         handful of rows); the differences and squares are exact in either, and the sum over D
         stays a torch reduction, so the distances are those of the torch version bit for bit."""
+        if int(self.flat.counts[self.flat.row_base + expert.numpy()].max()) == 0:
+            return torch.full_like(expert, -1), torch.full((self.batch,), torch.inf)
+        winner, distance = self.nearest_np(expert.numpy(), x.numpy())
+        return torch.from_numpy(winner), torch.from_numpy(distance)
+
+    def nearest_np(self, expert: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`nearest` on numpy arrays (the control loop's call: no tensors in between)."""
         flat = self.flat
-        row = flat.row_base + expert.numpy()
+        row = flat.row_base + expert
         counts = flat.counts[row]
         n = int(counts.max())
         if n == 0:
-            return torch.full_like(expert, -1), torch.full((self.batch,), torch.inf)
-        centres = flat.centres.reshape(len(flat.counts), self.capacity, self.dim)[row, :n]
-        d2 = torch.from_numpy(np.square(centres - x.numpy()[:, None, :])).sum(-1).numpy()
+            return np.full(len(row), -1, dtype=np.int64), np.full(len(row), np.inf)
+        centres = flat.banks[row, :n]
+        d2 = torch.from_numpy(np.square(centres - x[:, None, :])).sum(-1).numpy()
         d2[flat.arange[:n] >= counts[:, None]] = np.inf
         winner = d2.argmin(axis=-1)  # the first of equal distances, as torch's min
         distance = np.sqrt(d2[np.arange(len(row)), winner])
         winner[counts == 0] = -1
-        return torch.from_numpy(winner), torch.from_numpy(distance)
+        return winner, distance
 
     # -- growth ---------------------------------------------------------------------------
-    @torch.no_grad()
+    @no_grad
     def add(
         self,
         rows: torch.Tensor,
@@ -189,11 +210,14 @@ class ExpertBank(nn.Module):
         utility: torch.Tensor,
     ) -> torch.Tensor:
         """Append one neuron to ``expert[i]`` of controller ``rows[i]`` (rows distinct); returns
-        the new neurons' indices. Storage doubles when any expert is full."""
-        row = self._row_base.index_select(0, rows) + expert  # (controller, expert) rows
-        index = self.count.take(row)
-        if rows.numel() == 0:
-            return index
+        the new neurons' indices. Storage doubles when any expert is full. (Numpy writes on the
+        storage's flat views: a handful of rows, a fraction of the torch dispatches; copies
+        and casts only, so the same numbers.)"""
+        flat = self.flat
+        row = flat.row_base[rows.numpy()] + expert.numpy()  # (controller, expert) rows
+        index = flat.counts[row]
+        if len(index) == 0:
+            return torch.from_numpy(index)
         top = int(index.max())
         if top >= self.capacity:
             if top >= self.max_neurons:
@@ -203,18 +227,19 @@ class ExpertBank(nn.Module):
                     "raise it or the novelty radius"
                 )
             self._resize(min(2 * self.capacity, self.max_neurons))
-        flat = row * self.capacity + index
-        self.centres.view(-1, self.dim).index_copy_(0, flat, centre.to(self.centres.dtype))
-        self.actions.view(-1).index_copy_(0, flat, action.to(torch.float64))
-        self.utilities.view(-1).index_copy_(0, flat, utility.to(torch.float64))
-        for name in ("means", "taken"):
-            getattr(self, name).view(-1).index_fill_(0, flat, 0.0)
-        self.used.view(-1).index_fill_(0, flat, False)
-        self.count.view(-1).index_copy_(0, row, index + 1)
-        return index
+            flat = self.flat
+        slot = row * flat.capacity + index
+        flat.centres[slot] = centre.detach().numpy()
+        flat.actions[slot] = action.detach().numpy()
+        flat.utilities[slot] = utility.detach().numpy()
+        flat.means[slot] = 0.0
+        flat.taken[slot] = 0.0
+        flat.used[slot] = False
+        flat.counts[row] = index + 1
+        return torch.from_numpy(index)
 
     # -- end of trial ---------------------------------------------------------------------
-    @torch.no_grad()
+    @no_grad
     def replace_actions(self, rows: torch.Tensor) -> torch.Tensor:
         """p <- the action taken, mu <- 0, for every neuron used this trial by controllers
         ``rows``; returns how many per row."""
@@ -225,7 +250,7 @@ class ExpertBank(nn.Module):
         means[r] = np.where(used, 0.0, means[r])
         return torch.from_numpy(used.reshape(len(r), -1).sum(-1))
 
-    @torch.no_grad()
+    @no_grad
     def clear_trial(self, rows: torch.Tensor) -> None:
         """Forget which neurons controllers ``rows`` used (a new trial starts)."""
         self.used.numpy()[rows.numpy()] = False

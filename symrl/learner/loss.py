@@ -32,6 +32,7 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule
 
+from symrl.grad import no_grad
 from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.tensordicts import read
 
@@ -100,7 +101,7 @@ class TeseoLoss(LossModule):
     def _forward_value_estimator_keys(self, **kwargs) -> None:  # no value estimator
         pass
 
-    @torch.no_grad()
+    @no_grad
     def forward(self, td: TensorDictBase) -> TensorDictBase:
         """Update every robot's previous winner from its transition (batch [B]).
 
@@ -149,12 +150,13 @@ class TeseoLoss(LossModule):
         terminated = read(nxt, k.terminated).numpy().reshape(-1)
         truncated = read(nxt, k.truncated).numpy().reshape(-1)
         u_prev = utilities[index]
-        seen = policy.perceive(read(nxt, k.sonar), read(nxt, k.odometry), read(nxt, k.goal))
-        seen_winner = seen.winner.numpy()
-        u_seen = utilities[bank.flat_index_np(seen.expert.numpy(), np.maximum(seen_winner, 0))]
+        _, seen_expert, _, seen_winner, seen_novel = policy.perceive_arrays(
+            read(nxt, k.sonar), read(nxt, k.odometry), read(nxt, k.goal)
+        )
+        u_seen = utilities[bank.flat_index_np(seen_expert.numpy(), np.maximum(seen_winner, 0))]
         # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
         u_trunc = np.where(seen_winner >= 0, u_seen, u_prev)
-        u_next = np.where(seen.novel.numpy(), r, u_seen)
+        u_next = np.where(seen_novel, r, u_seen)
         u_next = np.where(truncated, u_trunc, u_next)
         u_next[terminated] = 0.0
 
@@ -175,19 +177,20 @@ class TeseoLoss(LossModule):
         mu = means[index]
         means[index] = mu + update.beta * step * (read(td, k.xi).numpy() - mu)
         shift = ~split & (delta > 0)
-        if shift.any():
-            a = torch.from_numpy(np.flatnonzero(shift))
-            slots = torch.from_numpy(index).index_select(0, a)
-            centres = bank.centres.view(-1, bank.dim)
-            moved = centres.index_select(0, slots).lerp_(x_t.index_select(0, a), update.kappa)
-            centres.index_copy_(0, slots, moved)
+        if shift.any():  # the gathers and the scatter in numpy, the lerp torch's
+            a = np.flatnonzero(shift)
+            slots = index[a]
+            centres = bank.flat.centres
+            moved = torch.from_numpy(centres[slots])
+            moved.lerp_(torch.from_numpy(x_t.numpy()[a]), update.kappa)
+            centres[slots] = moved.numpy()
         return TensorDict._new_unsafe(
             {"td_error": torch.from_numpy(delta), "grown": torch.from_numpy(grown),
              "neurons": torch.from_numpy(bank.flat.counts.reshape(batch, -1).sum(-1))},
             batch_size=torch.Size([batch]),
         )  # fmt: skip
 
-    @torch.no_grad()
+    @no_grad
     def end_trial(
         self, rows: torch.Tensor, totals: torch.Tensor, reached: torch.Tensor
     ) -> dict[str, torch.Tensor]:

@@ -19,8 +19,9 @@ import math
 
 import numpy as np
 import torch
-from torch import nn
 
+from symrl.buffers import BufferViews
+from symrl.grad import no_grad
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
 from symrl.world.worldmap import WorldMap
 
@@ -38,7 +39,7 @@ def subgoal_config(options: object) -> SubgoalConfig:
     )
 
 
-class SubgoalOptions(nn.Module):
+class SubgoalOptions(BufferViews):
     """The option learner of B controllers over one map's sub-goal table.
 
     Buffers: ``points`` (R, K, 2) and ``valid`` (R, K) (the table), ``q`` (B, R, K) mean (or best)
@@ -78,7 +79,7 @@ class SubgoalOptions(nn.Module):
         self.labels = self.table.labels
         self.region_names = self.table.region_names
         self.goal = (float(world.goal.x), float(world.goal.y))
-        self._goal = torch.tensor(self.goal, dtype=torch.float64)
+        self._goal = np.array(self.goal, dtype=np.float64)
         self.register_buffer("points", self.table.points.to(torch.float64), persistent=False)
         self.register_buffer("valid", self.table.valid.clone(), persistent=False)
         self.register_buffer("q", torch.zeros(batch, r, k, dtype=torch.float64))
@@ -102,9 +103,10 @@ class SubgoalOptions(nn.Module):
         at this step (the region's first entry in the trial) (B,) bool."""
         # numpy on the buffers' memory (a handful of rows: a fraction of the torch dispatches);
         # the norm and atan2 stay torch's, the rest is exact arithmetic in the same order
+        a = self.arrays  # the buffers' numpy views
         region_np = region.numpy()
         rows = np.arange(len(region_np))
-        choice = self.choice.numpy()
+        choice = a["choice"]
         chosen = choice[rows, region_np]
         entered = chosen < 0
         if entered.any():
@@ -112,16 +114,16 @@ class SubgoalOptions(nn.Module):
                 choice[b, region_np[b]] = self._choose(b, int(region_np[b]), greedy)
             chosen = choice[rows, region_np]
         # a new visit of a region aims at its sub-goal again
-        stage, visit = self.stage.numpy(), self.visit.numpy()
+        stage, visit = a["stage"], a["visit"]
         stage[region_np != visit] = 0
         visit[:] = region_np
         pose = odometry.numpy().astype(np.float64)
         xy = pose[:, :2]
-        points = self.points.numpy()
+        points = a["points"]
         point = points.reshape(-1, 2)[region_np * points.shape[1] + chosen]
         distance = torch.linalg.vector_norm(torch.from_numpy(point - xy), dim=-1).numpy()
         stage[distance < self.config.reach] = _GOAL_STAGE  # type: ignore[attr-defined]
-        d = np.where((stage == _GOAL_STAGE)[:, None], self._goal.numpy(), point) - xy
+        d = np.where((stage == _GOAL_STAGE)[:, None], self._goal, point) - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
         return torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered)
@@ -130,53 +132,56 @@ class SubgoalOptions(nn.Module):
         """Controller ``b``'s option for ``region`` at its first entry in a trial (on Python
         numbers: a handful of values, read once; the draws are those of the tensor version)."""
         cfg = self.config
-        valid = self.valid[region].tolist()
+        a = self.arrays
+        valid = a["valid"][region].tolist()
         options = [o for o, ok in enumerate(valid) if ok]
         after = int(cfg.greedy_after)  # type: ignore[attr-defined]
-        greedy_only = greedy or bool(after and int(self.trials[b]) >= after)
-        counts = self.n[b, region].tolist()
+        greedy_only = greedy or bool(after and int(a["trials"][b]) >= after)
+        counts = a["n"][b, region].tolist()
         gen = self.generators[b]
         if not greedy_only:
             untried = [o for o in options if counts[o] == 0]
             if cfg.try_untried and untried:  # type: ignore[attr-defined]
                 return untried[0]
-            if torch.rand((), generator=gen, dtype=torch.float64).item() < self.epsilon[b].item():
+            if torch.rand((), generator=gen, dtype=torch.float64).item() < float(a["epsilon"][b]):
                 return options[int(torch.randint(len(options), (), generator=gen))]
-        q = self.q[b, region].tolist()
+        q = a["q"][b, region].tolist()
         tried = [q[o] if counts[o] > 0 and valid[o] else -math.inf for o in range(len(q))]
         best = max(tried)
         if best == -math.inf:
             return options[0]
         return tried.index(best)  # the first of equal values
 
-    @torch.no_grad()
+    @no_grad
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the choices of controllers ``rows`` (their robots start a new trial)."""
-        self.choice[rows] = -1
-        self.stage[rows] = 0
-        self.visit[rows] = -1
+        a, r = self.arrays, rows.numpy()
+        a["choice"][r] = -1
+        a["stage"][r] = 0
+        a["visit"][r] = -1
 
     # -- learning (called by the update) --------------------------------------------------
-    @torch.no_grad()
+    @no_grad
     def learn(self, rows: torch.Tensor, returns: torch.Tensor) -> None:
         """Critic step at the end of a trial: ``returns`` (k, R) is the return-to-go from each
         region's first entry for controllers ``rows``; then epsilon decays."""
         # numpy on the buffers' memory: a few advanced indexes of a handful of rows
+        a = self.arrays
         rows_np, returns_np = rows.numpy(), returns.numpy()
-        choice = self.choice.numpy()[rows_np]
+        choice = a["choice"][rows_np]
         entered = choice >= 0
         b = np.broadcast_to(rows_np[:, None], choice.shape)[entered]
         r = np.broadcast_to(np.arange(choice.shape[1]), choice.shape)[entered]
         k, ret = choice[entered], returns_np[entered]
-        n, q = self.n.numpy(), self.q.numpy()
+        n, q = a["n"], a["q"]
         n[b, r, k] += 1  # (b, r) pairs are distinct: one option per region and trial
         if self.config.critic == "best":  # type: ignore[attr-defined]
             first = n[b, r, k] == 1
             q[b, r, k] = np.where(first, ret, np.maximum(q[b, r, k], ret))
         else:
             q[b, r, k] += (ret - q[b, r, k]) / n[b, r, k]
-        self.epsilon.numpy()[rows_np] *= float(self.config.epsilon_decay)  # type: ignore[attr-defined]
-        self.trials.numpy()[rows_np] += 1
+        a["epsilon"][rows_np] *= float(self.config.epsilon_decay)  # type: ignore[attr-defined]
+        a["trials"][rows_np] += 1
 
     def greedy(self, row: int) -> list[int]:
         """The option each region of controller ``row`` would choose greedily (-1: none tried)."""

@@ -35,6 +35,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torchrl.envs.utils import ExplorationType, exploration_type
 
+from symrl.grad import no_grad
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.shield import IRShield, ShieldConfig
@@ -150,6 +151,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self._drawn = 0
         # constant outputs for the parts a recipe leaves out (never written in place)
         self._zeros = torch.zeros(batch, dtype=torch.float64)
+        self._zeros_np = self._zeros.numpy()
         self._no_option = torch.full((batch,), -1, dtype=torch.long)
         self._no_entry = torch.zeros(batch, dtype=torch.bool)
         # the observation of the last perception and its (region, expert, x)
@@ -187,13 +189,20 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ) -> Perception:
         """Gate and winner search for a batch of observations; changes nothing (the result's
         tensors are read-only: the gate and the inputs may be those of the previous call)."""
+        region, expert, x, winner, novel = self.perceive_arrays(sonar, odometry, goal)
+        return Perception(region, expert, x, torch.from_numpy(winner), torch.from_numpy(novel))
+
+    def perceive_arrays(
+        self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray, np.ndarray]:
+        """:meth:`perceive` with the winner and the novelty as numpy arrays (the control loop
+        reads them as numpy: no tensors in between)."""
         region, expert, x = self._gate_and_inputs(sonar, odometry, goal)
         if not self.config.experts.learning:
-            none = torch.full_like(region, -1)
-            return Perception(region, expert, x, none, torch.ones_like(region, dtype=torch.bool))
-        winner, distance = self.experts.nearest(expert, x)
+            return region, expert, x, np.full(len(region), -1), np.ones(len(region), dtype=bool)
+        winner, distance = self.experts.nearest_np(expert.numpy(), x.numpy())
         novel = distance > self.config.experts.novelty_radius  # inf for an empty expert
-        return Perception(region, expert, x, winner, novel)
+        return region, expert, x, winner, novel
 
     def _gate_and_inputs(
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
@@ -218,8 +227,9 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         return region, expert, x
 
     # -- random streams -------------------------------------------------------------------
-    def _draws(self) -> tuple[torch.Tensor, torch.Tensor]:
-        """One standard normal and one uniform per robot from its own generator."""
+    def _draws(self) -> tuple[np.ndarray, np.ndarray]:
+        """One standard normal and one uniform per robot from its own generator (numpy views
+        of the pre-drawn blocks)."""
         if self._drawn >= self._normals.shape[1]:
             self._normals = torch.stack(
                 [torch.randn(_BLOCK, generator=g, dtype=torch.float64) for g in self.generators]
@@ -230,23 +240,24 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             self._drawn = 0
         i = self._drawn
         self._drawn += 1
-        return self._normals[:, i], self._uniforms[:, i]
+        return self._normals.numpy()[:, i], self._uniforms.numpy()[:, i]
 
     # -- acting ---------------------------------------------------------------------------
-    @torch.no_grad()
+    @no_grad
     def forward(self, td: TensorDictBase) -> TensorDictBase:
         xc = self.config.experts
         greedy = is_greedy()
         sonar, odometry, goal = read(td, "sonar"), read(td, "odometry"), read(td, "goal")
-        per = self.perceive(sonar, odometry, goal)
+        region, expert, x, winner, novel = self.perceive_arrays(sonar, odometry, goal)
         zero = self._zeros
         option, entered = self._no_option, self._no_entry
         if self.options is not None:
-            target, option, entered = self.options.steer(per.region, odometry, greedy)
+            target, option, entered = self.options.steer(region, odometry, greedy)
         else:
             target = goal[:, 1].to(torch.float64)
         if xc.reflex or not xc.learning:
-            reflex_action = self.reflex(sonar.to(torch.float64), target)
+            # float32 widened exactly, in numpy (a torch cast is a dispatch more)
+            reflex_action = self.reflex(torch.from_numpy(sonar.numpy().astype(np.float64)), target)
         else:
             reflex_action = zero
         xi = sigma = zero
@@ -256,16 +267,16 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         else:
             # numpy on the tensors' memory (a handful of rows: a fraction of the torch
             # dispatches); exp stays torch's, the rest is exact arithmetic in the same order
-            z, uniform = (zero, zero) if greedy else self._draws()
+            z, uniform = (self._zeros_np, self._zeros_np) if greedy else self._draws()
             if xc.residual:
                 base, proto = reflex_action, zero
             elif xc.reflex:
                 base, proto = zero, reflex_action
             else:
-                base, proto = zero, torch.from_numpy(uniform.numpy() * (2 * _PI) - _PI)
+                base, proto = zero, torch.from_numpy(uniform * (2 * _PI) - _PI)
             bank = self.experts
-            index = bank.flat_index_np(per.expert.numpy(), np.maximum(per.winner.numpy(), 0))
-            known = ~per.novel.numpy()
+            index = bank.flat_index_np(expert.numpy(), np.maximum(winner, 0))
+            known = ~novel
             flat = bank.flat
             p = np.where(known, flat.actions[index], proto.numpy())
             mu = np.where(known, flat.means[index], 0.0)
@@ -277,10 +288,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 u = np.where(known, flat.utilities[index], u_new)
                 e = torch.from_numpy(np.minimum(u, 60.0)).exp().numpy()
                 spread = self.temperature.numpy() / (1.0 + e)
-                noisy = mu + spread * z.numpy()
+                noisy = mu + spread * z
                 sigma = torch.from_numpy(spread)
             xi = torch.from_numpy(noisy)
-            alpha = torch.from_numpy(np.clip(base.numpy() + p + noisy, -_PI, _PI))
+            # clipped to [-pi, pi] by min/max (np.clip's dispatch costs about twice as much)
+            alpha = torch.from_numpy(np.minimum(np.maximum(base.numpy() + p + noisy, -_PI), _PI))
         shielded = self._no_entry
         if self.shield is not None:
             alpha, shielded = self.shield(read(td, "ir"), alpha)
@@ -289,11 +301,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             td,
             {
                 "action": torch.from_numpy(action.astype(np.float32).reshape(-1, 1)),
-                "region": per.region,
-                "expert": per.expert,
-                "winner": torch.from_numpy(np.where(per.novel.numpy(), -1, per.winner.numpy())),
-                "novel": per.novel,
-                "x": per.x,
+                "region": region,
+                "expert": expert,
+                "winner": torch.from_numpy(np.where(novel, -1, winner)),
+                "novel": torch.from_numpy(novel),
+                "x": x,
                 "proto": proto,
                 "xi": xi,
                 "sigma": sigma,
@@ -305,7 +317,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         )
         return td
 
-    @torch.no_grad()
+    @no_grad
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the per-trial decisions of robots ``rows`` (they start a new trial)."""
         if self.options is not None:

@@ -241,7 +241,11 @@ class Walls:
             prod = np.matmul(k, u)  # (B, 3n, R)
             s = prod[:, n : 2 * n] / prod[:, :n]
         ok = (s >= -_S_EPS) & (s <= 1.0 + _S_EPS)
-        inv_t = np.fmax.reduce(prod[:, 2 * n :], axis=1, where=ok, initial=1.0 / max_range)
+        # the misses as -inf, then an unmasked reduction: the same maximum (fmax picks a value,
+        # it does not round; -inf never beats the positive initial) at a fraction of the cost
+        # of a reduction with where= (a masked inner loop, measured 3-5x slower here)
+        hits = np.where(ok, prod[:, 2 * n :], -np.inf)
+        inv_t = np.fmax.reduce(hits, axis=1, initial=1.0 / max_range)
         return 1.0 / inv_t
 
     def _cast_buffers(self, b: int, r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

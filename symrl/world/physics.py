@@ -131,6 +131,7 @@ class RobotBatch:
         self.max_actions = max_actions
         self.walls = Walls(world.segments)
         self._valid_poses: set[bytes] = set()  # float64 (x, y, heading) rows that passed
+        self._rest_senses: dict[bytes, np.ndarray] = {}  # per reset pose: _sense_at's row
 
         n = robot.n_sensors
         self.n_sensors = n
@@ -263,8 +264,7 @@ class RobotBatch:
         self.check_poses(poses, rows)
         x, y = poses[:, 0].copy(), poses[:, 1].copy()
         h = _wrap(poses[:, 2])
-        near = self.walls.closest_many(x, y)
-        rim, refl, clear = self._sense(x, y, h, near)
+        near, rim, refl, clear = self._sense_at(poses, x, y, h)
         if self._sonar_std > 0.0:
             noise = np.empty((len(rows), self.n_sensors))
             for i, b in enumerate(rows.tolist()):
@@ -476,6 +476,30 @@ class RobotBatch:
         )
 
     # --- internals -------------------------------------------------------------------------
+
+    def _sense_at(
+        self, poses: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray
+    ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray, np.ndarray, np.ndarray]:
+        """``Walls.closest_many`` and the noise-free :meth:`_sense` at reset poses ``(k, 3)``
+        (``x``, ``y``, ``h``: their columns, the heading wrapped). They depend on the pose alone
+        and every robot computes the same numbers whatever the batch, so each pose's row is
+        remembered (bounded: start poses, not random ones) and a trial's reset at a known start
+        skips the closest-point and ray queries (about 40 % of a reset)."""
+        keys = [row.tobytes() for row in poses]
+        rows = [self._rest_senses.get(key) for key in keys]
+        n, m = len(self.walls), self.n_sensors
+        if all(row is not None for row in rows):
+            block = np.stack(rows)  # type: ignore[arg-type]
+            return ((block[:, :n], block[:, n : 2 * n], block[:, -1]), block[:, 2 * n : 2 * n + m],
+                    block[:, 2 * n + m : -1], block[:, -1])  # fmt: skip
+        near = self.walls.closest_many(x, y)
+        rim, refl, clear = self._sense(x, y, h, near)
+        if len(self._rest_senses) < 1024:
+            for i, key in enumerate(keys):
+                self._rest_senses[key] = np.concatenate(
+                    (near[0][i], near[1][i], rim[i], refl[i], clear[i : i + 1])
+                )
+        return near, rim, refl, clear
 
     def _sense(
         self,

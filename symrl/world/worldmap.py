@@ -118,6 +118,23 @@ class RegionSpec:
                 return rule.region
         raise MapError(f"regions.rules: no rule matches the pose ({x}, {y}); add a default rule")
 
+    def regions_of(self, x: np.ndarray, y: np.ndarray) -> list[str]:
+        """:meth:`region_of` of many points (float64 arrays of one shape, flattened): the same
+        comparisons, rule by rule on all points at once (thousands of points when the sub-goal
+        table scans the region lines)."""
+        xy = (np.asarray(x, dtype=np.float64).ravel(), np.asarray(y, dtype=np.float64).ravel())
+        found = np.full(len(xy[0]), -1)
+        for i, rule in enumerate(self.rules):
+            holds = found < 0
+            for c in rule.conditions:
+                v = xy[c.axis]
+                holds &= v > c.threshold if c.greater else v < c.threshold
+            found[holds] = i
+        if (found < 0).any():
+            j = int(np.argmax(found < 0))
+            self.region_of(float(xy[0][j]), float(xy[1][j]))  # raises the scalar method's error
+        return [self.rules[i].region for i in found.tolist()]
+
 
 @dataclass(frozen=True)
 class WorldMap:

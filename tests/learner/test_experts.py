@@ -169,3 +169,14 @@ def test_a_controllers_winner_does_not_depend_on_the_others(own, others, query, 
         assert float(d[alone[0]]) == float(d.min())
     else:
         assert alone == (-1, math.inf)
+
+
+def test_a_copied_bank_writes_its_own_storage():
+    import copy
+
+    bank = ExpertBank(2, 2, 4)
+    bank.flat.actions[0] = 1.0  # views cached
+    other = copy.deepcopy(bank)
+    other.flat.actions[1] = 2.0
+    assert other.actions.view(-1)[:2].tolist() == [1.0, 2.0]
+    assert bank.actions.view(-1)[:2].tolist() == [1.0, 0.0]

@@ -114,6 +114,71 @@ def test_maybe_reset_equals_torchrl_generic_version():
     assert 0 < restarts < 40 * 5
 
 
+class _GenericEnv(BatchedWorldEnv):
+    """The same env through TorchRL's generic step_and_maybe_reset and maybe_reset."""
+
+    step_and_maybe_reset = EnvBase.step_and_maybe_reset
+    maybe_reset = EnvBase.maybe_reset
+
+
+def _decisions(rng, size: int) -> dict[str, torch.Tensor]:
+    """Keys a policy writes besides the action (float, integer, bool, a row of inputs)."""
+    return {
+        "action": torch.from_numpy(rng.uniform(-1, 1, (size, 1)).astype(np.float32)),
+        "xi": torch.from_numpy(rng.normal(size=size)),
+        "winner": torch.from_numpy(rng.integers(-1, 9, size)),
+        "novel": torch.from_numpy(rng.random(size) < 0.5),
+        "x": torch.from_numpy(rng.normal(size=(size, 4)).astype(np.float32)),
+    }
+
+
+def _assert_same(a: TensorDict, b: TensorDict) -> None:
+    assert set(a.keys(True, True)) == set(b.keys(True, True))
+    assert a.device == b.device and a.batch_size == b.batch_size
+    for key in a.keys(True, True):
+        assert a[key].dtype == b[key].dtype and torch.equal(a[key], b[key]), key
+
+
+def test_step_and_maybe_reset_equals_torchrl_generic_version():
+    """The env's own step_and_maybe_reset gives what EnvBase.step_and_maybe_reset (with
+    EnvBase.maybe_reset) gives: the transition and the next step's TensorDict, key for key
+    and bit for bit, with a policy's extra keys and robots ending at different steps."""
+    ours, generic = BatchedWorldEnv, _GenericEnv
+    ours, generic = (cls(size=5, seeds=range(5), max_actions=4) for cls in (ours, generic))
+    rng = np.random.default_rng(2)
+    a, b = ours.reset(), generic.reset()
+    restarts = 0
+    for i in range(40):
+        decisions = _decisions(rng, 5)
+        for env in (ours, generic):
+            if i % 3 == 0:  # stagger the truncations, so resets are partial
+                env.physics.actions_taken[i % 5] += 1
+        a.update({k: v.clone() for k, v in decisions.items()})
+        b.update({k: v.clone() for k, v in decisions.items()})
+        ta, na = ours.step_and_maybe_reset(a)
+        tb, nb = generic.step_and_maybe_reset(b)
+        restarts += int(ta["next", "done"].sum())
+        assert ta is a  # the input becomes the transition, as in TorchRL
+        _assert_same(ta, tb)
+        _assert_same(na, nb)
+        a, b = na, nb
+    assert 0 < restarts < 40 * 5
+
+
+def test_step_and_maybe_reset_takes_torchrl_path_for_other_inputs():
+    """A TensorDict without a device, or with a nested entry, steps as TorchRL's path."""
+    ours, generic = (cls(size=3, seeds=range(3)) for cls in (BatchedWorldEnv, _GenericEnv))
+    ours.reset(), generic.reset()
+    rng = np.random.default_rng(3)
+    decisions = _decisions(rng, 3)
+    for extra in ({}, {"info": TensorDict({"a": torch.ones(3)}, batch_size=[3])}):
+        a = TensorDict({**decisions, **extra}, batch_size=[3])
+        b = TensorDict({k: v.clone() for k, v in {**decisions, **extra}.items()}, batch_size=[3])
+        for x, y in zip(ours.step_and_maybe_reset(a), generic.step_and_maybe_reset(b),
+                        strict=True):  # fmt: skip
+            _assert_same(x, y)
+
+
 def test_a_start_pose_found_valid_is_not_checked_again_but_a_bad_one_still_fails():
     env = BatchedWorldEnv(size=2, seeds=[0, 1])
     env.reset()

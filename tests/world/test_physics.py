@@ -211,6 +211,27 @@ def test_reset_touches_only_its_rows():
     assert batch.actions_taken.tolist() == [5, 0, 5]
 
 
+def test_a_reset_at_a_known_pose_reads_as_the_first_one():
+    """Resets at poses sensed before (remembered per pose) give the readings and the state a
+    fresh batch gives, bit for bit, alone or with a new pose in the same reset."""
+    poses = np.array([[0.0, 0.0, 0.3], [5.0, -2.0, 0.0], [3.0, 1.0, -2.0]])
+
+    def readings(batch, rows, at, seed):
+        rngs = [np.random.default_rng(seed + b) for b in range(3)]
+        r = batch.reset(rows, at, rngs)
+        state = (batch._ex, batch._ey, batch._clear, batch.sonar, batch.true_pose)
+        return r, tuple(v[rows].copy() for v in state)  # the reset rows' state
+
+    warm = RobotBatch(WORLD, RobotConfig(), 3)
+    warm.reset([0, 1], poses[:2], [np.random.default_rng(9)] * 3)  # poses 0 and 1 remembered
+    for rows, at in (([0, 1], poses[:2]), ([1, 2], poses[1:]), ([2], poses[:1])):
+        fresh = RobotBatch(WORLD, RobotConfig(), 3)
+        r1, s1 = readings(warm, rows, at, 4)
+        r2, s2 = readings(fresh, rows, at, 4)
+        for a, b in zip((*r1, *s1), (*r2, *s2), strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
 def test_non_finite_action_names_the_robot():
     batch = RobotBatch(WORLD, RobotConfig(), 4)
     rngs = [np.random.default_rng(s) for s in range(4)]

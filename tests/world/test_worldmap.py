@@ -283,3 +283,16 @@ def test_malformed_files(tmp_path):
 
 def test_map_error_is_a_value_error():
     assert issubclass(MapError, ValueError)
+
+
+@pytest.mark.parametrize("name", builtin_maps())
+def test_regions_of_many_points_equals_region_of_each(name):
+    world = load_map(name)
+    xmin, xmax, ymin, ymax = world.bounds
+    rng = np.random.default_rng(0)
+    x, y = rng.uniform(xmin - 1, xmax + 1, 2000), rng.uniform(ymin - 1, ymax + 1, 2000)
+    lines = [c.threshold for rule in world.regions.rules for c in rule.conditions]
+    x[: len(lines)] = lines  # points on the region lines themselves
+    y[len(lines) : 2 * len(lines)] = lines
+    expected = [world.regions.region_of(float(a), float(b)) for a, b in zip(x, y, strict=True)]
+    assert world.regions.regions_of(x, y) == expected
