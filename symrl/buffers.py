@@ -22,7 +22,12 @@ __all__ = ["BufferViews"]
 
 
 class BufferViews(nn.Module):
-    """An ``nn.Module`` whose CPU buffers are also readable as numpy arrays: ``self.arrays``."""
+    """An ``nn.Module`` whose CPU buffers are also readable as numpy arrays: ``self.arrays``.
+
+    A subclass that keeps views of its own derived from the buffers (reshaped, say) names the
+    attribute in ``_view_caches``; it is dropped whenever the arrays are."""
+
+    _view_caches: tuple[str, ...] = ("_buffer_arrays",)
 
     @property
     def arrays(self) -> dict[str, np.ndarray]:
@@ -35,10 +40,11 @@ class BufferViews(nn.Module):
         return views
 
     def _forget_arrays(self) -> None:
-        self.__dict__["_buffer_arrays"] = None
+        for name in self._view_caches:
+            self.__dict__[name] = None
 
     def __setattr__(self, name: str, value: Any) -> None:
-        self.__dict__["_buffer_arrays"] = None  # a buffer may be replaced: views taken again
+        self._forget_arrays()  # a buffer may be replaced: views taken again
         super().__setattr__(name, value)
 
     def register_buffer(self, name: str, tensor: Any, persistent: bool = True) -> None:
@@ -51,7 +57,7 @@ class BufferViews(nn.Module):
 
     def __getstate__(self) -> dict[str, Any]:  # a copy or a pickle has buffers of its own
         state = dict(super().__getstate__())
-        state["_buffer_arrays"] = None
+        state.update(dict.fromkeys(self._view_caches))
         return state
 
     def _load_from_state_dict(self, *args, **kwargs):  # type: ignore[no-untyped-def]

@@ -21,8 +21,8 @@ from typing import NamedTuple
 
 import numpy as np
 import torch
-from torch import nn
 
+from symrl.buffers import BufferViews
 from symrl.grad import no_grad
 
 __all__ = ["ExpertBank"]
@@ -55,8 +55,10 @@ class FlatViews(NamedTuple):
     """(B * E, N, D) ``centres``, one row of neurons per (controller, expert)."""
 
 
-class ExpertBank(nn.Module):
+class ExpertBank(BufferViews):
     """B controllers x E experts of growing RBF neurons in padded tensors."""
+
+    _view_caches = (*BufferViews._view_caches, "_flat")  # ``flat`` follows the buffers too
 
     centres: torch.Tensor
     actions: torch.Tensor
@@ -138,19 +140,6 @@ class ExpertBank(nn.Module):
             )
             self.__dict__["_flat"] = views
         return views
-
-    def __setattr__(self, name: str, value) -> None:
-        self.__dict__["_flat"] = None  # a buffer may be replaced: views taken again
-        super().__setattr__(name, value)
-
-    def __getstate__(self) -> dict:  # a copy or a pickle has buffers of its own
-        state = dict(super().__getstate__())
-        state["_flat"] = None
-        return state
-
-    def _apply(self, fn, recurse=True):  # .to() / .double(): new tensors, views taken again
-        self.__dict__["_flat"] = None
-        return super()._apply(fn, recurse)
 
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):  # type: ignore[override]
         """Resize storage to the saved size first, so a grown bank loads into a fresh one."""

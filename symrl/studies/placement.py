@@ -71,7 +71,7 @@ def _candidates(world: WorldMap, margin: float) -> tuple[np.ndarray, list[str], 
                 reached[j] = True
                 stack.append(j)
     pts = pts[reached]
-    regions = [world.regions.region_of(float(x), float(y)) for x, y in pts]
+    regions = world.regions.regions_of(pts[:, 0], pts[:, 1])
     return pts, regions, reached
 
 

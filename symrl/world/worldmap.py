@@ -109,19 +109,14 @@ class RegionSpec:
     rules: tuple[RegionRule, ...]
 
     def region_of(self, x: float, y: float) -> str:
-        """Scalar reference implementation of the rules (the torch module batches this)."""
-        for rule in self.rules:
-            if all(
-                (x, y)[c.axis] > c.threshold if c.greater else (x, y)[c.axis] < c.threshold
-                for c in rule.conditions
-            ):
-                return rule.region
-        raise MapError(f"regions.rules: no rule matches the pose ({x}, {y}); add a default rule")
+        """Reference implementation of the rules for one point (the torch module batches
+        this)."""
+        return self.regions_of(np.array([x], dtype=np.float64), np.array([y], dtype=np.float64))[0]
 
     def regions_of(self, x: np.ndarray, y: np.ndarray) -> list[str]:
-        """:meth:`region_of` of many points (float64 arrays of one shape, flattened): the same
-        comparisons, rule by rule on all points at once (thousands of points when the sub-goal
-        table scans the region lines)."""
+        """The region of many points (float64 arrays of one shape, flattened): first-match
+        rules, each rule's strict comparisons on all points at once (thousands of points when
+        the sub-goal table scans the region lines)."""
         xy = (np.asarray(x, dtype=np.float64).ravel(), np.asarray(y, dtype=np.float64).ravel())
         found = np.full(len(xy[0]), -1)
         for i, rule in enumerate(self.rules):
@@ -132,7 +127,10 @@ class RegionSpec:
             found[holds] = i
         if (found < 0).any():
             j = int(np.argmax(found < 0))
-            self.region_of(float(xy[0][j]), float(xy[1][j]))  # raises the scalar method's error
+            raise MapError(
+                f"regions.rules: no rule matches the pose ({float(xy[0][j])}, {float(xy[1][j])}); "
+                "add a default rule"
+            )
         return [self.rules[i].region for i in found.tolist()]
 
 
