@@ -140,17 +140,6 @@ def _short(value: Any) -> str:
     return str(value)
 
 
-def _set_means(rows: Sequence[dict[str, Any]], key: str, last: int = LAST) -> dict[int, float]:
-    """Per set, the mean of ``key`` over its last ``last`` trials."""
-    by_set: dict[int, list[dict[str, Any]]] = {}
-    for r in rows:
-        by_set.setdefault(int(r["set"]), []).append(r)
-    return {
-        s: float(np.mean([float(r[key]) for r in sorted(v, key=lambda r: int(r["trial"]))[-last:]]))
-        for s, v in by_set.items()
-    }
-
-
 def changes_markdown(
     variants: Sequence[Variant], rows: dict[str, Sequence[dict[str, Any]]], last: int = LAST
 ) -> str:
@@ -158,10 +147,9 @@ def changes_markdown(
     over sets), each with the paired difference from the first variant (the full recipe), mean
     ± standard error over sets (positive: the recipe is better with the setting); the last
     trials' actions, the neurons at the last trial, collisions (per trial in the last ``last``
-    / per set over all trials) and the trials from trial 5 on that failed."""
-    full = variants[0].name
-    windows = (last, 10**9)  # the last trials; all of them
-    refs = [_set_means(rows[full], "total_reinforcement", w) for w in windows]
+    / per set over all trials) and the trials from trial 5 on that failed. Every variant ran
+    the same sets and trials."""
+    full = curves(rows[variants[0].name], "total_reinforcement")  # (sets, trials)
     lines = [
         f"| variant | setting put back | total last {last} | Δ last {last} (paired) "
         "| total, all trials | Δ all trials (paired) "
@@ -169,35 +157,27 @@ def changes_markdown(
         "| failed trials from 5 |",
         "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
-    for v in variants:
+    for i, v in enumerate(variants):
         r = rows[v.name]
+        total = curves(r, "total_reinforcement")
         cells = []
-        for ref, w in zip(refs, windows, strict=True):
-            total = _set_means(r, "total_reinforcement", w)
-            sets = sorted(total)
-            cells.append(f"{np.mean([total[s] for s in sets]):.2f}")
-            if v.name == full:
+        for window in (slice(-last, None), slice(None)):  # the last trials; all of them
+            per_set = total[:, window].mean(axis=1)
+            cells.append(f"{per_set.mean():.2f}")
+            if i == 0:
                 cells.append("-")
                 continue
-            d = np.array([ref[s] - total[s] for s in sets if s in ref])
+            d = full[:, window].mean(axis=1) - per_set
             se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
             cells.append(f"{d.mean():+.2f} ± {se:.2f}")
-        steps = _set_means(r, "steps", last)
-        coll_last = _set_means(r, "collisions", last)
-        coll_all = {s: m * sum(1 for x in r if int(x["set"]) == s)
-                    for s, m in _set_means(r, "collisions", 10**9).items()}  # fmt: skip
-        sets = sorted(steps)
-        neurons = np.mean([
-            float(max((x for x in r if int(x["set"]) == s), key=lambda x: int(x["trial"]))
-                  .get("neurons") or 0)
-            for s in sets
-        ])  # fmt: skip
+        steps, collisions = curves(r, "steps"), curves(r, "collisions")
+        neurons = curves(r, "neurons")[:, -1]
         failed = sum(1 for x in r if int(x["trial"]) >= 5 and not _reached(x))
         lines.append(
             f"| {v.name} | {v.change or '-'} | {' | '.join(cells)} "
-            f"| {np.mean([steps[s] for s in sets]):.1f} | {neurons:.0f} "
-            f"| {np.mean([coll_last[s] for s in sets]):.2f} / "
-            f"{np.mean([coll_all[s] for s in sets]):.1f} | {failed} |"
+            f"| {steps[:, -last:].mean():.1f} | {neurons.mean():.0f} "
+            f"| {collisions[:, -last:].mean():.2f} / {collisions.sum(axis=1).mean():.1f} "
+            f"| {failed} |"
         )
     return "\n".join(lines) + "\n"
 
