@@ -8,7 +8,8 @@ naming the key and the value (:class:`ConfigError`).
 
 The sections follow the data flow: ``env`` (world and robot) -> ``gate`` (regions) ->
 ``experts`` (growing RBF networks) -> ``options`` (sub-goals for the reflex) -> ``reflex`` ->
-``shield``; ``update`` is the TESEO learning rule; ``run`` the budget.
+``shield``; ``update`` is the TESEO learning rule, ``trial_gradient`` a second actor rule;
+``run`` the budget.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ __all__ = [
     "GateConfig",
     "ExpertsConfig",
     "UpdateConfig",
+    "TrialGradientConfig",
     "OptionsConfig",
     "ShieldSection",
     "RunSection",
@@ -137,6 +139,23 @@ class UpdateConfig(_Section):
     """After a goal-reaching trial with the best total so far, p <- action taken, mu <- 0."""
 
 
+class TrialGradientConfig(_Section):
+    """A second actor rule for the experts (``symrl.learner.trial_gradient``): after each trial,
+    every neuron's exploration mean steps along the gradient of the trial's reward with respect
+    to its correction, replayed through the robot's odometry, its sonar readings and the reflex
+    (the reflex's feedback included). Off in the paper (rate 0); needs residual experts."""
+
+    rate: float = Field(0.0, ge=0)
+    """mu += clip(rate * dJ/dmu, +-max_step) per neuron and trial; 0 turns the rule off."""
+    max_step: float = Field(0.02, gt=0)
+    """Largest change of a neuron's mean in one trial, radians (the model is linearised)."""
+    limit: float = Field(0.6, gt=0)
+    """The means stay within +-limit radians."""
+    step_cost: float = Field(3.0, ge=0)
+    """Worth of one action fewer, in units of the trial's mean cost per action (the model's
+    price of arriving later)."""
+
+
 class OptionsConfig(_Section):
     """Sub-goal options: per region, where the reflex's goal following steers (the goal or a
     point of a passage from the map), chosen at the region's first entry in a trial by an
@@ -196,6 +215,7 @@ class RunConfig(_Section):
     gate: GateConfig = Field(default_factory=GateConfig)
     experts: ExpertsConfig = Field(default_factory=ExpertsConfig)
     update: UpdateConfig = Field(default_factory=UpdateConfig)
+    trial_gradient: TrialGradientConfig = Field(default_factory=TrialGradientConfig)
     options: OptionsConfig = Field(default_factory=OptionsConfig)
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
@@ -206,6 +226,11 @@ class RunConfig(_Section):
     def _consistent(self) -> RunConfig:
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
+        if self.trial_gradient.rate > 0 and not self.experts.residual:
+            raise ValueError(
+                f"trial_gradient.rate={self.trial_gradient.rate} needs experts.residual=true "
+                "(the model replays the reflex with the neurons' corrections on top)"
+            )
         robot = self.env.robot
         if self.reflex.n_rays != robot.n_sensors:
             raise ValueError(

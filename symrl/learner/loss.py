@@ -18,9 +18,10 @@ detached, lr eta) and of -delta * log N(xi; mu, sigma^2) (lr beta * sigma^2);
 optimizer cannot follow, so they are applied in place under ``no_grad``.
 
 End of a robot's trial (:meth:`end_trial`): after a goal-reaching trial whose total beats every
-earlier successful one, each neuron used gets p <- the action it took and mu <- 0; then
-T <- max(T_min, cooling * T); with options, the critic of each option chosen in the trial steps
-toward its return-to-go from the region's first entry.
+earlier successful one, each neuron used gets p <- the action it took and mu <- 0; with
+``trial_gradient.rate`` > 0, each neuron's mu steps along the trial's reward gradient
+(``symrl.learner.trial_gradient``); then T <- max(T_min, cooling * T); with options, the critic
+of each option chosen in the trial steps toward its return-to-go from the region's first entry.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from torchrl.objectives import LossModule
 
 from symrl.grad import no_grad
 from symrl.learner.policy import MixtureOfExpertsPolicy
+from symrl.learner.trial_gradient import TrialRecord, trial_gradient
 from symrl.tensordicts import read
 
 __all__ = ["TeseoLoss"]
@@ -59,6 +61,8 @@ class TeseoLoss(LossModule):
         xi: str = "xi"
         taken: str = "taken"
         region: str = "region"
+        aim: str = "aim"
+        shielded: str = "shielded"
         option_entry: str = "option_entry"
         state_reward: str = "state_reward"
         sonar: str = "sonar"
@@ -88,12 +92,19 @@ class TeseoLoss(LossModule):
         # option critics: return so far in the trial, and at each region's first entry
         self.register_buffer("trial_return", torch.zeros(batch, dtype=torch.float64))
         self.register_buffer("entry_return", torch.zeros(batch, regions, dtype=torch.float64))
+        # the trial gradient's record of the trials in progress (empty at every trial boundary,
+        # where runs are saved, so it is not part of the state)
+        self.record: TrialRecord | None = None
+        if self.config.trial_gradient.rate > 0 and self.config.experts.learning:
+            self.record = TrialRecord(batch, self.config.env.max_actions, policy.reflex.config.n_rays)
 
     @property
     def in_keys(self) -> list:
         k = self.tensor_keys
         own = [k.expert, k.winner, k.novel, k.x, k.proto, k.xi, k.taken, k.region,
                k.option_entry, k.state_reward]  # fmt: skip
+        if self.record is not None:
+            own += [k.sonar, k.odometry, k.aim, k.shielded]
         nxt = [("next", key) for key in (k.sonar, k.odometry, k.goal, k.reward, k.terminated,
                                           k.truncated)]  # fmt: skip
         return own + nxt
@@ -121,7 +132,7 @@ class TeseoLoss(LossModule):
                 rows = np.flatnonzero(entered)
                 region = read(td, k.region).numpy()
                 self.entry_return.numpy()[rows, region[rows]] = self.trial_return.numpy()[rows]
-            self.trial_return.numpy()[:] += r
+        self.trial_return.numpy()[:] += r
         if not cfg.experts.learning:
             zero = torch.zeros(batch, dtype=torch.float64)
             return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
@@ -145,6 +156,13 @@ class TeseoLoss(LossModule):
         index = bank.flat_index_np(expert, winner)
         flat.taken[index] = read(td, k.taken).numpy()
         flat.used[index] = True
+
+        if self.record is not None:
+            self.record.append(
+                read(td, k.odometry).numpy(), read(td, k.sonar).numpy(), read(td, k.aim).numpy(),
+                read(td, k.shielded).numpy(), flat.row_base + expert, winner,
+                read(nxt, k.odometry).numpy(), read(nxt, k.sonar).numpy(),
+            )  # fmt: skip
 
         # 2. the utility of the state reached
         terminated = read(nxt, k.terminated).numpy().reshape(-1)
@@ -214,15 +232,44 @@ class TeseoLoss(LossModule):
             temperature[rows_np] = np.maximum(
                 update.cooling * temperature[rows_np], update.temperature_min
             )
+            if self.record is not None:
+                self._trial_gradient_step(rows_np)
             policy.experts.clear_trial(rows)
         if policy.options is not None:
             returns = self.trial_return.numpy()[rows_np, None] - self.entry_return.numpy()[rows_np]
             policy.options.learn(rows, torch.from_numpy(returns))
-            self.trial_return.numpy()[rows_np] = 0.0
             self.entry_return.numpy()[rows_np] = 0.0
+        self.trial_return.numpy()[rows_np] = 0.0
         policy.trials_done.numpy()[rows_np] += 1
         return {"replaced": torch.from_numpy(replaced), "improved": torch.from_numpy(improved),
                 "best_total": torch.from_numpy(best[rows_np])}  # fmt: skip
+
+    def _trial_gradient_step(self, rows: np.ndarray) -> None:
+        """mu_j += clip(rate * sum of dJ/da_t over the steps neuron j acted, +-max_step), kept
+        within +-limit, for every neuron that acted in the finished trials of ``rows``."""
+        rec, policy, cfg = self.record, self.policy, self.config
+        assert rec is not None
+        tg, robot = cfg.trial_gradient, cfg.env.robot
+        goal = policy.world.goal
+        flat = policy.experts.flat
+        means = flat.means
+        for b in rows.tolist():
+            n = int(rec.steps[b])
+            if n == 0:
+                continue
+            # the price of one action more: the trial's own mean cost per action
+            cost = tg.step_cost * max(-float(self.trial_return[b]), 0.0) / n
+            grad = trial_gradient(
+                policy.reflex, rec.pose[b, : n + 1], rec.sonar[b, :n], rec.next_sonar[b, :n],
+                rec.aim[b, :n], rec.moved[b, :n], rec.held[b, :n], (goal.x, goal.y),
+                robot.step, robot.sonar_range, robot.close_distance, cost,
+            )  # fmt: skip
+            index = rec.row[b, :n] * flat.capacity + rec.neuron[b, :n]
+            used, inverse = np.unique(index, return_inverse=True)
+            total = np.bincount(inverse, weights=grad, minlength=len(used))
+            step = np.clip(tg.rate * total, -tg.max_step, tg.max_step)
+            means[used] = np.clip(means[used] + step, -tg.limit, tg.limit)
+        rec.clear(rows)
 
     def extra_repr(self) -> str:
         u = self.config.update

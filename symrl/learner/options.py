@@ -97,10 +97,10 @@ class SubgoalOptions(BufferViews):
     # -- acting (called by the policy) ----------------------------------------------------
     def steer(
         self, region: torch.Tensor, odometry: torch.Tensor, greedy: bool
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """The signed angle (left positive) from each odometry heading to the point the reflex
-        should aim at in ``region``; also the option in force (B,) and whether it was chosen
-        at this step (the region's first entry in the trial) (B,) bool."""
+        should aim at in ``region``; also the option in force (B,), whether it was chosen at
+        this step (the region's first entry in the trial) (B,) bool, and the point (B, 2)."""
         # numpy on the buffers' memory (a handful of rows: a fraction of the torch dispatches);
         # the norm and atan2 stay torch's, the rest is exact arithmetic in the same order
         a = self.arrays  # the buffers' numpy views
@@ -123,10 +123,12 @@ class SubgoalOptions(BufferViews):
         point = points.reshape(-1, 2)[region_np * points.shape[1] + chosen]
         distance = torch.linalg.vector_norm(torch.from_numpy(point - xy), dim=-1).numpy()
         stage[distance < self.config.reach] = _GOAL_STAGE  # type: ignore[attr-defined]
-        d = np.where((stage == _GOAL_STAGE)[:, None], self._goal, point) - xy
+        aim = np.where((stage == _GOAL_STAGE)[:, None], self._goal, point)
+        d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
-        return torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered)
+        return (torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered),
+                torch.from_numpy(aim))
 
     def _choose(self, b: int, region: int, greedy: bool) -> int:
         """Controller ``b``'s option for ``region`` at its first entry in a trial (on Python

@@ -89,13 +89,14 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ``action`` (B, 1) and the decision: ``region``, ``expert``, ``winner`` (-1 when novel),
     ``novel``, ``x``, ``proto`` (the action a new neuron here gets), ``xi`` (exploration draw),
     ``sigma``, ``taken`` (the action relative to its base, remembered for action replacement),
-    ``shielded``, and with options ``option`` and ``option_entry``.
+    ``shielded``, ``aim`` (B, 2) (the point the reflex steered at: the goal or the option's
+    sub-goal), and with options ``option`` and ``option_entry``.
     """
 
     in_keys = list(OBS_KEYS)
     out_keys = [
         "action", "region", "expert", "winner", "novel", "x", "proto", "xi", "sigma", "taken",
-        "shielded", "option", "option_entry",
+        "shielded", "aim", "option", "option_entry",
     ]  # fmt: skip
 
     temperature: torch.Tensor
@@ -154,6 +155,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self._zeros_np = self._zeros.numpy()
         self._no_option = torch.full((batch,), -1, dtype=torch.long)
         self._no_entry = torch.zeros(batch, dtype=torch.bool)
+        self._goal_aim = torch.tensor([[goal.x, goal.y]], dtype=torch.float64).repeat(batch, 1)
         # the observation of the last perception and its (region, expert, x)
         self._last_seen: tuple[tuple, _GateAndInputs] | None = None
 
@@ -250,9 +252,9 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         sonar, odometry, goal = read(td, "sonar"), read(td, "odometry"), read(td, "goal")
         region, expert, x, winner, novel = self.perceive_arrays(sonar, odometry, goal)
         zero = self._zeros
-        option, entered = self._no_option, self._no_entry
+        option, entered, aim = self._no_option, self._no_entry, self._goal_aim
         if self.options is not None:
-            target, option, entered = self.options.steer(region, odometry, greedy)
+            target, option, entered, aim = self.options.steer(region, odometry, greedy)
         else:
             target = goal[:, 1].to(torch.float64)
         if xc.reflex or not xc.learning:
@@ -313,6 +315,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 "shielded": shielded,
                 "option": option,
                 "option_entry": entered,
+                "aim": aim,
             },
         )
         return td

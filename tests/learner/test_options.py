@@ -40,7 +40,7 @@ def _trial(opt: SubgoalOptions, returns: dict[int, float], row: int = 0) -> int:
     the option chosen there."""
     rows = torch.tensor([row])
     opt.begin_trial(rows)
-    _, option, entered = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=False)
+    _, option, entered, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=False)
     assert bool(entered[0])
     chosen = int(option[0])
     opt.steer(torch.tensor([1]), _odometry((3.8, -0.5, 0.0)), greedy=False)
@@ -67,7 +67,7 @@ def test_mean_critic_is_robust_to_a_lucky_trial_best_critic_is_not(critic, winne
     for _ in range(6):
         rows = torch.tensor([0])
         opt.begin_trial(rows)
-        _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=False)
+        _, option, _, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=False)
         ret = -5.0 if int(option[0]) == 2 else next(outcomes)
         opt.learn(rows, torch.tensor([[ret, 0.0]], dtype=torch.float64))
     assert opt.greedy(0)[0] == winner
@@ -81,7 +81,7 @@ def test_option_is_kept_for_the_trial_and_reaching_it_aims_at_the_goal():
     opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
 
     def aim(region: int, x: float, y: float) -> float:
-        angle, option, _ = opt.steer(torch.tensor([region]), _odometry((x, y, 0.0)), False)
+        angle, option, _, _ = opt.steer(torch.tensor([region]), _odometry((x, y, 0.0)), False)
         assert int(option[0]) == (1 if region == 0 else 0)
         return float(angle[0])
 
@@ -95,9 +95,9 @@ def test_option_is_kept_for_the_trial_and_reaching_it_aims_at_the_goal():
 
 def test_angle_is_relative_to_the_heading_and_wrapped():
     opt = _options(epsilon=0.0)
-    angle, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, math.pi / 2)), False)
+    angle, _, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, math.pi / 2)), False)
     assert abs(float(angle[0])) == pytest.approx(math.pi)  # the goal straight behind
-    angle, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, -3.0)), False)
+    angle, _, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, -3.0)), False)
     assert -math.pi <= float(angle[0]) <= math.pi
     assert float(angle[0]) == pytest.approx(-math.pi / 2 + 3.0)
 
@@ -123,7 +123,7 @@ def test_epsilon_explores_and_follows_the_robots_seed():
         for _ in range(30):
             rows = torch.arange(len(seeds))
             opt.begin_trial(rows)
-            _, option, _ = opt.steer(torch.zeros(len(seeds), dtype=torch.long),
+            _, option, _, _ = opt.steer(torch.zeros(len(seeds), dtype=torch.long),
                                      _odometry(*[(0.0, 0.0, 0.0)] * len(seeds)), False)  # fmt: skip
             out.append(int(option[row]))
         return out
@@ -138,12 +138,12 @@ def test_greedy_choice_draws_nothing_and_is_the_best_tried():
     opt.n[0, 0] = torch.tensor([1, 1, 0])
     opt.q[0, 0] = torch.tensor([-9.0, -3.0, 0.0], dtype=torch.float64)
     state = opt.generators[0].get_state()
-    _, option, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
+    _, option, _, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
     assert int(option[0]) == 1  # the untried option 2 is not taken greedily
     assert torch.equal(opt.generators[0].get_state(), state)
     opt.begin_trial(torch.tensor([0]))
     fresh = _options(epsilon=0.0)
-    _, option, _ = fresh.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
+    _, option, _, _ = fresh.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
     assert int(option[0]) == 0  # nothing tried: the first option
 
 

@@ -1,0 +1,197 @@
+"""The gradient of a finished trial's reward with respect to each action, through the robot's
+own odometry and the reflex: the experts' second actor rule (config section ``trial_gradient``).
+
+Why (docs/LEARNING.md, "The trial gradient"): a one-step perturbation of an action hardly
+changes a trial's return, because the reflex steers back at its target on the next steps, so
+REINFORCE from 20 noisy trials sees noise. What a *persistent* correction does is known to the
+robot, though: its odometry moves exactly as commanded, the heading term f2 of its reward is a
+function of the odometry pose, the clearance term f1 a function of its sonar readings, and the
+reflex's response to both is a function it computes. Replaying the recorded trial through these
+gives dJ/da_t for every action with the reflex's feedback included: a stochastic value gradient
+along the real trajectory (Heess et al. 2015, SVG(infinity)), with the noise of the trial held
+at what it was.
+
+The model, linearised at the recorded trajectory (s_t = (x, y, theta) the odometry pose, o_t the
+sonar readings, l the step length, m_t = 0 when the step collided and was reversed):
+
+    a_t     = R(o_t, beta_t) + e_t              beta_t: bearing of the reflex's target from s_t;
+                                                e_t: the correction and the noise (held)
+    s_{t+1} = (x + m_t l cos(theta + a_t), y + m_t l sin(theta + a_t), theta + a_t)
+    o_t     : every beam's hit point stays where it was seen (moving by dp toward it shortens
+              the beam by u . dp); a beam at its range sees nothing
+    J       = sum_t f1(o_{t+1}) + f2(s_{t+1}) - c |p_T - goal| / l
+
+The last term prices arriving: a final position one step length nearer the goal is one action
+fewer, worth ``c``, the trial's mean cost per action times ``step_cost``. Shielded actions are
+held (they do not follow the reflex). The costate runs backward once per trial, O(T) 3 x 3
+products; the reflex's partials come from one batched call of central differences (it is
+piecewise linear). ``tests/learner/test_trial_gradient.py`` checks the result against central
+differences of the replayed model.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+__all__ = ["TrialRecord", "reflex_partials", "trial_gradient"]
+
+
+class TrialRecord:
+    """What the update saw of each robot's current trial, one row per transition.
+
+    ``pose`` (B, T + 1, 3) odometry poses; ``sonar`` / ``next_sonar`` (B, T, n) the readings the
+    reflex acted on and those after the move; ``aim`` (B, T, 2) the point the reflex steered at;
+    ``held`` (B, T) shielded actions; ``moved`` (B, T) steps that translated; ``row``/``neuron``
+    (B, T) the expert row and neuron that acted (capacity-free, so growth cannot stale them)."""
+
+    def __init__(self, batch: int, max_steps: int, n_rays: int) -> None:
+        t = max_steps + 1
+        self.pose = np.zeros((batch, t + 1, 3))
+        self.sonar = np.zeros((batch, t, n_rays))
+        self.next_sonar = np.zeros((batch, t, n_rays))
+        self.aim = np.zeros((batch, t, 2))
+        self.held = np.zeros((batch, t), dtype=bool)
+        self.moved = np.zeros((batch, t), dtype=bool)
+        self.row = np.zeros((batch, t), dtype=np.int64)
+        self.neuron = np.zeros((batch, t), dtype=np.int64)
+        self.steps = np.zeros(batch, dtype=np.int64)
+
+    def append(
+        self,
+        pose: np.ndarray,
+        sonar: np.ndarray,
+        aim: np.ndarray,
+        held: np.ndarray,
+        row: np.ndarray,
+        neuron: np.ndarray,
+        next_pose: np.ndarray,
+        next_sonar: np.ndarray,
+    ) -> None:
+        """One transition of every robot: arrays with the batch first."""
+        rows = np.arange(len(self.steps))
+        t = np.minimum(self.steps, self.sonar.shape[1] - 1)
+        self.pose[rows, t] = pose
+        self.pose[rows, t + 1] = next_pose
+        self.sonar[rows, t] = sonar
+        self.next_sonar[rows, t] = next_sonar
+        self.aim[rows, t] = aim
+        self.held[rows, t] = held
+        self.moved[rows, t] = np.any(next_pose[:, :2] != pose[:, :2], axis=1)
+        self.row[rows, t] = row
+        self.neuron[rows, t] = neuron
+        self.steps = t + 1
+
+    def clear(self, rows: np.ndarray) -> None:
+        self.steps[rows] = 0
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    return np.remainder(a + math.pi, 2 * math.pi) - math.pi
+
+
+def _bearing_partials(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """d atan2(dy, dx) / d(x, y) of the robot's position, with (dx, dy) = target - position."""
+    d2 = np.maximum(dx * dx + dy * dy, 1e-12)
+    return dy / d2, -dx / d2
+
+
+def reflex_partials(
+    reflex: torch.nn.Module, sonar: np.ndarray, beta: np.ndarray,
+    eps: float = 1e-7, jump: float = 1e-4,
+) -> tuple[np.ndarray, np.ndarray]:
+    """dR/d beta (T,) and dR/d sonar (T, n) of the reflex's output at T inputs (float64).
+
+    Central differences in one batched call: the reflex is piecewise linear in both, so a step
+    of 1e-7 is exact within a piece. Where the two sides differ by more than ``jump`` (a crisp
+    switch of the turning side, or a kink) the partial is 0: a jump is not a slope that a
+    small change of the path can follow."""
+    t, n = sonar.shape
+    k = 1 + n
+    s = np.broadcast_to(sonar, (2 * k + 1, t, n)).copy()
+    b = np.broadcast_to(beta, (2 * k + 1, t)).copy()
+    b[1] += eps
+    b[2] -= eps
+    i = np.arange(n)
+    s[3 + 2 * i, :, i] += eps
+    s[4 + 2 * i, :, i] -= eps
+    with torch.no_grad():
+        out = reflex(torch.from_numpy(s.reshape(-1, n)), torch.from_numpy(b.reshape(-1)))
+    out = out.numpy().reshape(2 * k + 1, t)
+    up, down = out[1::2] - out[0], out[0] - out[2::2]
+    slope = np.where(np.abs(up - down) > jump, 0.0, (up + down) / (2 * eps))  # (k, T)
+    return slope[0], slope[1:].T
+
+
+def trial_gradient(
+    reflex: torch.nn.Module,
+    pose: np.ndarray,
+    sonar: np.ndarray,
+    next_sonar: np.ndarray,
+    aim: np.ndarray,
+    moved: np.ndarray,
+    held: np.ndarray,
+    goal: tuple[float, float],
+    step: float,
+    sonar_range: float,
+    close: float,
+    step_cost: float = 0.0,
+) -> np.ndarray:
+    """dJ/da_t (T,) of one recorded trial (the model of the module docstring).
+
+    ``pose`` (T + 1, 3) the odometry poses, start included; ``sonar`` and ``next_sonar`` (T, n)
+    normalised readings before and after each move; ``aim`` (T, 2); ``moved``, ``held`` (T,);
+    ``close`` is d_c of f1 (m); ``step_cost`` the worth of one action fewer. Held actions get 0."""
+    n = len(aim)
+    if n == 0:
+        return np.zeros(0)
+    rays = sonar.shape[1]
+    x, y, th = pose[:n, 0], pose[:n, 1], pose[:n, 2]
+    dx, dy = aim[:, 0] - x, aim[:, 1] - y
+    beta = _wrap(np.arctan2(dy, dx) - th)
+    r_beta, r_sonar = reflex_partials(reflex, sonar, beta)
+    follows = (~held).astype(np.float64)
+    # da_t/ds_t (T, 3): through the target's bearing, and through the beams' lengths
+    bx, by = _bearing_partials(dx, dy)
+    da_ds = (r_beta * follows)[:, None] * np.stack((bx, by, -np.ones(n)), axis=1)
+    w = r_sonar * follows[:, None] * (sonar < 1.0) / sonar_range  # dR / d(rim metres)
+    beams = th[:, None] + np.arange(rays) * (2 * math.pi / rays)
+    da_ds[:, 0] -= (w * np.cos(beams)).sum(axis=1)
+    da_ds[:, 1] -= (w * np.sin(beams)).sum(axis=1)
+    # ds_{t+1}/da_t at the recorded next heading
+    th1 = pose[1 : n + 1, 2]
+    ml = np.where(moved, step, 0.0)
+    ds1_da = np.stack((-ml * np.sin(th1), ml * np.cos(th1), np.ones(n)), axis=1)
+    # d r_t / d s_{t+1}: f2 = -|wrap(theta' - psi(p'))| / pi, psi the goal's bearing
+    x1, y1 = pose[1 : n + 1, 0], pose[1 : n + 1, 1]
+    gx, gy = goal[0] - x1, goal[1] - y1
+    px, py = _bearing_partials(gx, gy)
+    sign = -np.sign(_wrap(th1 - np.arctan2(gy, gx))) / math.pi
+    dr = sign[:, None] * np.stack((-px, -py, np.ones(n)), axis=1)
+    # f1 = -1 + min_j rim_j / d_c below d_c: d f1 / dp = -u_min / d_c (a collision's -3: held)
+    rim = next_sonar * sonar_range
+    j = rim.argmin(axis=1)
+    near = (rim[np.arange(n), j] < close) & moved
+    nearest = th1 + j * (2 * math.pi / rays)
+    dr[:, 0] -= np.where(near, np.cos(nearest) / close, 0.0)
+    dr[:, 1] -= np.where(near, np.sin(nearest) / close, 0.0)
+    if step_cost and moved[n - 1]:
+        ex, ey = x1[-1] - goal[0], y1[-1] - goal[1]
+        d = max(math.hypot(ex, ey), 1e-9)
+        dr[n - 1, 0] -= step_cost / step * ex / d
+        dr[n - 1, 1] -= step_cost / step * ey / d
+    grad = np.zeros(n)
+    lam = np.zeros(3)  # dJ(rewards from step t on) / ds_{t+1}
+    jac = np.eye(3)
+    for t in range(n - 1, -1, -1):
+        lam = lam + dr[t]
+        grad[t] = lam @ ds1_da[t]
+        # ds_{t+1}/ds_t = dF/ds + dF/da da/ds, with dF/ds = I + the heading column of (x, y)
+        jac[:] = np.eye(3)
+        jac[0, 2], jac[1, 2] = ds1_da[t, 0], ds1_da[t, 1]
+        jac += np.outer(ds1_da[t], da_ds[t])
+        lam = lam @ jac
+    grad[held] = 0.0
+    return grad
