@@ -105,9 +105,9 @@ def reflex_partials(
     """dR/d beta (T,) and dR/d sonar (T, n) of the reflex's output at T inputs (float64).
 
     Central differences in one batched call: the reflex is piecewise linear in both, so a step
-    of 1e-7 is exact within a piece. Where the two sides differ by more than ``jump`` (a crisp
-    switch of the turning side, or a kink) the partial is 0: a jump is not a slope that a
-    small change of the path can follow."""
+    of 1e-7 is exact within a piece. Where either side changes by more than ``jump`` (1000 rad
+    per unit: no slope of the reflex, a crisp switch of the turning side) the partial is 0: a
+    jump is not a slope that a small change of the path can follow."""
     t, n = sonar.shape
     k = 1 + n
     s = np.broadcast_to(sonar, (2 * k + 1, t, n)).copy()
@@ -121,7 +121,8 @@ def reflex_partials(
         out = reflex(torch.from_numpy(s.reshape(-1, n)), torch.from_numpy(b.reshape(-1)))
     out = out.numpy().reshape(2 * k + 1, t)
     up, down = out[1::2] - out[0], out[0] - out[2::2]
-    slope = np.where(np.abs(up - down) > jump, 0.0, (up + down) / (2 * eps))  # (k, T)
+    jumps = np.maximum(np.abs(up), np.abs(down)) > jump
+    slope = np.where(jumps, 0.0, (up + down) / (2 * eps))  # (k, T)
     return slope[0], slope[1:].T
 
 
