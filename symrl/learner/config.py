@@ -143,7 +143,9 @@ class TrialGradientConfig(_Section):
     """A second actor rule for the experts (``symrl.learner.trial_gradient``): after each trial,
     every neuron's exploration mean steps along the gradient of the trial's reward with respect
     to its correction, replayed through the robot's odometry, its sonar readings and the reflex
-    (the reflex's feedback included). Off in the paper (rate 0); needs residual experts."""
+    (the reflex's feedback included; with absolute actions, ``experts.residual=false``, the
+    actions do not follow the reflex and the gradient is the open-loop one). Off in the paper
+    (rate 0)."""
 
     rate: float = Field(0.0, ge=0)
     """mu += clip(rate * dJ/dmu, +-max_step) per neuron and trial; 0 turns the rule off."""
@@ -226,11 +228,6 @@ class RunConfig(_Section):
     def _consistent(self) -> RunConfig:
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
-        if self.trial_gradient.rate > 0 and not self.experts.residual:
-            raise ValueError(
-                f"trial_gradient.rate={self.trial_gradient.rate} needs experts.residual=true "
-                "(the model replays the reflex with the neurons' corrections on top)"
-            )
         robot = self.env.robot
         if self.reflex.n_rays != robot.n_sensors:
             raise ValueError(

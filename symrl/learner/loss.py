@@ -96,7 +96,8 @@ class TeseoLoss(LossModule):
         # where runs are saved, so it is not part of the state)
         self.record: TrialRecord | None = None
         if self.config.trial_gradient.rate > 0 and self.config.experts.learning:
-            self.record = TrialRecord(batch, self.config.env.max_actions, policy.reflex.config.n_rays)
+            rays = policy.reflex.config.n_rays
+            self.record = TrialRecord(batch, self.config.env.max_actions, rays)
 
     @property
     def in_keys(self) -> list:
@@ -263,6 +264,7 @@ class TeseoLoss(LossModule):
                 policy.reflex, rec.pose[b, : n + 1], rec.sonar[b, :n], rec.next_sonar[b, :n],
                 rec.aim[b, :n], rec.moved[b, :n], rec.held[b, :n], (goal.x, goal.y),
                 robot.step, robot.sonar_range, robot.close_distance, cost,
+                reactive=cfg.experts.residual,
             )  # fmt: skip
             index = rec.row[b, :n] * flat.capacity + rec.neuron[b, :n]
             used, inverse = np.unique(index, return_inverse=True)

@@ -15,7 +15,8 @@ The model, linearised at the recorded trajectory (s_t = (x, y, theta) the odomet
 sonar readings, l the step length, m_t = 0 when the step collided and was reversed):
 
     a_t     = R(o_t, beta_t) + e_t              beta_t: bearing of the reflex's target from s_t;
-                                                e_t: the correction and the noise (held)
+                                                e_t: the correction and the noise (held);
+                                                absolute experts: a_t = e_t (no feedback)
     s_{t+1} = (x + m_t l cos(theta + a_t), y + m_t l sin(theta + a_t), theta + a_t)
     o_t     : every beam's hit point stays where it was seen (moving by dp toward it shortens
               the beam by u . dp); a beam at its range sees nothing
@@ -104,26 +105,34 @@ def reflex_partials(
 ) -> tuple[np.ndarray, np.ndarray]:
     """dR/d beta (T,) and dR/d sonar (T, n) of the reflex's output at T inputs (float64).
 
-    Central differences in one batched call: the reflex is piecewise linear in both, so a step
+    Central differences in one batched call, on beta and on each sector's nearest ray (the
+    only ray of a sector the reflex reads): the reflex is piecewise linear in both, so a step
     of 1e-7 is exact within a piece. Where either side changes by more than ``jump`` (1000 rad
     per unit: no slope of the reflex, a crisp switch of the turning side) the partial is 0: a
     jump is not a slope that a small change of the path can follow."""
     t, n = sonar.shape
-    k = 1 + n
+    steps = np.arange(t)
+    # the reflex reads each sector's nearest ray: only that ray has a slope
+    nearest = [np.asarray(rays)[np.argmin(sonar[:, list(rays)], axis=1)]
+               for rays in reflex.config.sectors.values()]  # fmt: skip
+    k = 1 + len(nearest)
     s = np.broadcast_to(sonar, (2 * k + 1, t, n)).copy()
     b = np.broadcast_to(beta, (2 * k + 1, t)).copy()
     b[1] += eps
     b[2] -= eps
-    i = np.arange(n)
-    s[3 + 2 * i, :, i] += eps
-    s[4 + 2 * i, :, i] -= eps
+    for i, ray in enumerate(nearest):
+        s[3 + 2 * i, steps, ray] += eps
+        s[4 + 2 * i, steps, ray] -= eps
     with torch.no_grad():
         out = reflex(torch.from_numpy(s.reshape(-1, n)), torch.from_numpy(b.reshape(-1)))
     out = out.numpy().reshape(2 * k + 1, t)
     up, down = out[1::2] - out[0], out[0] - out[2::2]
     jumps = np.maximum(np.abs(up), np.abs(down)) > jump
     slope = np.where(jumps, 0.0, (up + down) / (2 * eps))  # (k, T)
-    return slope[0], slope[1:].T
+    r_sonar = np.zeros((t, n))
+    for i, ray in enumerate(nearest):
+        r_sonar[steps, ray] += slope[1 + i]
+    return slope[0], r_sonar
 
 
 def trial_gradient(
@@ -139,12 +148,15 @@ def trial_gradient(
     sonar_range: float,
     close: float,
     step_cost: float = 0.0,
+    reactive: bool = True,
 ) -> np.ndarray:
     """dJ/da_t (T,) of one recorded trial (the model of the module docstring).
 
     ``pose`` (T + 1, 3) the odometry poses, start included; ``sonar`` and ``next_sonar`` (T, n)
     normalised readings before and after each move; ``aim`` (T, 2); ``moved``, ``held`` (T,);
-    ``close`` is d_c of f1 (m); ``step_cost`` the worth of one action fewer. Held actions get 0."""
+    ``close`` is d_c of f1 (m); ``step_cost`` the worth of one action fewer. Held actions get 0.
+    ``reactive=False``: the actions do not follow the reflex (experts with absolute actions,
+    a = p + mu + noise): the open-loop gradient."""
     n = len(aim)
     if n == 0:
         return np.zeros(0)
@@ -152,7 +164,10 @@ def trial_gradient(
     x, y, th = pose[:n, 0], pose[:n, 1], pose[:n, 2]
     dx, dy = aim[:, 0] - x, aim[:, 1] - y
     beta = _wrap(np.arctan2(dy, dx) - th)
-    r_beta, r_sonar = reflex_partials(reflex, sonar, beta)
+    if reactive:
+        r_beta, r_sonar = reflex_partials(reflex, sonar, beta)
+    else:
+        r_beta, r_sonar = np.zeros(n), np.zeros_like(sonar)
     follows = (~held).astype(np.float64)
     # da_t/ds_t (T, 3): through the target's bearing, and through the beams' lengths
     bx, by = _bearing_partials(dx, dy)

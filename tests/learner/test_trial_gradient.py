@@ -12,7 +12,7 @@ import torch
 
 from symrl import ENV_ID
 from symrl.knowledge.reflex import FuzzyReflex
-from symrl.learner.config import ConfigError, load_config
+from symrl.learner.config import load_config
 from symrl.learner.trial_gradient import _wrap, reflex_partials, trial_gradient
 from symrl.train import train_batch
 
@@ -48,8 +48,9 @@ def _recorded_trial(seed: int = 5):
     return pose, np.array(sonar), np.array(after), np.array(aims), moved, np.array(extra)
 
 
-def _replayed_reward(delta, pose, sonar, after, aim, moved, extra, step_cost):
-    """J of the linearised model, rolled forward with the actions changed by ``delta``."""
+def _replayed_reward(delta, pose, sonar, after, aim, moved, extra, step_cost, reactive=True):
+    """J of the linearised model, rolled forward with the actions changed by ``delta``
+    (``reactive=False``: the recorded actions, not the reflex's response to the new pose)."""
     rays = np.arange(sonar.shape[1]) * (2 * math.pi / sonar.shape[1])
     x, y, th = pose[0]
     total = 0.0
@@ -58,7 +59,10 @@ def _replayed_reward(delta, pose, sonar, after, aim, moved, extra, step_cost):
         u = np.stack((np.cos(pose[t, 2] + rays), np.sin(pose[t, 2] + rays)), axis=1)
         seen = np.where(sonar[t] < 1.0, sonar[t] - (u @ shift) / RANGE, sonar[t])
         beta = _wrap(math.atan2(aim[t, 1] - y, aim[t, 0] - x) - th)
-        r = float(REFLEX(torch.from_numpy(seen[None]), torch.tensor([beta], dtype=torch.float64))[0])
+        r = float(REFLEX(torch.from_numpy(seen[None]),
+                         torch.tensor([beta], dtype=torch.float64))[0])  # fmt: skip
+        if not reactive:
+            r = pose[t + 1, 2] - pose[t, 2] - extra[t]  # the action the trial took
         th = th + r + extra[t] + delta[t]
         if moved[t]:
             x, y = x + STEP * math.cos(th), y + STEP * math.sin(th)
@@ -120,7 +124,8 @@ def test_a_mirrored_trial_has_the_negated_gradient(trial):
     n = sonar.shape[1]
     mirror = (-np.arange(n)) % n  # ray k points at heading + k * 15 deg; its mirror at -k
     flip = np.array((1.0, -1.0, -1.0))
-    grad = trial_gradient(REFLEX, pose, sonar, after, aim, moved, held, GOAL, STEP, RANGE, CLOSE, 0.5)
+    grad = trial_gradient(REFLEX, pose, sonar, after, aim, moved, held, GOAL, STEP, RANGE, CLOSE,
+                          0.5)  # fmt: skip
     mirrored = trial_gradient(
         REFLEX, pose * flip, sonar[:, mirror], after[:, mirror], aim * flip[:2], moved, held,
         (GOAL[0], -GOAL[1]), STEP, RANGE, CLOSE, 0.5,
@@ -177,6 +182,18 @@ def test_the_rule_moves_each_neuron_by_at_most_max_step_per_trial():
     assert [off.trials[0][k] for k in first] == [on.trials[0][k] for k in first]
 
 
-def test_the_rule_needs_residual_experts():
-    with pytest.raises(ConfigError, match=r"trial_gradient.rate=0.01 needs experts.residual"):
-        load_config("paper", ["trial_gradient.rate=0.01", "experts.residual=false"])
+def test_absolute_actions_get_the_open_loop_gradient(trial):
+    pose, sonar, after, aim, moved, extra = trial
+    held = np.zeros(len(aim), dtype=bool)
+    grad = trial_gradient(REFLEX, pose, sonar, after, aim, moved, held, GOAL, STEP, RANGE, CLOSE,
+                          0.5, reactive=False)  # fmt: skip
+    closed = trial_gradient(REFLEX, pose, sonar, after, aim, moved, held, GOAL, STEP, RANGE,
+                            CLOSE, 0.5)  # fmt: skip
+    assert not np.allclose(grad, closed)  # the reflex's feedback changes the answer
+    h = 1e-6
+    for t in (0, 9, len(aim) - 2):
+        d = np.zeros(len(aim))
+        d[t] = h
+        fd = (_replayed_reward(d, *trial[:5], extra, 0.5, reactive=False)
+              - _replayed_reward(-d, *trial[:5], extra, 0.5, reactive=False)) / (2 * h)  # fmt: skip
+        assert grad[t] == pytest.approx(fd, rel=1e-4, abs=1e-6), t
