@@ -33,9 +33,13 @@ differences of the replayed model.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
+
+if TYPE_CHECKING:
+    from symrl.knowledge.reflex import FuzzyReflex
 
 __all__ = ["TrialRecord", "reflex_partials", "trial_gradient"]
 
@@ -100,7 +104,7 @@ def _bearing_partials(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 def reflex_partials(
-    reflex: torch.nn.Module, sonar: np.ndarray, beta: np.ndarray,
+    reflex: FuzzyReflex, sonar: np.ndarray, beta: np.ndarray,
     eps: float = 1e-7, jump: float = 1e-4,
 ) -> tuple[np.ndarray, np.ndarray]:
     """dR/d beta (T,) and dR/d sonar (T, n) of the reflex's output at T inputs (float64).
@@ -136,7 +140,7 @@ def reflex_partials(
 
 
 def trial_gradient(
-    reflex: torch.nn.Module,
+    reflex: FuzzyReflex,
     pose: np.ndarray,
     sonar: np.ndarray,
     next_sonar: np.ndarray,
