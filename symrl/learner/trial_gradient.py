@@ -25,7 +25,7 @@ sonar readings, l the step length, m_t = 0 when the step collided and was revers
 The last term prices arriving: a final position one step length nearer the goal is one action
 fewer, worth ``c``, the trial's mean cost per action times ``step_cost``. Shielded actions are
 held (they do not follow the reflex). The costate runs backward once per trial, O(T) 3 x 3
-products; the reflex's partials come from one batched call of central differences (it is
+products on floats; the reflex's partials come from one batched call of central differences (it is
 piecewise linear). ``tests/learner/test_trial_gradient.py`` checks the result against central
 differences of the replayed model.
 """
@@ -202,16 +202,22 @@ def trial_gradient(
         d = max(math.hypot(ex, ey), 1e-9)
         dr[n - 1, 0] -= step_cost / step * ex / d
         dr[n - 1, 1] -= step_cost / step * ey / d
-    grad = np.zeros(n)
-    lam = np.zeros(3)  # dJ(rewards from step t on) / ds_{t+1}
-    jac = np.eye(3)
+    # the costate lam = dJ(rewards from step t on) / ds_{t+1}, backward on Python floats (a
+    # handful of products per step: 3 x 3 numpy calls would cost 10x more). With d = ds_{t+1}/da_t
+    # = (d0, d1, 1) and e = da_t/ds_t, ds_{t+1}/ds_t = I + (d0, d1 in the heading column) + d e^T.
+    grad = [0.0] * n
+    l0 = l1 = l2 = 0.0
+    d0s, d1s = ds1_da[:, 0].tolist(), ds1_da[:, 1].tolist()
+    e0s, e1s, e2s = da_ds[:, 0].tolist(), da_ds[:, 1].tolist(), da_ds[:, 2].tolist()
+    r0s, r1s, r2s = dr[:, 0].tolist(), dr[:, 1].tolist(), dr[:, 2].tolist()
     for t in range(n - 1, -1, -1):
-        lam = lam + dr[t]
-        grad[t] = lam @ ds1_da[t]
-        # ds_{t+1}/ds_t = dF/ds + dF/da da/ds, with dF/ds = I + the heading column of (x, y)
-        jac[:] = np.eye(3)
-        jac[0, 2], jac[1, 2] = ds1_da[t, 0], ds1_da[t, 1]
-        jac += np.outer(ds1_da[t], da_ds[t])
-        lam = lam @ jac
-    grad[held] = 0.0
-    return grad
+        l0 += r0s[t]
+        l1 += r1s[t]
+        l2 += r2s[t]
+        xy = l0 * d0s[t] + l1 * d1s[t]
+        ld = xy + l2
+        grad[t] = ld
+        l0, l1, l2 = l0 + ld * e0s[t], l1 + ld * e1s[t], l2 + xy + ld * e2s[t]
+    out = np.asarray(grad)
+    out[held] = 0.0
+    return out
