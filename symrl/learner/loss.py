@@ -261,8 +261,8 @@ class TeseoLoss(LossModule):
             # the price of one action more: the trial's own mean cost per action
             cost = tg.step_cost * max(-float(self.trial_return[b]), 0.0) / n
             grad = trial_gradient(
-                policy.reflex, rec.pose[b, : n + 1], rec.sonar[b, :n], rec.next_sonar[b, :n],
-                rec.aim[b, :n], rec.moved[b, :n], rec.held[b, :n], (goal.x, goal.y),
+                policy.reflex, rec.pose[b, : n + 1], rec.sonar[b, : n + 1], rec.aim[b, :n],
+                rec.held[b, :n], (goal.x, goal.y),
                 robot.step, robot.sonar_range, robot.close_distance, cost,
                 reactive=cfg.experts.residual,
             )  # fmt: skip

@@ -38,6 +38,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import torch
 
+from symrl.world.physics import wrap_angle
+
 if TYPE_CHECKING:
     from symrl.knowledge.reflex import FuzzyReflex
 
@@ -45,24 +47,22 @@ __all__ = ["TrialRecord", "reflex_partials", "trial_gradient"]
 
 
 class TrialRecord:
-    """What the update saw of each robot's current trial, one row per transition.
+    """What the update saw of each robot's current trial.
 
-    ``pose`` (B, T + 1, 3) odometry poses; ``sonar`` / ``next_sonar`` (B, T, n) the readings the
-    reflex acted on and those after the move; ``aim`` (B, T, 2) the point the reflex steered at;
-    ``held`` (B, T) shielded actions; ``moved`` (B, T) steps that translated; ``row``/``neuron``
-    (B, T) the expert row and neuron that acted (capacity-free, so growth cannot stale them)."""
+    ``pose`` (B, T + 1, 3) odometry poses and ``sonar`` (B, T + 1, n) readings, from the start
+    to after the last move; per transition ``aim`` (B, T, 2) the point the reflex steered at,
+    ``held`` (B, T) shielded actions, ``row``/``neuron`` (B, T) the expert row and neuron that
+    acted (capacity-free, so growth cannot stale them)."""
 
     def __init__(self, batch: int, max_steps: int, n_rays: int) -> None:
-        t = max_steps + 1
-        self.pose = np.zeros((batch, t + 1, 3))
-        self.sonar = np.zeros((batch, t, n_rays))
-        self.next_sonar = np.zeros((batch, t, n_rays))
-        self.aim = np.zeros((batch, t, 2))
-        self.held = np.zeros((batch, t), dtype=bool)
-        self.moved = np.zeros((batch, t), dtype=bool)
-        self.row = np.zeros((batch, t), dtype=np.int64)
-        self.neuron = np.zeros((batch, t), dtype=np.int64)
+        self.pose = np.zeros((batch, max_steps + 1, 3))
+        self.sonar = np.zeros((batch, max_steps + 1, n_rays))
+        self.aim = np.zeros((batch, max_steps, 2))
+        self.held = np.zeros((batch, max_steps), dtype=bool)
+        self.row = np.zeros((batch, max_steps), dtype=np.int64)
+        self.neuron = np.zeros((batch, max_steps), dtype=np.int64)
         self.steps = np.zeros(batch, dtype=np.int64)
+        self._rows = np.arange(batch)
 
     def append(
         self,
@@ -75,26 +75,22 @@ class TrialRecord:
         next_pose: np.ndarray,
         next_sonar: np.ndarray,
     ) -> None:
-        """One transition of every robot: arrays with the batch first."""
-        rows = np.arange(len(self.steps))
-        t = np.minimum(self.steps, self.sonar.shape[1] - 1)
+        """One transition of every robot: arrays with the batch first. The next pose and
+        readings are the next transition's own (they are written again then), and the last
+        transition's end of the trial."""
+        rows, t = self._rows, self.steps
         self.pose[rows, t] = pose
         self.pose[rows, t + 1] = next_pose
         self.sonar[rows, t] = sonar
-        self.next_sonar[rows, t] = next_sonar
+        self.sonar[rows, t + 1] = next_sonar
         self.aim[rows, t] = aim
         self.held[rows, t] = held
-        self.moved[rows, t] = np.any(next_pose[:, :2] != pose[:, :2], axis=1)
         self.row[rows, t] = row
         self.neuron[rows, t] = neuron
         self.steps = t + 1
 
     def clear(self, rows: np.ndarray) -> None:
         self.steps[rows] = 0
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return np.remainder(a + math.pi, 2 * math.pi) - math.pi
 
 
 def _bearing_partials(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -143,9 +139,7 @@ def trial_gradient(
     reflex: FuzzyReflex,
     pose: np.ndarray,
     sonar: np.ndarray,
-    next_sonar: np.ndarray,
     aim: np.ndarray,
-    moved: np.ndarray,
     held: np.ndarray,
     goal: tuple[float, float],
     step: float,
@@ -156,18 +150,20 @@ def trial_gradient(
 ) -> np.ndarray:
     """dJ/da_t (T,) of one recorded trial (the model of the module docstring).
 
-    ``pose`` (T + 1, 3) the odometry poses, start included; ``sonar`` and ``next_sonar`` (T, n)
-    normalised readings before and after each move; ``aim`` (T, 2); ``moved``, ``held`` (T,);
-    ``close`` is d_c of f1 (m); ``step_cost`` the worth of one action fewer. Held actions get 0.
-    ``reactive=False``: the actions do not follow the reflex (experts with absolute actions,
-    a = p + mu + noise): the open-loop gradient."""
+    ``pose`` (T + 1, 3) the odometry poses and ``sonar`` (T + 1, n) the normalised readings,
+    start included; ``aim`` (T, 2); ``held`` (T,); a step that did not translate collided and
+    was reversed. ``close`` is d_c of f1 (m); ``step_cost`` the worth of one action fewer.
+    Held actions get 0. ``reactive=False``: the actions do not follow the reflex (experts with
+    absolute actions, a = p + mu + noise): the open-loop gradient."""
     n = len(aim)
     if n == 0:
         return np.zeros(0)
+    moved = np.any(pose[1 : n + 1, :2] != pose[:n, :2], axis=1)
+    next_sonar, sonar = sonar[1 : n + 1], sonar[:n]
     rays = sonar.shape[1]
     x, y, th = pose[:n, 0], pose[:n, 1], pose[:n, 2]
     dx, dy = aim[:, 0] - x, aim[:, 1] - y
-    beta = _wrap(np.arctan2(dy, dx) - th)
+    beta = wrap_angle(np.arctan2(dy, dx) - th)
     if reactive:
         r_beta, r_sonar = reflex_partials(reflex, sonar, beta)
     else:
@@ -188,7 +184,7 @@ def trial_gradient(
     x1, y1 = pose[1 : n + 1, 0], pose[1 : n + 1, 1]
     gx, gy = goal[0] - x1, goal[1] - y1
     px, py = _bearing_partials(gx, gy)
-    sign = -np.sign(_wrap(th1 - np.arctan2(gy, gx))) / math.pi
+    sign = -np.sign(wrap_angle(th1 - np.arctan2(gy, gx))) / math.pi
     dr = sign[:, None] * np.stack((-px, -py, np.ones(n)), axis=1)
     # f1 = -1 + min_j rim_j / d_c below d_c: d f1 / dp = -u_min / d_c (a collision's -3: held)
     rim = next_sonar * sonar_range

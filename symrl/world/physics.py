@@ -37,13 +37,13 @@ from symrl.world.geometry import Walls
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap
 
-__all__ = ["Readings", "RobotBatch"]
+__all__ = ["Readings", "RobotBatch", "wrap_angle"]
 
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
 
 
-def _wrap(angle: np.ndarray) -> np.ndarray:
+def wrap_angle(angle: np.ndarray) -> np.ndarray:
     """Wrap angles to [-pi, pi] (the same operations as Python's float ``%``)."""
     return np.mod(angle + _PI, _TWO_PI) - _PI
 
@@ -159,7 +159,7 @@ class RobotBatch:
         # the state, one (B,) array per coordinate (columns are cheaper to update than (B, 3))
         ones = np.ones(self.size)
         self._x, self._y = world.start.x * ones, world.start.y * ones
-        self._h = _wrap(world.start.heading * ones)
+        self._h = wrap_angle(world.start.heading * ones)
         self._xo, self._yo, self._ho = self._x.copy(), self._y.copy(), self._h.copy()
         self.actions_taken = np.zeros(self.size, dtype=np.int64)
         self.sonar = np.zeros((self.size, n))
@@ -263,7 +263,7 @@ class RobotBatch:
             raise ValueError(f"reset: rows must be distinct, got {rows.tolist()}")
         self.check_poses(poses, rows)
         x, y = poses[:, 0].copy(), poses[:, 1].copy()
-        h = _wrap(poses[:, 2])
+        h = wrap_angle(poses[:, 2])
         near, rim, refl, clear = self._sense_at(poses, x, y, h)
         if self._sonar_std > 0.0:
             noise = np.empty((len(rows), self.n_sensors))
@@ -284,7 +284,7 @@ class RobotBatch:
 
         f1 = self._f1(sonar, np.zeros(len(rows), dtype=bool))
         angle = self._goal_angle(x, y)
-        f2 = -np.abs(_wrap(h - angle)) / _PI
+        f2 = -np.abs(wrap_angle(h - angle)) / _PI
         no = np.zeros(len(rows), dtype=bool)  # no collision, no goal, no truncation
         return self._readings(sonar, refl, x, y, h, x, y, h, f1, f2, no, no, no, no, no, angle)
 
@@ -315,7 +315,7 @@ class RobotBatch:
         else:
             z = None
             rot_err = trans_err = 0.0
-        h1 = _wrap(h0 + alpha + rot_err)
+        h1 = wrap_angle(h0 + alpha + rot_err)
         length = robot.step + trans_err
         x1 = x0 + length * np.cos(h1)
         y1 = y0 + length * np.sin(h1)
@@ -357,7 +357,7 @@ class RobotBatch:
         if robot.perfect_odometry:
             xo, yo, ho = x1, y1, h1
         else:
-            xo, yo, ho = self._xo, self._yo, _wrap(self._ho + alpha)
+            xo, yo, ho = self._xo, self._yo, wrap_angle(self._ho + alpha)
             if not collision.all():  # a collision reverses the odometry's translation too
                 moved_x = xo + robot.step * np.cos(ho)
                 moved_y = yo + robot.step * np.sin(ho)
@@ -373,7 +373,7 @@ class RobotBatch:
         self.sonar = sonar
         f1 = self._f1(sonar, collision)
         angle = self._goal_angle(xo, yo)
-        f2 = -np.abs(_wrap(ho - angle)) / _PI
+        f2 = -np.abs(wrap_angle(ho - angle)) / _PI
         gx, gy, gr = self._goal
         reached = _math_map(math.hypot, x1 - gx, y1 - gy) <= gr
         truncated = ~reached & (self.actions_taken >= self.max_actions)
@@ -573,7 +573,7 @@ class RobotBatch:
         f32 = np.float32
         goal = np.empty((len(xo), 2), f32)
         goal[:, 0] = _math_map(math.hypot, gx - xo, gy - yo)
-        goal[:, 1] = _wrap(angle - ho)
+        goal[:, 1] = wrap_angle(angle - ho)
         return Readings(
             sonar=(sonar * (1.0 / self.robot.sonar_range)).astype(f32),
             ir=refl.astype(f32),

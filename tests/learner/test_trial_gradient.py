@@ -13,8 +13,9 @@ import torch
 from symrl import ENV_ID
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.learner.config import load_config
-from symrl.learner.trial_gradient import _wrap, reflex_partials, trial_gradient
+from symrl.learner.trial_gradient import reflex_partials, trial_gradient
 from symrl.train import train_batch
+from symrl.world.physics import wrap_angle as _wrap
 
 RANGE, CLOSE, STEP, GOAL = 5.0, 0.3, 0.2, (4.0, -2.0)
 REFLEX = FuzzyReflex(load_config("paper").reflex)
@@ -76,6 +77,12 @@ def _replayed_reward(delta, pose, sonar, after, aim, moved, extra, step_cost, re
     return total - step_cost / STEP * math.hypot(x - GOAL[0], y - GOAL[1])
 
 
+def _readings(sonar, after):
+    """The record's readings, start to end: each move's readings are the next step's input."""
+    assert np.array_equal(sonar[1:], after[:-1])
+    return np.concatenate((sonar, after[-1:]))
+
+
 @pytest.fixture(scope="module")
 def trial():
     return _recorded_trial()
@@ -100,8 +107,8 @@ def test_the_replayed_model_is_the_recorded_trial(trial):
 def test_the_gradient_is_that_of_the_replayed_model(trial, step_cost):
     pose, sonar, after, aim, moved, extra = trial
     held = np.zeros(len(aim), dtype=bool)
-    grad = trial_gradient(REFLEX, pose, sonar, after, aim, moved, held, GOAL, STEP, RANGE, CLOSE,
-                          step_cost)  # fmt: skip
+    grad = trial_gradient(REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE,
+                          CLOSE, step_cost)  # fmt: skip
     h = 1e-6
     for t in (0, 4, 11, 17, len(aim) - 3, len(aim) - 1):
         d = np.zeros(len(aim))
@@ -124,10 +131,10 @@ def test_a_mirrored_trial_has_the_negated_gradient(trial):
     n = sonar.shape[1]
     mirror = (-np.arange(n)) % n  # ray k points at heading + k * 15 deg; its mirror at -k
     flip = np.array((1.0, -1.0, -1.0))
-    grad = trial_gradient(REFLEX, pose, sonar, after, aim, moved, held, GOAL, STEP, RANGE, CLOSE,
-                          0.5)  # fmt: skip
+    grad = trial_gradient(REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE,
+                          CLOSE, 0.5)  # fmt: skip
     mirrored = trial_gradient(
-        REFLEX, pose * flip, sonar[:, mirror], after[:, mirror], aim * flip[:2], moved, held,
+        REFLEX, pose * flip, _readings(sonar, after)[:, mirror], aim * flip[:2], held,
         (GOAL[0], -GOAL[1]), STEP, RANGE, CLOSE, 0.5,
     )  # fmt: skip
     assert np.allclose(mirrored, -grad, atol=1e-9)
@@ -140,9 +147,9 @@ def test_heading_left_of_the_goal_in_free_space_the_gradient_turns_right():
     heading = math.atan2(GOAL[1], GOAL[0]) + off
     pose = np.array([(k * STEP * math.cos(heading), k * STEP * math.sin(heading), heading)
                      for k in range(n + 1)])  # fmt: skip
-    free = np.ones((n, 24))
+    free = np.ones((n + 1, 24))
     aim = np.tile(GOAL, (n, 1))
-    grad = trial_gradient(REFLEX, pose, free, free, aim, np.ones(n, bool), np.zeros(n, bool),
+    grad = trial_gradient(REFLEX, pose, free, aim, np.zeros(n, bool),
                           GOAL, STEP, RANGE, CLOSE)  # fmt: skip
     assert (grad < 0).all()  # turning right (negative) lowers every later heading error
     assert grad[0] < grad[-1]  # and the earlier the turn, the more steps it helps
@@ -185,9 +192,9 @@ def test_the_rule_moves_each_neuron_by_at_most_max_step_per_trial():
 def test_absolute_actions_get_the_open_loop_gradient(trial):
     pose, sonar, after, aim, moved, extra = trial
     held = np.zeros(len(aim), dtype=bool)
-    grad = trial_gradient(REFLEX, pose, sonar, after, aim, moved, held, GOAL, STEP, RANGE, CLOSE,
-                          0.5, reactive=False)  # fmt: skip
-    closed = trial_gradient(REFLEX, pose, sonar, after, aim, moved, held, GOAL, STEP, RANGE,
+    grad = trial_gradient(REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE,
+                          CLOSE, 0.5, reactive=False)  # fmt: skip
+    closed = trial_gradient(REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE,
                             CLOSE, 0.5)  # fmt: skip
     assert not np.allclose(grad, closed)  # the reflex's feedback changes the answer
     h = 1e-6
