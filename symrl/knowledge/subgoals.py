@@ -73,6 +73,11 @@ class SubgoalConfig:
     merge: float = 0.15
     """Candidates closer than this to an earlier one (of the same region) are dropped."""
 
+    visible: bool = True
+    """Only points that some place of the region sees in a straight line (through free space,
+    past no thin wall): the reflex steers straight at its sub-goal, and at a point behind walls
+    (a door two offices away) it jams against the wall until the trial's budget runs out."""
+
     include_goal: bool = True
     """Option 0 of every region is the goal itself (the paper's reflex)."""
 
@@ -208,6 +213,32 @@ def _clearance(world: WorldMap, xy: tuple[float, float]) -> float:
     return float(np.hypot(*(a + t[:, None] * d - np.asarray(xy)).T).min())
 
 
+def _sights(world: WorldMap, pieces: list, region: str, step: float = 0.2) -> np.ndarray:
+    """(n, 2) places of ``region`` to look from: a grid of ``step`` over its pieces, and one
+    point inside each piece (a strip narrower than the grid still gets one)."""
+    out = []
+    for name, geom in pieces:
+        if name != region:
+            continue
+        x0, y0, x1, y1 = geom.bounds
+        grid = np.meshgrid(np.arange(x0 + step / 2, x1, step), np.arange(y0 + step / 2, y1, step))
+        xs, ys = grid[0].ravel(), grid[1].ravel()
+        inside = shapely.contains_xy(geom, xs, ys)
+        out.append(np.stack((xs[inside], ys[inside]), 1))
+        rep = geom.representative_point()
+        out.append(np.array([[rep.x, rep.y]]))
+    return np.concatenate(out) if out else np.zeros((0, 2))
+
+
+def _seen_from(free: shapely.Geometry, sights: np.ndarray, xy: tuple[float, float]) -> bool:
+    """Whether a straight line from one of ``sights`` to ``xy`` stays in ``free``."""
+    if not len(sights):
+        return False
+    ends = np.broadcast_to(np.asarray(xy, dtype=np.float64), sights.shape)
+    lines = shapely.linestrings(np.stack((sights, ends), 1))
+    return bool(shapely.covers(free, lines).any())
+
+
 def _goal_distances(n: int, goal: int, links: list[tuple[int, int]]) -> list[float]:
     """Passages between each piece and the goal's piece (breadth-first over the links)."""
     dist = [math.inf] * n
@@ -333,9 +364,14 @@ def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> Subg
     ahead_of, from_start = routes(world, passages)
     names = _labels(passages)
     goal = (world.goal.x, world.goal.y)
+    if config.visible:
+        pieces = region_pieces(world)
+        free = shapely.union_all([g for _, g in pieces])  # the free area, cut by thin walls
+        shapely.prepare(free)
     per_region: list[list[tuple[tuple[float, float], str]]] = []
     for region in world.regions.names:
         cands: list[tuple[tuple[float, float], str]] = []
+        sights = _sights(world, pieces, region) if config.visible else None
         if config.include_goal:
             cands.append((goal, "goal"))
         for k, p in enumerate(passages):
@@ -357,6 +393,8 @@ def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> Subg
                     if _clearance(world, xy) < config.min_clearance:
                         continue
                     if any(math.dist(xy, q) < config.merge for q, _ in cands):
+                        continue
+                    if sights is not None and not _seen_from(free, sights, xy):
                         continue
                     cands.append((xy, f"{names[k]}@{f:+.1f}/{d:.1f}"))
         if not cands:

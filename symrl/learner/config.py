@@ -7,9 +7,9 @@ by entry (``reflex.near`` keeps the sectors a recipe does not name). Every error
 naming the key and the value (:class:`ConfigError`).
 
 The sections follow the data flow: ``env`` (world and robot) -> ``gate`` (regions) ->
-``experts`` (growing RBF networks) -> ``options`` (sub-goals for the reflex) -> ``reflex`` ->
-``shield``; ``update`` is the TESEO learning rule, ``trial_gradient`` a second actor rule;
-``run`` the budget.
+``experts`` (growing RBF networks) -> ``options`` (sub-goals for the reflex) -> ``search``
+(the goal search) -> ``reflex`` -> ``shield``; ``update`` is the TESEO learning rule,
+``trial_gradient`` a second actor rule; ``run`` the budget.
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ __all__ = [
     "UpdateConfig",
     "TrialGradientConfig",
     "OptionsConfig",
+    "SearchSection",
     "ShieldSection",
     "RunSection",
     "RunConfig",
@@ -188,6 +189,18 @@ class OptionsConfig(_Section):
     to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end."""
 
 
+class SearchSection(_Section):
+    """Goal search (``symrl.knowledge.search``): once the odometry puts the robot within half the
+    goal radius and the trial goes on (the odometry has drifted), the reflex steers along an
+    outward spiral around the goal instead of circling the point it believes is the goal."""
+
+    enabled: StrictBool = False
+    """False: the reflex keeps steering at the goal (the paper)."""
+    spacing: float = Field(0.5, gt=0)
+    """Distance between the spiral's turns (m); at most the goal disc's diameter, so the spiral
+    passes over every point near the goal."""
+
+
 class ShieldSection(_Section):
     """The IR safety shield (``symrl.knowledge.shield``)."""
 
@@ -219,6 +232,7 @@ class RunConfig(_Section):
     update: UpdateConfig = Field(default_factory=UpdateConfig)
     trial_gradient: TrialGradientConfig = Field(default_factory=TrialGradientConfig)
     options: OptionsConfig = Field(default_factory=OptionsConfig)
+    search: SearchSection = Field(default_factory=SearchSection)
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
     shield: ShieldSection = Field(default_factory=ShieldSection)
@@ -432,8 +446,10 @@ def describe_keys() -> str:
     defaults = config_to_dict(RunConfig())
     sections: list[tuple[str, type]] = [
         ("env", EnvConfig), ("env.robot", RobotConfig), ("gate", GateConfig),
-        ("experts", ExpertsConfig), ("update", UpdateConfig), ("options", OptionsConfig),
-        ("reflex", ReflexConfig), ("shield", ShieldSection), ("run", RunSection),
+        ("experts", ExpertsConfig), ("update", UpdateConfig),
+        ("trial_gradient", TrialGradientConfig), ("options", OptionsConfig),
+        ("search", SearchSection), ("reflex", ReflexConfig), ("shield", ShieldSection),
+        ("run", RunSection),
     ]  # fmt: skip
     for prefix, cls in sections:
         names = (

@@ -251,12 +251,13 @@ def test_options_skip_dead_ends_and_labels_are_unique():
     office = load_map("office")
     table = build_subgoals(office)
     # the west office's routes leave by the west door and enter the east office; the middle
-    # door, a dead end for this goal, is never an option
+    # door, a dead end for this goal, is never an option; the east door is one from the
+    # corridor, which sees it (from the west office it lies behind walls)
     west = _region_options(table, "west_office")
     assert any(label.startswith("hall#1@") for label in west)
-    assert any(label.startswith("hall#3@") for label in west)
     assert not any(label.startswith("hall#2@") for label in west)
     corridor = _region_options(table, "corridor")
+    assert any(label.startswith("hall#3@") for label in corridor)
     assert not any(label.startswith("hall#2@") for label in corridor)
     for labels in table.labels:
         assert len(labels) == len(set(labels))
@@ -283,3 +284,31 @@ def test_two_doors_both_routes_are_options():
     assert any(label.startswith("wall_w#1@") for label in room)
     assert any(label.startswith("wall_w#2@") for label in room)
     assert len(room) == len(set(room))
+
+
+def _labels_of(table, region: str) -> list[str]:
+    return table.labels[table.region_names.index(region)]
+
+
+def test_points_no_place_of_the_region_sees_are_not_offered():
+    """From the west office the east office's door lies behind two walls: the reflex would
+    jam against the wall steering at it. The pocket of dead_end sees out of its mouth only."""
+    config = SubgoalConfig(beyond=(0.4,), min_clearance=0.45)
+    office = build_subgoals(load_map("office"), config)
+    blind = build_subgoals(
+        load_map("office"), SubgoalConfig(beyond=(0.4,), min_clearance=0.45, visible=False)
+    )
+    assert any(lb.startswith("offices#3") for lb in _labels_of(blind, "west_office"))
+    assert not any(lb.startswith("offices#3") for lb in _labels_of(office, "west_office"))
+    assert any(lb.startswith("offices#1") for lb in _labels_of(office, "west_office"))
+    assert any(lb.startswith("offices#3") for lb in _labels_of(office, "east_door"))
+    pocket = _labels_of(build_subgoals(load_map("dead_end"), config), "pocket")
+    assert pocket == ["goal", "mouth#2@+0.0/0.4", "mouth#2@+0.8/0.4"]
+
+
+def test_every_point_of_the_paper_map_is_seen_from_its_region(world):
+    config = SubgoalConfig(beyond=(0.4,), min_clearance=0.45)
+    seen = build_subgoals(world, config)
+    blind = build_subgoals(world, SubgoalConfig(beyond=(0.4,), min_clearance=0.45, visible=False))
+    assert seen.labels == blind.labels
+    assert torch.equal(seen.points, blind.points)
