@@ -22,6 +22,8 @@ import math
 
 import numpy as np
 
+from symrl.world.physics import wrap_angle
+
 __all__ = ["GoalSearch"]
 
 
@@ -79,8 +81,9 @@ class GoalSearch:
         positive), ``aim`` (B, 2) its point. Searching robots get the spiral's instead."""
         dx, dy = pose[:, 0] - self.goal[0], pose[:, 1] - self.goal[1]
         r = np.hypot(dx, dy)
-        start = ~self.searching & (r < self.trigger * self.radius)
-        if not (start.any() or self.searching.any()):
+        searching = self.searching
+        start = ~searching & (r < self.trigger * self.radius)
+        if not (start.any() or searching.any()):
             return target, aim
         about = np.arctan2(dy, dx)  # the robot's angle about the goal
         if start.any():
@@ -97,6 +100,5 @@ class GoalSearch:
         spiral = self.goal + np.stack((rho * np.cos(ahead), rho * np.sin(ahead)), axis=-1)
         new_aim = np.where(on[:, None], spiral, aim)
         d = new_aim - pose[:, :2]
-        angle = np.arctan2(d[:, 1], d[:, 0]) - pose[:, 2]
-        angle = np.remainder(angle + math.pi, 2 * math.pi) - math.pi
+        angle = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - pose[:, 2])
         return np.where(on, angle, target), new_aim

@@ -128,16 +128,20 @@ class Passage:
         return (c, along) if self.axis == 0 else (along, c)
 
 
-def region_pieces(world: WorldMap) -> list[tuple[str, shapely.Geometry]]:
-    """The connected pieces of each region's free area, cut by the thin walls: ``(region,
-    polygon)`` in the order of ``regions.names``, pieces of one region by their lowest point."""
+def _cut_free_area(world: WorldMap) -> shapely.Geometry:
+    """The free area with the thin walls cut out of it (a hair's width each)."""
     free = world.free_polygon
     cuts = [
         LineString([(a, b), (c, d)]).buffer(1e-6, cap_style="flat")
         for a, b, c, d in world.extra_segments
     ]
-    if cuts:
-        free = free.difference(unary_union(cuts))
+    return free.difference(unary_union(cuts)) if cuts else free
+
+
+def region_pieces(world: WorldMap) -> list[tuple[str, shapely.Geometry]]:
+    """The connected pieces of each region's free area, cut by the thin walls: ``(region,
+    polygon)`` in the order of ``regions.names``, pieces of one region by their lowest point."""
+    free = _cut_free_area(world)
     cells: dict[str, list] = {name: [] for name in world.regions.names}
     taken = None
     for rule in world.regions.rules:
@@ -213,7 +217,7 @@ def _clearance(world: WorldMap, xy: tuple[float, float]) -> float:
     return float(np.hypot(*(a + t[:, None] * d - np.asarray(xy)).T).min())
 
 
-def _sights(world: WorldMap, pieces: list, region: str, step: float = 0.2) -> np.ndarray:
+def _sights(pieces: list, region: str, step: float = 0.2) -> np.ndarray:
     """(n, 2) places of ``region`` to look from: a grid of ``step`` over its pieces, and one
     point inside each piece (a strip narrower than the grid still gets one)."""
     out = []
@@ -366,12 +370,12 @@ def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> Subg
     goal = (world.goal.x, world.goal.y)
     if config.visible:
         pieces = region_pieces(world)
-        free = shapely.union_all([g for _, g in pieces])  # the free area, cut by thin walls
+        free = _cut_free_area(world)
         shapely.prepare(free)
     per_region: list[list[tuple[tuple[float, float], str]]] = []
     for region in world.regions.names:
         cands: list[tuple[tuple[float, float], str]] = []
-        sights = _sights(world, pieces, region) if config.visible else None
+        sights = _sights(pieces, region) if config.visible else None
         if config.include_goal:
             cands.append((goal, "goal"))
         for k, p in enumerate(passages):

@@ -8,8 +8,8 @@ Per step, for every robot of the batch at once (``docs/ALGORITHM.md``):
 2. the region gate (the map's symbolic rules on the odometry pose) picks one expert (always the
    same one without partition);
 3. with sub-goal options, the region's option gives the point the reflex steers at; with the
-   goal search, a robot that has been inside the goal disc by its odometry (and goes on) steers
-   along a spiral around the goal;
+   goal search, a robot that has come within half the goal radius by its odometry (and goes
+   on) steers along a spiral around the goal;
 4. the nearest neuron of that expert wins; if none lies within the novelty radius the state is
    *novel* and the robot acts as the neuron the update will grow there would: the reflex's
    action (or a random one without reflex, 0 for a residual correction), utility r(state);
