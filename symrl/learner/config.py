@@ -6,7 +6,8 @@ changes. ``key=value`` overrides (``update.gamma=0.9``) are merged on top; mappi
 by entry (``reflex.near`` keeps the sectors a recipe does not name). Every error is one line
 naming the key and the value (:class:`ConfigError`).
 
-The sections follow the data flow: ``env`` (world and robot) -> ``gate`` (regions) ->
+The sections follow the data flow: ``env`` (world and robot) -> ``localize`` (the pose the
+robot believes) -> ``gate`` (regions) ->
 ``experts`` (growing RBF networks) -> ``options`` (sub-goals for the reflex) -> ``search``
 (the goal search) -> ``reflex`` -> ``shield``; ``update`` is the TESEO learning rule,
 ``trial_gradient`` a second actor rule; ``run`` the budget.
@@ -42,6 +43,7 @@ __all__ = [
     "UpdateConfig",
     "TrialGradientConfig",
     "OptionsConfig",
+    "LocalizeSection",
     "SearchSection",
     "ShieldSection",
     "RunSection",
@@ -189,6 +191,21 @@ class OptionsConfig(_Section):
     to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end."""
 
 
+class LocalizeSection(_Section):
+    """Map localisation (``symrl.knowledge.localize``): the pose the robot steers by is the one
+    that best explains its sonar scan in the map, near its odometry pose, instead of the
+    odometry pose itself. The reward stays on the odometry (the paper's f2)."""
+
+    enabled: StrictBool = False
+    """False: the robot believes its odometry (the paper)."""
+    iterations: StrictInt = Field(3, ge=1, le=20)
+    """Gauss-Newton steps from the odometry pose per observation."""
+    prior_xy: float = Field(0.5, gt=0)
+    """Spread of the odometry's position error (m): how far a scan may move the pose."""
+    prior_heading: float = Field(0.2, gt=0)
+    """Spread of the odometry's heading error (rad)."""
+
+
 class SearchSection(_Section):
     """Goal search (``symrl.knowledge.search``): once the odometry puts the robot within half the
     goal radius and the trial goes on (the odometry has drifted), the reflex steers along an
@@ -227,6 +244,7 @@ class RunConfig(_Section):
     recipe: str = "paper_literal"
     """Name of the recipe (used in run folder names)."""
     env: EnvConfig = Field(default_factory=EnvConfig)
+    localize: LocalizeSection = Field(default_factory=LocalizeSection)
     gate: GateConfig = Field(default_factory=GateConfig)
     experts: ExpertsConfig = Field(default_factory=ExpertsConfig)
     update: UpdateConfig = Field(default_factory=UpdateConfig)
@@ -445,7 +463,8 @@ def describe_keys() -> str:
     rows = []
     defaults = config_to_dict(RunConfig())
     sections: list[tuple[str, type]] = [
-        ("env", EnvConfig), ("env.robot", RobotConfig), ("gate", GateConfig),
+        ("env", EnvConfig), ("env.robot", RobotConfig), ("localize", LocalizeSection),
+        ("gate", GateConfig),
         ("experts", ExpertsConfig), ("update", UpdateConfig),
         ("trial_gradient", TrialGradientConfig), ("options", OptionsConfig),
         ("search", SearchSection), ("reflex", ReflexConfig), ("shield", ShieldSection),

@@ -105,7 +105,7 @@ class TeseoLoss(LossModule):
         own = [k.expert, k.winner, k.novel, k.x, k.proto, k.xi, k.taken, k.region,
                k.option_entry, k.state_reward]  # fmt: skip
         if self.record is not None:
-            own += [k.sonar, k.odometry, k.aim, k.shielded]
+            own += [k.sonar, k.odometry, k.goal, k.aim, k.shielded]
         nxt = [("next", key) for key in (k.sonar, k.odometry, k.goal, k.reward, k.terminated,
                                           k.truncated)]  # fmt: skip
         return own + nxt
@@ -158,11 +158,14 @@ class TeseoLoss(LossModule):
         flat.taken[index] = read(td, k.taken).numpy()
         flat.used[index] = True
 
-        if self.record is not None:
+        if self.record is not None:  # the poses the robot steered by (its belief)
+            sonar, sonar_next = read(td, k.sonar), read(nxt, k.sonar)
+            pose = policy.belief(sonar, read(td, k.odometry), read(td, k.goal))[0]
+            pose_next = policy.belief(sonar_next, read(nxt, k.odometry), read(nxt, k.goal))[0]
             self.record.append(
-                read(td, k.odometry).numpy(), read(td, k.sonar).numpy(), read(td, k.aim).numpy(),
+                pose.numpy(), sonar.numpy(), read(td, k.aim).numpy(),
                 read(td, k.shielded).numpy(), flat.row_base + expert, winner,
-                read(nxt, k.odometry).numpy(), read(nxt, k.sonar).numpy(),
+                pose_next.numpy(), sonar_next.numpy(),
             )  # fmt: skip
 
         # 2. the utility of the state reached
@@ -279,4 +282,3 @@ class TeseoLoss(LossModule):
             f"gamma={u.gamma}, eta={u.eta}, beta={u.beta}, kappa={u.kappa}, "
             f"theta={u.error_threshold}"
         )
-

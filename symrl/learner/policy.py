@@ -38,6 +38,7 @@ from tensordict.nn import TensorDictModuleBase
 from torchrl.envs.utils import ExplorationType, exploration_type
 
 from symrl.grad import no_grad
+from symrl.knowledge.localize import MapLocalizer
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.search import GoalSearch
@@ -47,6 +48,8 @@ from symrl.learner.config import RunConfig
 from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
 from symrl.tensordicts import read, write
+from symrl.world.geometry import Walls
+from symrl.world.physics import wrap_angle
 from symrl.world.worldmap import WorldMap, load_map
 
 __all__ = ["Perception", "MixtureOfExpertsPolicy", "OBS_KEYS", "is_greedy"]
@@ -122,6 +125,14 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         batch = len(self.seeds)
         robot = config.env.robot
         xc = config.experts
+        lc = config.localize
+        self.localizer = (
+            MapLocalizer(Walls(self.world.segments), robot, lc.iterations, lc.prior_xy,
+                         lc.prior_heading)
+            if lc.enabled
+            else None
+        )  # fmt: skip
+        self._beliefs: dict[bytes, tuple[torch.Tensor, torch.Tensor]] = {}
         self.mapper = RegionMapper.from_map(self.world)
         self.region_names: tuple[str, ...] = tuple(self.mapper.names)
         self.expert_names = self.region_names if config.gate.partition else ("all",)
@@ -178,6 +189,29 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         return len(self.seeds)
 
     # -- perception (read-only; the update calls it on the next state) --------------------
+    def belief(
+        self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The pose the robot steers by and the goal's (distance, angle) from it: the odometry's
+        as observed, or with map localisation the pose its sonar scan gives
+        (``symrl.knowledge.localize``). The policy and the update ask for the same two
+        observations in turn, so the last two results are kept."""
+        if self.localizer is None:
+            return odometry, goal
+        key = odometry.numpy().tobytes() + sonar.numpy().tobytes()
+        known = self._beliefs.get(key)
+        if known is not None:
+            return known
+        pose = self.localizer(odometry.numpy(), sonar.numpy())
+        g = self.world.goal
+        dx, dy = g.x - pose[:, 0], g.y - pose[:, 1]
+        seen = np.stack((np.hypot(dx, dy), wrap_angle(np.arctan2(dy, dx) - pose[:, 2])), -1)
+        out = (torch.from_numpy(pose.astype(np.float32)), torch.from_numpy(seen.astype(np.float32)))
+        if len(self._beliefs) >= 2:
+            del self._beliefs[next(iter(self._beliefs))]
+        self._beliefs[key] = out
+        return out
+
     def encode(self, sonar: torch.Tensor, goal_distance: torch.Tensor) -> torch.Tensor:
         """x = (sonars, goal-distance codes) (Eq. 2); rho clipped to [0, 1]."""
         rho = (goal_distance.to(torch.float32) / self.start_distance).clamp(0.0, 1.0)
@@ -208,6 +242,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray, np.ndarray]:
         """:meth:`perceive` with the winner and the novelty as numpy arrays (the control loop
         reads them as numpy: no tensors in between)."""
+        odometry, goal = self.belief(sonar, odometry, goal)
         region, expert, x = self._gate_and_inputs(sonar, odometry, goal)
         if not self.config.experts.learning:
             return region, expert, x, np.full(len(region), -1), np.ones(len(region), dtype=bool)
@@ -260,6 +295,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         greedy = is_greedy()
         sonar, odometry, goal = read(td, "sonar"), read(td, "odometry"), read(td, "goal")
         region, expert, x, winner, novel = self.perceive_arrays(sonar, odometry, goal)
+        odometry, goal = self.belief(sonar, odometry, goal)
         zero = self._zeros
         option, entered, aim = self._no_option, self._no_entry, self._goal_aim
         if self.options is not None:

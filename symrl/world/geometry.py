@@ -224,6 +224,26 @@ class Walls:
 
         One ``(3n, 2) @ (2, R)`` product per row through a stacked ``np.matmul`` (the BLAS
         call of :meth:`cast`; a single ``(B, 2) @ (2, n)`` product would round differently)."""
+        # the misses are -inf, so an unmasked reduction gives the same maximum (fmax picks a
+        # value, it does not round; -inf never beats the positive initial) at a fraction of the
+        # cost of a reduction with where= (a masked inner loop, measured 3-5x slower here)
+        inv_t = np.fmax.reduce(self._inverse_hits(x, y, angles), axis=1, initial=1.0 / max_range)
+        return 1.0 / inv_t
+
+    def cast_many_walls(
+        self, x: np.ndarray, y: np.ndarray, angles: np.ndarray, max_range: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`cast_many` and the wall each ray hits ``(B, R)`` (index into ``segments``,
+        -1 for a ray that reaches ``max_range``): what a pose's derivative of a range needs."""
+        hits = self._inverse_hits(x, y, angles)
+        wall = np.argmax(hits, axis=1)
+        inv_t = np.take_along_axis(hits, wall[:, None], axis=1)[:, 0]
+        far = ~(inv_t > 1.0 / max_range)
+        wall[far] = -1
+        return 1.0 / np.where(far, 1.0 / max_range, inv_t), wall
+
+    def _inverse_hits(self, x: np.ndarray, y: np.ndarray, angles: np.ndarray) -> np.ndarray:
+        """``(B, n, R)``: 1 / distance along each ray to each wall it hits, -inf for a miss."""
         n = self._n
         b, r = angles.shape
         u, k, xy = self._cast_buffers(b, r)
@@ -241,12 +261,7 @@ class Walls:
             prod = np.matmul(k, u)  # (B, 3n, R)
             s = prod[:, n : 2 * n] / prod[:, :n]
         ok = (s >= -_S_EPS) & (s <= 1.0 + _S_EPS)
-        # the misses as -inf, then an unmasked reduction: the same maximum (fmax picks a value,
-        # it does not round; -inf never beats the positive initial) at a fraction of the cost
-        # of a reduction with where= (a masked inner loop, measured 3-5x slower here)
-        hits = np.where(ok, prod[:, 2 * n :], -np.inf)
-        inv_t = np.fmax.reduce(hits, axis=1, initial=1.0 / max_range)
-        return 1.0 / inv_t
+        return np.where(ok, prod[:, 2 * n :], -np.inf)
 
     def _cast_buffers(self, b: int, r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Scratch arrays of :meth:`cast_many` for B = b, R = r, kept for the next call (the

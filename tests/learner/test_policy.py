@@ -8,11 +8,13 @@ import math
 import numpy as np
 import pytest
 import torch
-from learner_helpers import POSES, observation, place, policy, stack
+from learner_helpers import N_SENSORS, POSES, observation, place, policy, stack
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.world.batched_env import BatchedWorldEnv
+from symrl.world.geometry import Walls
+from symrl.world.worldmap import load_map
 
 GREEDY = ExplorationType.DETERMINISTIC
 
@@ -310,3 +312,26 @@ def test_pose_input_revisits_a_neuron_within_the_radius_in_metres():
     far = observation(pose=(0.6, 0.0, 0.0))
     assert not bool(p.perceive(near["sonar"], near["odometry"], near["goal"]).novel[0])
     assert bool(p.perceive(far["sonar"], far["odometry"], far["goal"]).novel[0])
+
+
+def test_with_map_localisation_the_gate_and_the_goal_follow_the_scan_not_the_odometry():
+    """A robot in the door whose odometry has drifted 0.3 m back into the room: without
+    localisation the gate routes it by the odometry (room), with it by its sonar scan (door),
+    and the goal's distance and angle are recomputed from the corrected pose."""
+    true = np.array([[3.55, -0.5, 0.1]])
+    walls = Walls(load_map("hailu2001").segments)
+    offsets = np.arange(N_SENSORS) * (2 * math.pi / N_SENSORS)
+    rays = walls.cast_many(true[:, 0], true[:, 1], true[:, 2:3] + offsets, 5.26)
+    sonar = (np.clip(rays - 0.26, 0.0, 5.0) / 5.0)[0].tolist()
+    obs = observation(sonar=sonar, pose=(3.25, -0.5, 0.1), goal=(1.0, 0.0))
+    plain = policy("paper")
+    localised = policy("paper", "localize.enabled=true")
+    assert plain.perceive(obs["sonar"], obs["odometry"], obs["goal"]).region.tolist() == [0]
+    assert localised.perceive(obs["sonar"], obs["odometry"], obs["goal"]).region.tolist() == [2]
+    pose, goal = localised.belief(obs["sonar"], obs["odometry"], obs["goal"])
+    assert np.allclose(pose.numpy(), true, atol=0.01)
+    g = localised.world.goal
+    assert math.isclose(float(goal[0, 0]), math.hypot(g.x - 3.55, g.y + 0.5), abs_tol=0.01)
+    # without localisation the belief is the observation itself
+    same = plain.belief(obs["sonar"], obs["odometry"], obs["goal"])
+    assert same[0] is obs["odometry"] and same[1] is obs["goal"]

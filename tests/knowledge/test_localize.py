@@ -1,0 +1,145 @@
+"""Map localisation: from a drifted odometry pose and a sonar scan, the pose the scan was taken
+from; the range derivative it uses; its mirror symmetry; what it does without information."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from symrl.knowledge.localize import MapLocalizer
+from symrl.world import load_map
+from symrl.world.geometry import Walls
+from symrl.world.physics import wrap_angle
+from symrl.world.robot import RobotConfig
+
+ROBOT = RobotConfig()
+WORLD = load_map("hailu2001")
+WALLS = Walls(WORLD.segments)
+N = ROBOT.n_sensors
+OFFSETS = np.arange(N) * (2 * math.pi / N)
+
+
+def scan(walls: Walls, pose: np.ndarray) -> np.ndarray:
+    """The noise-free normalised sonar readings at poses (B, 3), as the physics computes them."""
+    rays = walls.cast_many(pose[:, 0], pose[:, 1], pose[:, 2:3] + OFFSETS,
+                           ROBOT.radius + ROBOT.sonar_range)  # fmt: skip
+    rim = np.clip(rays - ROBOT.radius, 0.0, ROBOT.sonar_range)
+    return rim / ROBOT.sonar_range
+
+
+def free_pose(x: float, y: float, h: float) -> np.ndarray:
+    return np.array([[x, y, h]])
+
+
+def test_cast_with_walls_gives_the_same_distances_and_the_wall_hit():
+    rng = np.random.default_rng(0)
+    x, y = rng.uniform(0.0, 4.0, 6), rng.uniform(-3.0, 1.5, 6)
+    angles = rng.uniform(-math.pi, math.pi, (6, 24))
+    plain = WALLS.cast_many(x, y, angles, 5.26)
+    t, wall = WALLS.cast_many_walls(x, y, angles, 5.26)
+    assert np.array_equal(t, plain)
+    hit = wall >= 0
+    # the hit point lies on the wall it names
+    px, py = x[:, None] + t * np.cos(angles), y[:, None] + t * np.sin(angles)
+    seg = WALLS.segments[wall[hit]]
+    ax, ay, bx, by = seg.T
+    cross = (bx - ax) * (py[hit] - ay) - (by - ay) * (px[hit] - ax)
+    assert np.allclose(cross / np.hypot(bx - ax, by - ay), 0.0, atol=1e-9)
+    assert np.all(t[~hit] == 5.26)
+
+
+def test_range_derivative_matches_central_differences():
+    loc = MapLocalizer(WALLS, ROBOT)
+    pose = np.array([[1.0, -1.0, 0.3], [3.5, -2.5, 2.0]])
+    angles = pose[:, 2:3] + OFFSETS
+    t, wall = WALLS.cast_many_walls(pose[:, 0], pose[:, 1], angles, loc.cast_range)
+    d_x, d_y = loc.wall_dx[wall], loc.wall_dy[wall]
+    ux, uy = np.cos(angles), np.sin(angles)
+    cross = ux * d_y - uy * d_x
+    analytic = np.stack((-d_y / cross, d_x / cross, t * (ux * d_x + uy * d_y) / cross), -1)
+    eps = 1e-6
+    for i in range(3):
+        step = np.zeros(3)
+        step[i] = eps
+        up, _ = WALLS.cast_many_walls(*(pose + step)[:, :2].T, angles + step[2], loc.cast_range)
+        down, _ = WALLS.cast_many_walls(*(pose - step)[:, :2].T, angles - step[2], loc.cast_range)
+        numeric = (up - down) / (2 * eps)
+        same_wall = wall >= 0
+        # rays near a vertex can switch walls within eps: compare where the difference is smooth
+        smooth = same_wall & (np.abs(numeric) < 1e3)
+        assert np.allclose(analytic[..., i][smooth], numeric[smooth], rtol=1e-4, atol=1e-4)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    x=st.floats(0.2, 3.5), y=st.floats(-1.5, 1.2), h=st.floats(-math.pi, math.pi),
+    ex=st.floats(-0.25, 0.25), ey=st.floats(-0.25, 0.25), eh=st.floats(-0.08, 0.08),
+)  # fmt: skip
+def test_a_drifted_odometry_is_corrected_to_the_pose_of_the_scan(x, y, h, ex, ey, eh):
+    """In the paper's room (0.2-3.5 m, away from the walls), with exact readings and an odometry
+    off by up to 0.25 m and 4.6 degrees, the estimate is the true pose."""
+    true = free_pose(x, y, h)
+    if WALLS.clearance(true[:, :2])[0] < ROBOT.radius + 0.05:
+        return
+    odometry = true + np.array([[ex, ey, eh]])
+    estimate = MapLocalizer(WALLS, ROBOT)(odometry, scan(WALLS, true))
+    assert math.dist(estimate[0, :2], true[0, :2]) < 0.01
+    assert abs(wrap_angle(estimate[0, 2] - h)) < math.radians(0.3)
+
+
+def test_the_true_pose_is_a_fixed_point_and_noise_moves_it_by_millimetres():
+    rng = np.random.default_rng(1)
+    true = np.array([[1.0, -1.0, 0.3], [2.5, 0.5, -2.0], [4.3, -2.8, 1.4]])
+    exact = scan(WALLS, true)
+    loc = MapLocalizer(WALLS, ROBOT)
+    assert np.allclose(loc(true, exact), true, atol=1e-9)
+    noisy = exact + ROBOT.sonar_noise_std * rng.standard_normal(exact.shape) / ROBOT.sonar_range
+    assert np.abs(loc(true, noisy) - true)[:, :2].max() < 0.01
+
+
+def test_a_mirrored_world_gives_the_mirrored_pose():
+    mirrored = WORLD.segments * np.array([1.0, -1.0, 1.0, -1.0])
+    walls_m = Walls(mirrored)
+    true = np.array([[1.2, -0.6, 0.4]])
+    odometry = true + np.array([[0.12, -0.08, 0.05]])
+    flip = np.array([1.0, -1.0, -1.0])
+    readings = scan(WALLS, true)
+    # ray k of the mirrored robot looks where ray -k of the robot looks
+    readings_m = readings[:, (-np.arange(N)) % N]
+    a = MapLocalizer(WALLS, ROBOT)(odometry, readings)
+    b = MapLocalizer(walls_m, ROBOT)(odometry * flip, readings_m)
+    assert np.allclose(b, a * flip, atol=1e-9)
+
+
+def test_without_information_the_odometry_stands():
+    """Every reading at the sonar's range says nothing about the pose: the estimate is the
+    odometry's."""
+    odometry = np.array([[1.0, -1.0, 0.3]])
+    out = MapLocalizer(WALLS, ROBOT)(odometry, np.ones((1, N)))
+    assert np.allclose(out, odometry, rtol=0, atol=1e-12)
+
+
+def test_a_scan_with_one_stray_reading_still_gives_the_pose():
+    """A reading far off its prediction (an obstacle the map does not hold) counts for little."""
+    true = np.array([[1.5, -0.8, 1.0]])
+    readings = scan(WALLS, true)
+    readings[0, 5] *= 0.3
+    out = MapLocalizer(WALLS, ROBOT)(true + np.array([[0.1, 0.1, 0.02]]), readings)
+    assert math.dist(out[0, :2], true[0, :2]) < 0.03
+
+
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"iterations": 0}, "iterations"),
+        ({"prior_xy": 0.0}, "prior_xy"),
+        ({"huber": -1.0}, "huber"),
+    ],
+)
+def test_bad_settings_are_named(kwargs, field):
+    with pytest.raises(ValueError, match=field):
+        MapLocalizer(WALLS, ROBOT, **kwargs)
