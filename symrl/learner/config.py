@@ -198,8 +198,10 @@ class LocalizeSection(_Section):
 
     enabled: StrictBool = False
     """False: the robot believes its odometry (the paper)."""
-    iterations: StrictInt = Field(3, ge=1, le=20)
-    """Gauss-Newton steps from the odometry pose per observation."""
+    iterations: StrictInt = Field(5, ge=1, le=20)
+    """Gauss-Newton steps from the odometry pose at a trial's first observation; every later
+    one takes a single step from the odometry pose plus the last correction (the drift changes
+    by millimetres per action)."""
     prior_xy: float = Field(0.5, gt=0)
     """Spread of the odometry's position error (m): how far a scan may move the pose."""
     prior_heading: float = Field(0.2, gt=0)

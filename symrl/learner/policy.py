@@ -38,7 +38,7 @@ from tensordict.nn import TensorDictModuleBase
 from torchrl.envs.utils import ExplorationType, exploration_type
 
 from symrl.grad import no_grad
-from symrl.knowledge.localize import MapLocalizer
+from symrl.knowledge.localize import MapLocalizer, PoseTracker
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.search import GoalSearch
@@ -127,12 +127,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         xc = config.experts
         lc = config.localize
         self.localizer = (
-            MapLocalizer(Walls(self.world.segments), robot, lc.iterations, lc.prior_xy,
-                         lc.prior_heading)
+            PoseTracker(MapLocalizer(Walls(self.world.segments), robot, lc.iterations,
+                                     lc.prior_xy, lc.prior_heading), batch)
             if lc.enabled
             else None
         )  # fmt: skip
-        self._beliefs: dict[bytes, tuple[torch.Tensor, torch.Tensor]] = {}
         self.mapper = RegionMapper.from_map(self.world)
         self.region_names: tuple[str, ...] = tuple(self.mapper.names)
         self.expert_names = self.region_names if config.gate.partition else ("all",)
@@ -193,24 +192,20 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """The pose the robot steers by and the goal's (distance, angle) from it: the odometry's
-        as observed, or with map localisation the pose its sonar scan gives
-        (``symrl.knowledge.localize``). The policy and the update ask for the same two
-        observations in turn, so the last two results are kept."""
+        as observed, or with map localisation the pose its sonar scan gives in the map
+        (``symrl.knowledge.localize``)."""
         if self.localizer is None:
             return odometry, goal
-        key = odometry.numpy().tobytes() + sonar.numpy().tobytes()
-        known = self._beliefs.get(key)
-        if known is not None:
-            return known
         pose = self.localizer(odometry.numpy(), sonar.numpy())
         g = self.world.goal
-        dx, dy = g.x - pose[:, 0], g.y - pose[:, 1]
-        seen = np.stack((np.hypot(dx, dy), wrap_angle(np.arctan2(dy, dx) - pose[:, 2])), -1)
-        out = (torch.from_numpy(pose.astype(np.float32)), torch.from_numpy(seen.astype(np.float32)))
-        if len(self._beliefs) >= 2:
-            del self._beliefs[next(iter(self._beliefs))]
-        self._beliefs[key] = out
-        return out
+        dx, dy = (g.x - pose[:, 0]).tolist(), (g.y - pose[:, 1]).tolist()
+        # the C library's hypot and atan2 per element, as the physics: numpy's SIMD loops
+        # round differently in the body and the tail of an array, so a robot's numbers would
+        # depend on its place in the batch
+        distance = np.array(list(map(math.hypot, dx, dy)))
+        angle = np.array(list(map(math.atan2, dy, dx)))
+        seen = np.stack((distance, wrap_angle(angle - pose[:, 2])), -1)
+        return torch.from_numpy(pose.astype(np.float32)), torch.from_numpy(seen.astype(np.float32))
 
     def encode(self, sonar: torch.Tensor, goal_distance: torch.Tensor) -> torch.Tensor:
         """x = (sonars, goal-distance codes) (Eq. 2); rho clipped to [0, 1]."""
@@ -376,6 +371,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             self.options.begin_trial(rows)
         if self.search is not None:
             self.search.begin_trial(rows.numpy())
+        if self.localizer is not None:
+            self.localizer.begin_trial(rows.numpy())
 
     # -- per-robot state ------------------------------------------------------------------
     def robot_state(self, b: int) -> dict[str, torch.Tensor]:

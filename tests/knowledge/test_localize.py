@@ -10,10 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from symrl.knowledge.localize import MapLocalizer
+from symrl.knowledge.localize import MapLocalizer, PoseTracker
 from symrl.world import load_map
 from symrl.world.geometry import Walls
-from symrl.world.physics import wrap_angle
+from symrl.world.physics import RobotBatch, wrap_angle
 from symrl.world.robot import RobotConfig
 
 ROBOT = RobotConfig()
@@ -143,3 +143,56 @@ def test_a_scan_with_one_stray_reading_still_gives_the_pose():
 def test_bad_settings_are_named(kwargs, field):
     with pytest.raises(ValueError, match=field):
         MapLocalizer(WALLS, ROBOT, **kwargs)
+
+
+def _drive(batch: int, steps: int, seed: int = 0):
+    """Noisy robots of the physics driven toward the goal by their odometry: per step the
+    odometry, the sonar and the true poses (B, 3), (B, n), (B, 3)."""
+    physics = RobotBatch(WORLD, ROBOT, batch, noise=True)
+    rngs = [np.random.default_rng(seed + b) for b in range(batch)]
+    start = np.tile([WORLD.start.x, WORLD.start.y, WORLD.start.heading], (batch, 1))
+    r = physics.reset(np.arange(batch), start, rngs)
+    turn = np.random.default_rng(seed).normal(0.0, 0.3, (steps, batch))
+    out = [(r.odometry, r.sonar, r.true_pose)]
+    for k in range(steps):
+        g = WORLD.goal
+        bearing = np.arctan2(g.y - r.odometry[:, 1], g.x - r.odometry[:, 0]) - r.odometry[:, 2]
+        r = physics.step(np.clip(wrap_angle(bearing), -0.6, 0.6) + turn[k], rngs)
+        out.append((r.odometry, r.sonar, r.true_pose))
+    return out
+
+
+def test_the_tracker_follows_the_true_pose_while_the_odometry_drifts():
+    tracker = PoseTracker(MapLocalizer(WALLS, ROBOT), 8)
+    drift, error = [], []
+    for odometry, sonar, true in _drive(8, 40):
+        pose = tracker(odometry, sonar)
+        drift.append(np.hypot(*(odometry[:, :2] - true[:, :2]).T).max())
+        error.append(np.hypot(*(pose[:, :2] - true[:, :2]).T).max())
+    assert max(drift) > 0.05  # the odometry has drifted by centimetres
+    assert max(error) < 0.03 and np.mean(error) < 0.01
+
+
+def test_a_robot_believes_the_same_alone_and_in_a_batch():
+    steps = _drive(5, 25, seed=3)
+    together = PoseTracker(MapLocalizer(WALLS, ROBOT), 5)
+    alone = PoseTracker(MapLocalizer(WALLS, ROBOT), 1)
+    for k, (odometry, sonar, _) in enumerate(steps):
+        if k == 10:  # robots 0 and 3 start a new trial in the batch; robot 3 alone too
+            together.begin_trial(np.array([0, 3]))
+            alone.begin_trial(np.array([0]))
+        batch = together(odometry, sonar)
+        assert np.array_equal(batch[3:4], alone(odometry[3:4], sonar[3:4]))
+
+
+def test_an_observation_seen_again_gives_its_estimate_again():
+    steps = _drive(2, 3)
+    tracker = PoseTracker(MapLocalizer(WALLS, ROBOT), 2)
+    first = [tracker(o, s) for o, s, _ in steps[:2]]
+    correction = tracker.correction.copy()
+    # the update asks for the state the policy acted on, then the one reached
+    assert np.array_equal(tracker(*steps[0][:2]), first[0])
+    assert np.array_equal(tracker(*steps[1][:2]), first[1])
+    assert np.array_equal(tracker.correction, correction)
+    tracker.begin_trial(np.array([1]))
+    assert np.array_equal(tracker.correction[1], np.zeros(3))
