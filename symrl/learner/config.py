@@ -198,10 +198,11 @@ class LocalizeSection(_Section):
 
     enabled: StrictBool = False
     """False: the robot believes its odometry (the paper)."""
-    iterations: StrictInt = Field(5, ge=1, le=20)
-    """Gauss-Newton steps from the odometry pose at a trial's first observation; every later
-    one takes a single step from the odometry pose plus the last correction (the drift changes
-    by millimetres per action)."""
+    iterations: StrictInt = Field(2, ge=1, le=20)
+    """Gauss-Newton steps from the odometry pose at a trial's first observation (a reset puts
+    the odometry on the true pose, so few are needed; an odometry that starts off by decimetres
+    needs about 5); every later observation takes a single step from the odometry pose plus the
+    last correction (the drift changes by millimetres per action)."""
     prior_xy: float = Field(0.5, gt=0)
     """Spread of the odometry's position error (m): how far a scan may move the pose."""
     prior_heading: float = Field(0.2, gt=0)
