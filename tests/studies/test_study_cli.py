@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import torch
+
 from symrl.cli import main
 from symrl.runs import read_trials_csv
 from symrl.studies.repeatability import run_study
@@ -80,3 +82,8 @@ def test_set_k_of_a_study_is_train_with_seed_plus_k():
     ]
     split = run_sets("paper", sets=3, trials=2, seed=40, workers=2, progress=False)
     assert [s.rows for s in split] == [s.rows for s in sets]
+    # the controllers come back from the workers as the same tensors
+    for a, b in zip(split, sets, strict=True):
+        assert a.controller.keys() == b.controller.keys()
+        for key, value in a.controller.items():
+            assert isinstance(value, torch.Tensor) and torch.equal(value, b.controller[key]), key
