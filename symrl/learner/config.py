@@ -8,8 +8,8 @@ naming the key and the value (:class:`ConfigError`).
 
 The sections follow the data flow: ``env`` (world and robot) -> ``localize`` (the pose the
 robot believes) -> ``gate`` (regions) ->
-``experts`` (growing RBF networks) -> ``options`` (sub-goals for the reflex) -> ``search``
-(the goal search) -> ``reflex`` -> ``shield``; ``update`` is the TESEO learning rule,
+``experts`` (growing RBF networks) -> ``options`` (sub-goals for the reflex) -> ``reflex`` ->
+``shield``; ``update`` is the TESEO learning rule,
 ``trial_gradient`` a second actor rule; ``run`` the budget.
 """
 
@@ -44,7 +44,6 @@ __all__ = [
     "TrialGradientConfig",
     "OptionsConfig",
     "LocalizeSection",
-    "SearchSection",
     "ShieldSection",
     "RunSection",
     "RunConfig",
@@ -209,18 +208,6 @@ class LocalizeSection(_Section):
     """Spread of the odometry's heading error (rad)."""
 
 
-class SearchSection(_Section):
-    """Goal search (``symrl.knowledge.search``): once the odometry puts the robot within half the
-    goal radius and the trial goes on (the odometry has drifted), the reflex steers along an
-    outward spiral around the goal instead of circling the point it believes is the goal."""
-
-    enabled: StrictBool = False
-    """False: the reflex keeps steering at the goal (the paper)."""
-    spacing: float = Field(0.5, gt=0)
-    """Distance between the spiral's turns (m); at most the goal disc's diameter, so the spiral
-    passes over every point near the goal."""
-
-
 class ShieldSection(_Section):
     """The IR safety shield (``symrl.knowledge.shield``)."""
 
@@ -253,7 +240,6 @@ class RunConfig(_Section):
     update: UpdateConfig = Field(default_factory=UpdateConfig)
     trial_gradient: TrialGradientConfig = Field(default_factory=TrialGradientConfig)
     options: OptionsConfig = Field(default_factory=OptionsConfig)
-    search: SearchSection = Field(default_factory=SearchSection)
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
     shield: ShieldSection = Field(default_factory=ShieldSection)
@@ -470,7 +456,7 @@ def describe_keys() -> str:
         ("gate", GateConfig),
         ("experts", ExpertsConfig), ("update", UpdateConfig),
         ("trial_gradient", TrialGradientConfig), ("options", OptionsConfig),
-        ("search", SearchSection), ("reflex", ReflexConfig), ("shield", ShieldSection),
+        ("reflex", ReflexConfig), ("shield", ShieldSection),
         ("run", RunSection),
     ]  # fmt: skip
     for prefix, cls in sections:

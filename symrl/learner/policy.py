@@ -3,13 +3,14 @@ not learn.
 
 Per step, for every robot of the batch at once (``docs/ALGORITHM.md``):
 
+0. the pose the robot believes: its odometry pose, or with map localisation the pose its sonar
+   scan gives in the map (:meth:`MixtureOfExpertsPolicy.belief`); "pose" below is this one;
 1. x = (n normalised sonars, goal-distance codes phi_m = exp(-((mu_m - rho) / w)^2)), rho the
-   odometry distance to the goal over the start's distance, clipped to [0, 1];
-2. the region gate (the map's symbolic rules on the odometry pose) picks one expert (always the
-   same one without partition);
-3. with sub-goal options, the region's option gives the point the reflex steers at; with the
-   goal search, a robot that has come within half the goal radius by its odometry (and goes
-   on) steers along a spiral around the goal;
+   distance to the goal from the pose over the start's distance, clipped to [0, 1] (with the
+   pose input: the pose itself);
+2. the region gate (the map's symbolic rules on the pose) picks one expert (always the same one
+   without partition);
+3. with sub-goal options, the region's option gives the point the reflex steers at;
 4. the nearest neuron of that expert wins; if none lies within the novelty radius the state is
    *novel* and the robot acts as the neuron the update will grow there would: the reflex's
    action (or a random one without reflex, 0 for a residual correction), utility r(state);
@@ -41,7 +42,6 @@ from symrl.grad import no_grad
 from symrl.knowledge.localize import MapLocalizer, PoseTracker
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.regions import RegionMapper
-from symrl.knowledge.search import GoalSearch
 from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import RunConfig
@@ -147,12 +147,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             if config.options.enabled
             else None
         )
-        self.search = (
-            GoalSearch((self.world.goal.x, self.world.goal.y), self.world.goal.radius, batch,
-                       config.search.spacing, robot.step)
-            if config.search.enabled
-            else None
-        )  # fmt: skip
         self.shield = (
             IRShield(ShieldConfig(margin=config.shield.margin), robot)
             if config.shield.enabled
@@ -307,10 +301,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             target, option, entered, aim = self.options.steer(region, odometry, greedy)
         else:
             target = goal[:, 1].to(torch.float64)
-        if self.search is not None:
-            pose = odometry.numpy().astype(np.float64)
-            angle, point = self.search.steer(pose, target.numpy(), aim.numpy())
-            target, aim = torch.from_numpy(angle), torch.from_numpy(point)
         if xc.reflex or not xc.learning:
             # float32 widened exactly, in numpy (a torch cast is a dispatch more)
             reflex_action = self.reflex(torch.from_numpy(sonar.numpy().astype(np.float64)), target)
@@ -379,8 +369,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         """Forget the per-trial decisions of robots ``rows`` (they start a new trial)."""
         if self.options is not None:
             self.options.begin_trial(rows)
-        if self.search is not None:
-            self.search.begin_trial(rows.numpy())
         if self.localizer is not None:
             self.localizer.begin_trial(rows.numpy())
             self._beliefs.clear()
