@@ -161,8 +161,14 @@ class PoseTracker:
         """``odometry`` (B, 3) and ``sonar`` (B, n) as the env gives them: believed poses (B, 3)."""
         obs = np.concatenate((odometry, sonar), axis=1, dtype=np.float32)
         last, previous = (np.all(obs == seen, axis=1) for seen in self._seen)
+        known = last | previous
+        if not known.any() and self.warm.all():  # the common step: every robot moved on
+            pose = odometry.astype(np.float64)
+            estimate = self.localizer(pose, sonar, pose + self.correction, 1)
+            self._remember(slice(None), pose, obs, estimate)
+            return estimate
         out = np.where(last[:, None], self._estimate[0], self._estimate[1])
-        new = np.flatnonzero(~(last | previous))
+        new = np.flatnonzero(~known)
         if len(new):
             pose = odometry[new].astype(np.float64)
             estimate = np.empty((len(new), 3))
@@ -172,11 +178,17 @@ class PoseTracker:
                     estimate[rows] = self.localizer(
                         pose[rows], sonar[new][rows], start[rows], steps
                     )
-            self.warm[new] = True
-            correction = estimate - pose
-            correction[:, 2] = wrap_angle(correction[:, 2])
-            self.correction[new] = correction
-            self._seen[1][new], self._estimate[1][new] = self._seen[0][new], self._estimate[0][new]
-            self._seen[0][new], self._estimate[0][new] = obs[new], estimate
+            self._remember(new, pose, obs[new], estimate)
             out[new] = estimate
         return out
+
+    def _remember(
+        self, rows: slice | np.ndarray, pose: np.ndarray, obs: np.ndarray, estimate: np.ndarray
+    ) -> None:
+        """Robots ``rows`` took ``estimate`` for the observation ``obs`` (odometry ``pose``)."""
+        self.warm[rows] = True
+        correction = estimate - pose
+        correction[:, 2] = wrap_angle(correction[:, 2])
+        self.correction[rows] = correction
+        self._seen[1][rows], self._estimate[1][rows] = self._seen[0][rows], self._estimate[0][rows]
+        self._seen[0][rows], self._estimate[0][rows] = obs, estimate
