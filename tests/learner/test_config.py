@@ -208,7 +208,8 @@ def test_config_from_dict_rejects_a_non_mapping():
 def test_describe_keys_lists_every_section():
     text = describe_keys()
     for key in ("update.gamma = 0.95", "experts.novelty_radius", "env.robot.radius",
-                "options.critic", "shield.margin", "reflex.d_a", "run.seed"):  # fmt: skip
+                "options.critic", "shield.margin", "reflex.d_a", "run.seed",
+                "localize.enabled", "localize.prior_xy"):  # fmt: skip
         assert key in text, key
     assert "Discount of the TD error" in text  # each key's docstring
 
@@ -240,3 +241,10 @@ def test_every_public_name_of_the_learner_package_resolves():
         except AttributeError:
             missing.append(name)
     assert not missing, f"symrl.learner.__all__ names what does not exist: {missing}"
+
+
+def test_bad_localisation_settings_are_named():
+    assert "localize.iterations" in _error(["localize.iterations=0"])
+    assert "localize.prior_xy" in _error(["localize.prior_xy=-1"])
+    assert "localize.enabled" in _error(["localize.enabled=sometimes"])
+    assert "search" in _error(["search.enabled=true"])  # the removed goal search is unknown
