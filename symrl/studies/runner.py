@@ -210,12 +210,17 @@ def run_sets(
     return [done[k] for k in range(sets)]
 
 
-def _run_batch_in_worker(*job: Any) -> list[SetResult]:
+def _run_batch_in_worker(
+    config_data: dict[str, Any],
+    indices: Sequence[int],
+    seeds: Sequence[int],
+    starts: Sequence[tuple[float, float, float]],
+) -> list[SetResult]:
     """:func:`_run_batch` in a worker process, its controllers as numpy arrays: a tensor sent
     between processes travels as a shared-memory file whose descriptor the receiver keeps open
     while the tensor lives, and an ablation of 40 sets x 20 variants holds ~20,000 of them
     (beyond the usual limit on open files)."""
-    batch = _run_batch(*job, False)
+    batch = _run_batch(config_data, indices, seeds, starts, False)
     for r in batch:
         r.controller = {k: v.numpy() for k, v in r.controller.items()}
     return batch
