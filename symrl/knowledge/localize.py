@@ -74,7 +74,16 @@ class MapLocalizer:
         self.huber = float(huber)
         self.min_incidence = float(min_incidence)
         n = robot.n_sensors
-        self.offsets = np.arange(n) * (2.0 * math.pi / n)
+        axes = np.arange(n) * (2.0 * math.pi / n)
+        # a beam cone's reading is its nearest sub-ray (as in the physics): the model casts
+        # every sub-ray and differentiates the nearest one
+        self.cone_rays = robot.sonar_cone_rays if robot.sonar_cone_deg > 0 else 1
+        if self.cone_rays > 1:
+            half = 0.5 * math.radians(robot.sonar_cone_deg)
+            sub = np.linspace(-half, half, self.cone_rays)
+            self.offsets = (axes[:, None] + sub[None, :]).ravel()
+        else:
+            self.offsets = axes
         self.cast_range = robot.radius + robot.sonar_range
         noise = max(robot.sonar_noise_std, 0.005)
         self.reading_weight = 1.0 / noise**2
@@ -109,6 +118,11 @@ class MapLocalizer:
         """One Gauss-Newton step of the estimate at ``pose``."""
         angles = pose[:, 2:3] + self.offsets
         t, wall = self.walls.cast_many_walls(pose[:, 0], pose[:, 1], angles, self.cast_range)
+        if self.cone_rays > 1:  # per sensor, the nearest sub-ray
+            b, m = len(pose), self.cone_rays
+            nearest = np.argmin(t.reshape(b, -1, m), axis=2)[..., None]
+            t, wall, angles = (np.take_along_axis(v.reshape(b, -1, m), nearest, 2)[..., 0]
+                               for v in (t, wall, angles))  # fmt: skip
         index = np.maximum(wall, 0)
         dx, dy = self.wall_dx[index], self.wall_dy[index]
         ux, uy = np.cos(angles), np.sin(angles)

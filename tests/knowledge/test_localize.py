@@ -196,3 +196,17 @@ def test_an_observation_seen_again_gives_its_estimate_again():
     assert np.array_equal(tracker.correction, correction)
     tracker.begin_trial(np.array([1]))
     assert np.array_equal(tracker.correction[1], np.zeros(3))
+
+
+def test_a_robot_with_beam_cones_is_localised_from_its_cone_readings():
+    """Sonars with a 20 degree cone read the nearest of 5 sub-rays (the physics' model): the
+    localiser models the same and corrects a drifted odometry."""
+    robot = RobotConfig(sonar_cone_deg=20.0, sonar_cone_rays=5)
+    physics = RobotBatch(WORLD, robot, 1, noise=False)
+    true = np.array([[1.3, -0.7, 0.6]])
+    r = physics.reset(np.arange(1), true, [np.random.default_rng(0)])
+    odometry = true + np.array([[0.1, -0.08, 0.04]])
+    cone = MapLocalizer(WALLS, robot)(odometry, r.sonar)
+    thin = MapLocalizer(WALLS, ROBOT)(odometry, r.sonar)
+    assert math.dist(cone[0, :2], true[0, :2]) < 0.005
+    assert math.dist(cone[0, :2], true[0, :2]) < math.dist(thin[0, :2], true[0, :2])
