@@ -78,12 +78,11 @@ class MapLocalizer:
         # a beam cone's reading is its nearest sub-ray (as in the physics): the model casts
         # every sub-ray and differentiates the nearest one
         self.cone_rays = robot.sonar_cone_rays if robot.sonar_cone_deg > 0 else 1
+        self.offsets: np.ndarray = axes
         if self.cone_rays > 1:
             half = 0.5 * math.radians(robot.sonar_cone_deg)
             sub = np.linspace(-half, half, self.cone_rays)
             self.offsets = (axes[:, None] + sub[None, :]).ravel()
-        else:
-            self.offsets = axes
         self.cast_range = robot.radius + robot.sonar_range
         noise = max(robot.sonar_noise_std, 0.005)
         self.reading_weight = 1.0 / noise**2
