@@ -231,8 +231,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def perceive(
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
     ) -> Perception:
-        """Gate and winner search for a batch of observations; changes nothing (the result's
-        tensors are read-only: the gate and the inputs may be those of the previous call)."""
+        """Gate and winner search for a batch of observations; changes nothing that is learned
+        (the result's tensors are read-only: the gate and the inputs may be those of the
+        previous call; with map localisation the tracker keeps each robot's last correction,
+        where its next estimate starts)."""
         region, expert, x, winner, novel = self.perceive_arrays(sonar, odometry, goal)
         return Perception(region, expert, x, torch.from_numpy(winner), torch.from_numpy(novel))
 
