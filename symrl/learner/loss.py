@@ -67,6 +67,7 @@ class TeseoLoss(LossModule):
         state_reward: str = "state_reward"
         sonar: str = "sonar"
         odometry: str = "odometry"
+        pose: str = "pose"
         goal: str = "goal"
         reward: str = "reward"
         done: str = "done"
@@ -105,7 +106,7 @@ class TeseoLoss(LossModule):
         own = [k.expert, k.winner, k.novel, k.x, k.proto, k.xi, k.taken, k.region,
                k.option_entry, k.state_reward]  # fmt: skip
         if self.record is not None:
-            own += [k.sonar, k.odometry, k.goal, k.aim, k.shielded]
+            own += [k.sonar, k.pose, k.aim, k.shielded]
         nxt = [("next", key) for key in (k.sonar, k.odometry, k.goal, k.reward, k.terminated,
                                           k.truncated)]  # fmt: skip
         return own + nxt
@@ -159,11 +160,10 @@ class TeseoLoss(LossModule):
         flat.used[index] = True
 
         if self.record is not None:  # the poses the robot steered by (its belief)
-            sonar, sonar_next = read(td, k.sonar), read(nxt, k.sonar)
-            pose = policy.belief(sonar, read(td, k.odometry), read(td, k.goal))[0]
+            sonar_next = read(nxt, k.sonar)
             pose_next = policy.belief(sonar_next, read(nxt, k.odometry), read(nxt, k.goal))[0]
             self.record.append(
-                pose.numpy(), sonar.numpy(), read(td, k.aim).numpy(),
+                read(td, k.pose).numpy(), read(td, k.sonar).numpy(), read(td, k.aim).numpy(),
                 read(td, k.shielded).numpy(), flat.row_base + expert, winner,
                 pose_next.numpy(), sonar_next.numpy(),
             )  # fmt: skip

@@ -49,7 +49,7 @@ from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
 from symrl.tensordicts import read, write
 from symrl.world.geometry import Walls
-from symrl.world.physics import wrap_angle
+from symrl.world.physics import goal_reading
 from symrl.world.worldmap import WorldMap, load_map
 
 __all__ = ["Perception", "MixtureOfExpertsPolicy", "OBS_KEYS", "is_greedy"]
@@ -96,13 +96,14 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ``novel``, ``x``, ``proto`` (the action a new neuron here gets), ``xi`` (exploration draw),
     ``sigma``, ``taken`` (the action relative to its base, remembered for action replacement),
     ``shielded``, ``aim`` (B, 2) (the point the reflex steered at: the goal or the option's
-    sub-goal), and with options ``option`` and ``option_entry``.
+    sub-goal), with options ``option`` and ``option_entry``, and ``pose`` (B, 3): the pose it
+    believed (the odometry's, or the map localisation's).
     """
 
     in_keys = list(OBS_KEYS)
     out_keys = [
         "action", "region", "expert", "winner", "novel", "x", "proto", "xi", "sigma", "taken",
-        "shielded", "aim", "option", "option_entry",
+        "shielded", "aim", "option", "option_entry", "pose",
     ]  # fmt: skip
 
     temperature: torch.Tensor
@@ -198,14 +199,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             return known
         pose = self.localizer(odometry.numpy(), sonar.numpy())
         g = self.world.goal
-        dx, dy = (g.x - pose[:, 0]).tolist(), (g.y - pose[:, 1]).tolist()
-        # the C library's hypot and atan2 per element, as the physics: numpy's SIMD loops
-        # round differently in the body and the tail of an array, so a robot's numbers would
-        # depend on its place in the batch
-        distance = np.array(list(map(math.hypot, dx, dy)))
-        angle = np.array(list(map(math.atan2, dy, dx)))
-        seen = np.stack((distance, wrap_angle(angle - pose[:, 2])), -1)
-        out = torch.from_numpy(pose.astype(np.float32)), torch.from_numpy(seen.astype(np.float32))
+        seen = goal_reading(g.x, g.y, pose[:, 0], pose[:, 1], pose[:, 2])
+        out = torch.from_numpy(pose.astype(np.float32)), torch.from_numpy(seen)
         if len(self._beliefs) >= 2:
             del self._beliefs[next(iter(self._beliefs))]
         self._beliefs[key] = out
@@ -243,8 +238,13 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray, np.ndarray]:
         """:meth:`perceive` with the winner and the novelty as numpy arrays (the control loop
         reads them as numpy: no tensors in between)."""
-        odometry, goal = self.belief(sonar, odometry, goal)
-        region, expert, x = self._gate_and_inputs(sonar, odometry, goal)
+        return self._perceive_belief(sonar, *self.belief(sonar, odometry, goal))
+
+    def _perceive_belief(
+        self, sonar: torch.Tensor, pose: torch.Tensor, goal: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray, np.ndarray]:
+        """:meth:`perceive_arrays` at the believed ``pose`` and ``goal``."""
+        region, expert, x = self._gate_and_inputs(sonar, pose, goal)
         if not self.config.experts.learning:
             return region, expert, x, np.full(len(region), -1), np.ones(len(region), dtype=bool)
         winner, distance = self.experts.nearest_np(expert.numpy(), x.numpy())
@@ -252,24 +252,24 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         return region, expert, x, winner, novel
 
     def _gate_and_inputs(
-        self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
+        self, sonar: torch.Tensor, pose: torch.Tensor, goal: torch.Tensor
     ) -> _GateAndInputs:
         """Region, expert and input x of a batch of observations. They depend on the
         observation alone, and the loop asks twice for most observations (the update perceives
         the state reached, then the policy acts on it), so the last result is kept with a copy
         of the observation it came from and reused when the same bits come again (about a
         fifth of the cost of the two calls: ``benchmarks/bench_train.py``)."""
-        pose = self.config.experts.input == "pose"
-        seen = (odometry,) if pose else (sonar, odometry, goal)
+        pose_input = self.config.experts.input == "pose"
+        seen = (pose,) if pose_input else (sonar, pose, goal)
         # the observation's bits (bitwise: -0.0 is not 0.0, NaN is NaN), read through numpy:
         # a byte string compares for a fraction of a torch.equal's cost
         key = tuple((t.dtype, t.shape, t.numpy().tobytes()) for t in seen)
         last = self._last_seen
         if last is not None and last[0] == key:
             return last[1]
-        region = self.mapper.ids(torch.from_numpy(odometry.numpy()[:, :2].astype(np.float64)))
+        region = self.mapper.ids(torch.from_numpy(pose.numpy()[:, :2].astype(np.float64)))
         expert = region if self.config.gate.partition else torch.zeros_like(region)
-        x = self.encode_pose(odometry) if pose else self.encode(sonar, goal[:, 0])
+        x = self.encode_pose(pose) if pose_input else self.encode(sonar, goal[:, 0])
         self._last_seen = (key, (region, expert, x))
         return region, expert, x
 
@@ -294,13 +294,13 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def forward(self, td: TensorDictBase) -> TensorDictBase:
         xc = self.config.experts
         greedy = is_greedy()
-        sonar, odometry, goal = read(td, "sonar"), read(td, "odometry"), read(td, "goal")
-        region, expert, x, winner, novel = self.perceive_arrays(sonar, odometry, goal)
-        odometry, goal = self.belief(sonar, odometry, goal)
+        sonar = read(td, "sonar")
+        pose, goal = self.belief(sonar, read(td, "odometry"), read(td, "goal"))
+        region, expert, x, winner, novel = self._perceive_belief(sonar, pose, goal)
         zero = self._zeros
         option, entered, aim = self._no_option, self._no_entry, self._goal_aim
         if self.options is not None:
-            target, option, entered, aim = self.options.steer(region, odometry, greedy)
+            target, option, entered, aim = self.options.steer(region, pose, greedy)
         else:
             target = goal[:, 1].to(torch.float64)
         if xc.reflex or not xc.learning:
@@ -362,6 +362,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 "option": option,
                 "option_entry": entered,
                 "aim": aim,
+                "pose": pose,
             },
         )
         return td

@@ -37,7 +37,7 @@ from symrl.world.geometry import Walls
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap
 
-__all__ = ["Readings", "RobotBatch", "wrap_angle"]
+__all__ = ["Readings", "RobotBatch", "goal_reading", "wrap_angle"]
 
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
@@ -46,6 +46,22 @@ _TWO_PI = 2.0 * math.pi
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
     """Wrap angles to [-pi, pi] (the same operations as Python's float ``%``)."""
     return np.mod(angle + _PI, _TWO_PI) - _PI
+
+
+def goal_reading(
+    goal_x: float, goal_y: float, x: np.ndarray, y: np.ndarray, h: np.ndarray,
+    angle: np.ndarray | None = None,
+) -> np.ndarray:
+    """(k, 2) float32: distance and signed angle (left +) to the goal from poses (x, y, h), the
+    observation's ``goal``; ``angle``: the direction from (x, y) to the goal if already known.
+    The C library's hypot and atan2 per element: numpy's SIMD loops round differently in the
+    body and the tail of an array, so a robot's numbers would depend on its place in a batch."""
+    if angle is None:
+        angle = _math_map(math.atan2, goal_y - y, goal_x - x)
+    out = np.empty((len(x), 2), np.float32)
+    out[:, 0] = _math_map(math.hypot, goal_x - x, goal_y - y)
+    out[:, 1] = wrap_angle(angle - h)
+    return out
 
 
 def _math_map(fn: Callable[..., float], a: np.ndarray, b: np.ndarray | float) -> np.ndarray:
@@ -571,9 +587,7 @@ class RobotBatch:
     ) -> Readings:
         gx, gy, _ = self._goal
         f32 = np.float32
-        goal = np.empty((len(xo), 2), f32)
-        goal[:, 0] = _math_map(math.hypot, gx - xo, gy - yo)
-        goal[:, 1] = wrap_angle(angle - ho)
+        goal = goal_reading(gx, gy, xo, yo, ho, angle)
         return Readings(
             sonar=(sonar * (1.0 / self.robot.sonar_range)).astype(f32),
             ir=refl.astype(f32),
