@@ -48,7 +48,8 @@ class MapLocalizer:
     ``iterations`` Gauss-Newton steps, each with a ray cast at the estimate; ``prior_xy`` (m) and
     ``prior_heading`` (rad) the spread of the odometry's error, ``huber`` (m) the residual
     beyond which a reading counts less, ``min_incidence`` the smallest |cos| between a ray
-    and the wall's normal that is used.
+    and the wall's normal that is used, ``edge`` (m) how near a wall's end a ray may hit and
+    still be used.
     """
 
     def __init__(
@@ -60,6 +61,7 @@ class MapLocalizer:
         prior_heading: float = 0.2,
         huber: float = 0.05,
         min_incidence: float = 0.2,
+        edge: float = 0.05,
     ) -> None:
         if iterations < 1:
             raise ValueError(f"MapLocalizer: iterations must be >= 1, got {iterations}")
@@ -68,11 +70,14 @@ class MapLocalizer:
                 "MapLocalizer: prior_xy, prior_heading and huber must be > 0, got "
                 f"{prior_xy}, {prior_heading}, {huber}"
             )
+        if not edge >= 0:
+            raise ValueError(f"MapLocalizer: edge must be >= 0, got {edge}")
         self.walls = walls
         self.robot = robot
         self.iterations = int(iterations)
         self.huber = float(huber)
         self.min_incidence = float(min_incidence)
+        self.edge = float(edge)
         n = robot.n_sensors
         axes = np.arange(n) * (2.0 * math.pi / n)
         # a beam cone's reading is its nearest sub-ray (as in the physics): the model casts
@@ -87,9 +92,11 @@ class MapLocalizer:
         noise = max(robot.sonar_noise_std, 0.005)
         self.reading_weight = 1.0 / noise**2
         self.prior = np.diag([prior_xy**-2, prior_xy**-2, prior_heading**-2])
-        # wall directions, for the derivative of a range
+        # wall starts and directions, for the derivative of a range and where a ray hits
+        self.wall_ax, self.wall_ay = walls.ax, walls.ay
         self.wall_dx, self.wall_dy = walls.dx, walls.dy
-        self.wall_inverse_length = np.sqrt(walls.inv_len2)
+        self.wall_inv_len2 = walls.inv_len2
+        self.wall_length = np.sqrt(1.0 / walls.inv_len2)
 
     def __call__(
         self,
@@ -126,8 +133,14 @@ class MapLocalizer:
         dx, dy = self.wall_dx[index], self.wall_dy[index]
         ux, uy = np.cos(angles), np.sin(angles)
         cross = ux * dy - uy * dx  # u x d
-        incidence = np.abs(cross) * self.wall_inverse_length[index]  # |cos| ray / wall normal
-        ok = usable & (wall >= 0) & (incidence >= self.min_incidence)
+        length = self.wall_length[index]
+        incidence = np.abs(cross) / length  # |cos| between the ray and the wall's normal
+        # where along its wall the ray hits: near an end (a corner, a door post) the range's
+        # derivative jumps, and a step on it bounces back and forth across the corner
+        along = ((pose[:, 0:1] + t * ux - self.wall_ax[index]) * dx
+                 + (pose[:, 1:2] + t * uy - self.wall_ay[index]) * dy) * self.wall_inv_len2[index]
+        inside = np.minimum(along, 1.0 - along) * length >= self.edge
+        ok = usable & (wall >= 0) & (incidence >= self.min_incidence) & inside
         safe = np.where(ok, cross, 1.0)
         jac = np.stack((-dy / safe, dx / safe, t * (ux * dx + uy * dy) / safe), axis=-1)
         predicted = np.minimum(t - self.robot.radius, self.robot.sonar_range)

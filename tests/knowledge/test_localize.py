@@ -81,14 +81,31 @@ def test_range_derivative_matches_central_differences():
 )  # fmt: skip
 def test_a_drifted_odometry_is_corrected_to_the_pose_of_the_scan(x, y, h, ex, ey, eh):
     """In the paper's room (0.2-3.5 m, away from the walls), with exact readings and an odometry
-    off by up to 0.25 m and 4.6 degrees, the estimate is the true pose."""
+    off by up to 0.35 m and 4.6 degrees, the estimate is within 2 cm and 0.6 degrees of the true
+    pose (by the door posts a start that far off can settle 1-1.5 cm away; from a few
+    centimetres, as along a trial, it is exact: the tracker's test)."""
     true = free_pose(x, y, h)
     if WALLS.clearance(true[:, :2])[0] < ROBOT.radius + 0.05:
         return
     odometry = true + np.array([[ex, ey, eh]])
     estimate = MapLocalizer(WALLS, ROBOT)(odometry, scan(WALLS, true))
-    assert math.dist(estimate[0, :2], true[0, :2]) < 0.01
-    assert abs(wrap_angle(estimate[0, 2] - h)) < math.radians(0.3)
+    assert math.dist(estimate[0, :2], true[0, :2]) < 0.02
+    assert abs(wrap_angle(estimate[0, 2] - h)) < math.radians(0.6)
+
+
+def test_a_ray_at_a_corner_does_not_hold_the_estimate():
+    """At the centre of the paper's square room four rays point into corners at once when the
+    heading is 1.2 degrees off; the range's derivative jumps there, and a Gauss-Newton step that
+    used those rays stalled at that heading (from any start 1.7-3.6 degrees off). Rays that hit
+    within 5 cm of a wall's end are left out, and the estimate is the true pose."""
+    true = free_pose(1.0, 0.0, -1.03125)
+    for heading_error in (-0.0625, -0.03):
+        odometry = true + np.array([[0.0, 0.0, heading_error]])
+        estimate = MapLocalizer(WALLS, ROBOT)(odometry, scan(WALLS, true))
+        assert np.allclose(estimate, true, atol=1e-4)
+    odometry = true + np.array([[0.0, 0.0, -0.0625]])
+    stalled = MapLocalizer(WALLS, ROBOT, edge=0.0)(odometry, scan(WALLS, true))
+    assert abs(wrap_angle(stalled[0, 2] - true[0, 2])) > 0.01
 
 
 def test_the_true_pose_is_a_fixed_point_and_noise_moves_it_by_millimetres():
@@ -138,6 +155,7 @@ def test_a_scan_with_one_stray_reading_still_gives_the_pose():
         ({"iterations": 0}, "iterations"),
         ({"prior_xy": 0.0}, "prior_xy"),
         ({"huber": -1.0}, "huber"),
+        ({"edge": -0.1}, "edge"),
     ],
 )
 def test_bad_settings_are_named(kwargs, field):
