@@ -325,7 +325,9 @@ def test_with_map_localisation_the_gate_and_the_goal_follow_the_scan_not_the_odo
     sonar = (np.clip(rays - 0.26, 0.0, 5.0) / 5.0)[0].tolist()
     obs = observation(sonar=sonar, pose=(3.25, -0.5, 0.1), goal=(1.0, 0.0))
     plain = policy("paper")
-    localised = policy("paper", "localize.enabled=true")
+    # an odometry 0.3 m off at a trial's first observation: the config's advice for such a
+    # start is about 5 Gauss-Newton steps (a reset's odometry is exact, so paper takes 2)
+    localised = policy("paper", "localize.enabled=true", "localize.iterations=5")
     assert plain.perceive(obs["sonar"], obs["odometry"], obs["goal"]).region.tolist() == [0]
     assert localised.perceive(obs["sonar"], obs["odometry"], obs["goal"]).region.tolist() == [2]
     pose, goal = localised.belief(obs["sonar"], obs["odometry"], obs["goal"])
