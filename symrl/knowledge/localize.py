@@ -171,15 +171,20 @@ class PoseTracker:
     def __init__(self, localizer: MapLocalizer, batch: int) -> None:
         self.localizer = localizer
         width = 3 + localizer.robot.n_sensors
-        self.correction = np.zeros((batch, 3))
-        self.warm = np.zeros(batch, dtype=bool)  # the trial has had an observation
-        # the last two observations (odometry, sonar) of each robot and their estimates
+        # the last two observations (odometry, sonar) of each robot and their estimates; NaN:
+        # none yet this trial
         self._seen = [np.full((batch, width), np.nan, dtype=np.float32) for _ in range(2)]
         self._estimate = [np.zeros((batch, 3)) for _ in range(2)]
 
+    @property
+    def correction(self) -> np.ndarray:
+        """(B, 3): each robot's last estimate minus its odometry pose (0 before its first)."""
+        last = self._seen[0][:, :3].astype(np.float64)
+        out = self._estimate[0] - last
+        out[:, 2] = wrap_angle(out[:, 2])
+        return np.where(np.isnan(last), 0.0, out)
+
     def begin_trial(self, rows: np.ndarray) -> None:
-        self.correction[rows] = 0.0
-        self.warm[rows] = False
         for seen in self._seen:
             seen[rows] = np.nan
 
@@ -188,33 +193,29 @@ class PoseTracker:
         obs = np.concatenate((odometry, sonar), axis=1, dtype=np.float32)
         last, previous = (np.all(obs == seen, axis=1) for seen in self._seen)
         known = last | previous
-        if not known.any() and self.warm.all():  # the common step: every robot moved on
+        warm = ~np.isnan(self._seen[0][:, 0])  # the trial has had an observation
+        if not known.any() and warm.all():  # the common step: every robot moved on
             pose = odometry.astype(np.float64)
             estimate = self.localizer(pose, sonar, pose + self.correction, 1)
-            self._remember(slice(None), pose, obs, estimate)
+            self._remember(slice(None), obs, estimate)
             return estimate
         out = np.where(last[:, None], self._estimate[0], self._estimate[1])
         new = np.flatnonzero(~known)
         if len(new):
             pose = odometry[new].astype(np.float64)
             estimate = np.empty((len(new), 3))
-            warm = self.warm[new]
-            for rows, start, steps in ((warm, self.correction[new] + pose, 1), (~warm, pose, None)):
+            warm = warm[new]
+            start = self.correction[new] + pose
+            for rows, begin, steps in ((warm, start, 1), (~warm, pose, None)):
                 if rows.any():
                     estimate[rows] = self.localizer(
-                        pose[rows], sonar[new][rows], start[rows], steps
+                        pose[rows], sonar[new][rows], begin[rows], steps
                     )
-            self._remember(new, pose, obs[new], estimate)
+            self._remember(new, obs[new], estimate)
             out[new] = estimate
         return out
 
-    def _remember(
-        self, rows: slice | np.ndarray, pose: np.ndarray, obs: np.ndarray, estimate: np.ndarray
-    ) -> None:
-        """Robots ``rows`` took ``estimate`` for the observation ``obs`` (odometry ``pose``)."""
-        self.warm[rows] = True
-        correction = estimate - pose
-        correction[:, 2] = wrap_angle(correction[:, 2])
-        self.correction[rows] = correction
+    def _remember(self, rows: slice | np.ndarray, obs: np.ndarray, estimate: np.ndarray) -> None:
+        """Robots ``rows`` took ``estimate`` for the observation ``obs``."""
         self._seen[1][rows], self._estimate[1][rows] = self._seen[0][rows], self._estimate[0][rows]
         self._seen[0][rows], self._estimate[0][rows] = obs, estimate
