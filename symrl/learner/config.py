@@ -188,6 +188,12 @@ class OptionsConfig(_Section):
     subgoal_planner: StrictBool = False
     """Each region also gets the last turn of the planner's shortest path inside it (pushed out
     to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end."""
+    goal_lead_deg: float = Field(0.0, ge=0, le=180)
+    """While a visit's sub-goal lies within this angle (degrees) of the goal's bearing, seen from
+    the robot, the reflex steers at the goal itself; from the first step the sub-goal lies
+    further off, at the sub-goal for the rest of the visit. The reward's heading term (f2) is
+    measured against the goal's bearing, so heading at the goal while the sub-goal is nearly in
+    line earns it at little cost to the route. 0: at the sub-goal from the region's entry."""
 
 
 class LocalizeSection(_Section):

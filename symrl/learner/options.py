@@ -27,7 +27,9 @@ from symrl.world.worldmap import WorldMap
 
 __all__ = ["SubgoalOptions", "subgoal_config", "with_planner_waypoints"]
 
-_GOAL_STAGE = 2  # the visit's sub-goal was reached: the reflex aims at the goal
+# a visit's stages: its first part (at the sub-goal; with a goal lead, at the goal while the
+# sub-goal is nearly in line with it), then at the sub-goal, then (the sub-goal reached) at the goal
+_FIRST_STAGE, _SUBGOAL_STAGE, _GOAL_STAGE = 0, 1, 2
 
 
 def subgoal_config(options: object) -> SubgoalConfig:
@@ -80,6 +82,7 @@ class SubgoalOptions(BufferViews):
         self.region_names = self.table.region_names
         self.goal = (float(world.goal.x), float(world.goal.y))
         self._goal = np.array(self.goal, dtype=np.float64)
+        self._lead = math.radians(float(config.goal_lead_deg))  # type: ignore[attr-defined]
         self.register_buffer("points", self.table.points.to(torch.float64), persistent=False)
         self.register_buffer("valid", self.table.valid.clone(), persistent=False)
         self.register_buffer("q", torch.zeros(batch, r, k, dtype=torch.float64))
@@ -115,7 +118,7 @@ class SubgoalOptions(BufferViews):
             chosen = choice[rows, region_np]
         # a new visit of a region aims at its sub-goal again
         stage, visit = a["stage"], a["visit"]
-        stage[region_np != visit] = 0
+        stage[region_np != visit] = _FIRST_STAGE
         visit[:] = region_np
         pose = odometry.numpy().astype(np.float64)
         xy = pose[:, :2]
@@ -123,7 +126,15 @@ class SubgoalOptions(BufferViews):
         point = points.reshape(-1, 2)[region_np * points.shape[1] + chosen]
         distance = torch.linalg.vector_norm(torch.from_numpy(point - xy), dim=-1).numpy()
         stage[distance < self.config.reach] = _GOAL_STAGE  # type: ignore[attr-defined]
-        aim = np.where((stage == _GOAL_STAGE)[:, None], self._goal, point)
+        at_goal = stage == _GOAL_STAGE
+        if self._lead > 0:
+            first = stage == _FIRST_STAGE
+            if first.any():
+                g, q = self._goal - xy, point - xy  # to the goal, to the sub-goal
+                off = np.abs(np.arctan2(g[:, 0] * q[:, 1] - g[:, 1] * q[:, 0], (g * q).sum(axis=1)))
+                stage[first & (off >= self._lead)] = _SUBGOAL_STAGE
+                at_goal = at_goal | (stage == _FIRST_STAGE)
+        aim = np.where(at_goal[:, None], self._goal, point)
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
@@ -159,7 +170,7 @@ class SubgoalOptions(BufferViews):
         """Forget the choices of controllers ``rows`` (their robots start a new trial)."""
         a, r = self.arrays, rows.numpy()
         a["choice"][r] = -1
-        a["stage"][r] = 0
+        a["stage"][r] = _FIRST_STAGE
         a["visit"][r] = -1
 
     # -- learning (called by the update) --------------------------------------------------

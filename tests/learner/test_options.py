@@ -93,6 +93,36 @@ def test_option_is_kept_for_the_trial_and_reaching_it_aims_at_the_goal():
     assert opt.choice[0].tolist() == [1, 0]
 
 
+def test_goal_lead_steers_at_the_goal_while_the_subgoal_is_in_line_then_commits():
+    # from (0, 0) the goal (4, -2) bears -26.6 degrees and s1 (3.5, -0.5) -8.1: 18.4 apart
+    opt = _options(epsilon=0.0, goal_lead_deg=20.0)
+    opt.n[0, 0] = 1  # everything tried: s1 best
+    opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+
+    def aim(region: int, x: float, y: float) -> tuple[float, ...]:
+        _, _, _, point = opt.steer(torch.tensor([region]), _odometry((x, y, 0.0)), False)
+        return tuple(point[0].tolist())
+
+    assert aim(0, 0.0, 0.0) == GOAL  # s1 within 20 degrees of the goal's bearing: the goal
+    assert aim(0, 3.0, 0.5) == GOAL  # 4.8 degrees apart: still the goal
+    assert aim(0, 2.0, -1.5) == (3.5, -0.5)  # 47.7 degrees apart: s1 ...
+    assert aim(0, 0.0, 0.0) == (3.5, -0.5)  # ... for the rest of the visit
+    assert aim(1, 3.6, -0.5) == GOAL  # region b has only the goal
+    assert aim(0, 0.0, 0.0) == GOAL  # a new visit of a leads again
+    opt.begin_trial(torch.tensor([0]))
+    assert aim(0, 2.0, -1.5) == (3.5, -0.5)  # a sub-goal far off the goal's bearing: at once
+
+
+@pytest.mark.parametrize("lead, expected", [(0.0, (3.5, -0.5)), (15.0, (3.5, -0.5)),
+                                            (20.0, GOAL)])  # fmt: skip
+def test_goal_lead_angle_decides_the_first_step(lead, expected):
+    opt = _options(epsilon=0.0, goal_lead_deg=lead)
+    opt.n[0, 0] = 1
+    opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+    _, _, _, point = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
+    assert tuple(point[0].tolist()) == expected
+
+
 def test_angle_is_relative_to_the_heading_and_wrapped():
     opt = _options(epsilon=0.0)
     angle, _, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, math.pi / 2)), False)

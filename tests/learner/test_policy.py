@@ -228,7 +228,9 @@ def test_options_choose_at_the_first_entry_of_a_region_per_trial():
 
 
 def test_options_steer_the_reflex_at_the_chosen_subgoal():
-    p = policy("paper", "shield.enabled=false", "options.try_untried=false")
+    # (no goal lead: the sub-goal from the region's first step)
+    p = policy("paper", "shield.enabled=false", "options.try_untried=false",
+               "options.goal_lead_deg=0")  # fmt: skip
     r = p.region_names.index("room")
     labels = p.options.labels[r]
     k = next(i for i, name in enumerate(labels) if name != "goal")
