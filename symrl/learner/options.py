@@ -116,7 +116,7 @@ class SubgoalOptions(BufferViews):
             for b in np.flatnonzero(entered).tolist():
                 choice[b, region_np[b]] = self._choose(b, int(region_np[b]), greedy)
             chosen = choice[rows, region_np]
-        # a new visit of a region aims at its sub-goal again
+        # a new visit of a region starts at its first stage again
         stage, visit = a["stage"], a["visit"]
         stage[region_np != visit] = _FIRST_STAGE
         visit[:] = region_np
