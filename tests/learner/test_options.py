@@ -113,6 +113,36 @@ def test_goal_lead_steers_at_the_goal_while_the_subgoal_is_in_line_then_commits(
     assert aim(0, 2.0, -1.5) == (3.5, -0.5)  # a sub-goal far off the goal's bearing: at once
 
 
+def test_goal_lead_a_subgoal_reached_while_leading_aims_at_the_goal_for_the_visit():
+    opt = _options(epsilon=0.0, goal_lead_deg=20.0)
+    opt.n[0, 0] = 1
+    opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+    _, _, _, point = opt.steer(torch.tensor([0]), _odometry((3.4, -0.5, 0.0)), False)
+    assert tuple(point[0].tolist()) == GOAL and int(opt.stage[0]) == 2  # within reach
+    _, _, _, point = opt.steer(torch.tensor([0]), _odometry((2.0, -1.5, 0.0)), False)
+    assert tuple(point[0].tolist()) == GOAL  # whatever the angle now
+
+
+def test_goal_lead_is_mirror_symmetric():
+    # hailu2001_mirror is the paper's world mirrored about y = 0 (goal (4, 2)): the mirrored
+    # table and poses lead and commit at the same steps
+    table = _table()
+    mirrored = SubgoalTable(table.region_names, table.points.clone(), table.valid, table.labels)
+    mirrored.points[..., 1] *= -1
+    config = OptionsConfig(enabled=True, epsilon=0.0, goal_lead_deg=20.0)
+    stages = []
+    for name, tab, sign in (("hailu2001", table, 1.0), ("hailu2001_mirror", mirrored, -1.0)):
+        opt = SubgoalOptions(load_map(name), 1, config, [0], table=tab)
+        opt.n[0, 0] = 1
+        opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+        row = []
+        for x, y in ((0.0, 0.0), (3.0, 0.5), (2.0, -1.5)):
+            opt.steer(torch.tensor([0]), _odometry((x, sign * y, 0.0)), False)
+            row.append(int(opt.stage[0]))
+        stages.append(row)
+    assert stages[0] == stages[1] == [0, 0, 1]
+
+
 @pytest.mark.parametrize("lead, expected", [(0.0, (3.5, -0.5)), (15.0, (3.5, -0.5)),
                                             (20.0, GOAL)])  # fmt: skip
 def test_goal_lead_angle_decides_the_first_step(lead, expected):
