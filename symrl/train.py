@@ -307,18 +307,21 @@ def train_batch(
                     stopped = True
                     break
                 continue
-            rows = torch.from_numpy(np.flatnonzero(done))
-            records = [recorder.finish(int(b)) for b in rows]
+            # the rows as numpy and Python ints: indexing and reading small tensors element by
+            # element costs a torch dispatch each
+            ended = np.flatnonzero(done)
+            rows, ended_list = torch.from_numpy(ended), ended.tolist()
+            records = [recorder.finish(b) for b in ended_list]
             totals = torch.tensor([r["total_reinforcement"] for r in records])
-            reached = recorder.reached[rows]
-            explored = policy.temperature[rows].tolist()  # before end_trial cools it
-            out = loss.end_trial(rows, totals, reached)
+            reached_np = recorder.reached.numpy()[ended]
+            explored = policy.temperature.numpy()[ended].tolist()  # before end_trial cools it
+            out = loss.end_trial(rows, totals, torch.from_numpy(reached_np))
             extras = _trial_extras(policy, rows, out, explored)
-            for j, b in enumerate(rows.tolist()):
+            for j, b in enumerate(ended_list):
                 if finals[b] is not None:
                     continue  # this robot has done its trials: only driving on
                 record = {"trial": len(trials[b]) + 1, **records[j]}
-                record["reached_goal"] = bool(reached[j])
+                record["reached_goal"] = bool(reached_np[j])
                 record.update(extras[j])
                 trials[b].append(record)
                 bar.update(1)

@@ -142,11 +142,15 @@ class MapLocalizer:
         inside = np.minimum(along, 1.0 - along) * length >= self.edge
         ok = usable & (wall >= 0) & (incidence >= self.min_incidence) & inside
         safe = np.where(ok, cross, 1.0)
-        jac = np.stack((-dy / safe, dx / safe, t * (ux * dx + uy * dy) / safe), axis=-1)
+        # the three columns divided into place (np.stack of three quotients copies them again)
+        jac = np.empty((*t.shape, 3))
+        np.divide(-dy, safe, out=jac[..., 0])
+        np.divide(dx, safe, out=jac[..., 1])
+        np.divide(t * (ux * dx + uy * dy), safe, out=jac[..., 2])
         predicted = np.minimum(t - self.robot.radius, self.robot.sonar_range)
         residual = np.where(ok, predicted - measured, 0.0)
-        size = np.abs(residual)
-        weight = np.where(size > self.huber, self.huber / np.maximum(size, 1e-12), 1.0)
+        # Huber: huber / |r| beyond huber, else 1 (the minimum is 1 exactly up to huber)
+        weight = np.minimum(self.huber / np.maximum(np.abs(residual), 1e-12), 1.0)
         weight = np.where(ok, weight * self.reading_weight, 0.0)
         jw_t = np.swapaxes(jac * weight[..., None], 1, 2)  # (B, 3, n)
         offset = pose - prior_pose

@@ -468,6 +468,7 @@ class FuzzyReflex(nn.Module):
             a = self._arrays = {
                 k: v.numpy() if isinstance(v, torch.Tensor) else v for k, v in c.items()
             }
+            a["rule_out_t"] = np.ascontiguousarray(a["rule_out"].T)[:, :, None]  # (3, rules, 1)
         cfg = self.config
         s, g = sonar.numpy(), goal_angle.numpy()
         # one reduction for the common case (a sum is finite only if every term is; a finite
@@ -495,8 +496,13 @@ class FuzzyReflex(nn.Module):
         literals = np.concatenate((mu, 1.0 - mu), axis=-1)
         if a["always_true"]:
             literals = np.concatenate((literals, np.ones_like(mu[:, :1])), axis=-1)
-        rules = literals[:, a["literals"]].reshape(batch, *a["literals_shape"]).min(axis=-1)
-        f = (rules[..., None] * a["rule_out"]).max(axis=-2) * cfg.d_a + follow
+        # the batch axis innermost: the min and max reduce whole rows at a time, not 2 or 6
+        # numbers at a time (about half the cost at the trial gradient's few hundred rows; the
+        # same values: min and max are exact, the products the same pairs)
+        rules = literals.T[a["literals"]].reshape(*a["literals_shape"], batch).min(axis=1)
+        fired = np.maximum.reduce(a["rule_out_t"] * rules, axis=1)  # (3, B)
+        # C order again for the sums below (a reduction's rounding follows the layout)
+        f = np.ascontiguousarray(fired.T) * cfg.d_a + follow
         total = np.maximum((f[:, 0] + f[:, 2]) + f[:, 1], 1e-12)
         return torch.from_numpy((f * a["peaks"]).sum(axis=-1) / total)
 

@@ -138,25 +138,27 @@ class IRShield(BufferViews):
         unsafe = torch.from_numpy(unsafe_np)
         if not unsafe_np.any():
             return action, unsafe
-        # the candidate search runs only on the rows whose action is unsafe (the rare case)
-        rows = unsafe.nonzero(as_tuple=True)
-        refl, act = reflectance[rows], action[rows]
+        # the candidate search runs only on the rows whose action is unsafe (the rare case), in
+        # numpy as the test above (its torch ops cost several times as much at these sizes)
+        rows = np.flatnonzero(unsafe_np)
+        refl, act = refl_np[rows], action_np[rows]
         # only the sensors that see a wall constrain a move: search over those bearings alone
         seen = refl > 0
         width = max(int(seen.sum(-1).max()), 1)
-        sensors = torch.argsort((~seen).to(torch.int8), dim=-1, stable=True)[..., :width]
-        rho = (self.distances(refl.gather(-1, sensors)) + self.radius).repeat_interleave(3, -1)
-        bearings = self.bearings.view(-1, 3)[sensors].flatten(-2)  # (k, 3 * width)
-        grid = self.candidates.expand(*act.shape, -1)
-        room = torch.from_numpy(self._clearance(rho.numpy(), bearings.numpy(), grid.numpy()))
+        sensors = np.argsort(~seen, axis=-1, kind="stable")[:, :width]
+        rho = self._distances(np.take_along_axis(refl, sensors, -1)) + self.radius
+        bearings = self.arrays["bearings"].reshape(-1, 3)[sensors].reshape(len(rows), -1)
+        candidates = self.arrays["candidates"]
+        grid = np.broadcast_to(candidates, (len(rows), len(candidates)))
+        room = self._clearance(np.repeat(rho, 3, axis=-1), bearings, grid)
         safe = room >= margin
-        turn = torch.remainder(grid - act[..., None] + math.pi, 2 * math.pi) - math.pi
-        cost = torch.where(safe, turn.abs(), torch.inf)
-        nearest = torch.gather(grid, -1, cost.argmin(dim=-1, keepdim=True))[..., 0]
-        widest = torch.gather(grid, -1, room.argmax(dim=-1, keepdim=True))[..., 0]
-        out = action.clone()
-        out[rows] = torch.where(safe.any(dim=-1), nearest, widest)
-        return out, unsafe
+        # np.mod as torch.remainder (they differ only in the sign of a zero, which - pi drops)
+        turn = np.mod(grid - act[:, None] + math.pi, 2 * math.pi) - math.pi
+        cost = np.where(safe, np.abs(turn), np.inf)
+        nearest, widest = candidates[cost.argmin(axis=-1)], candidates[room.argmax(axis=-1)]
+        out = action_np.copy()
+        out[rows] = np.where(safe.any(axis=-1), nearest, widest)
+        return torch.from_numpy(out), unsafe
 
     def filter(self, reflectance: torch.Tensor, action: float) -> tuple[float, bool]:
         """One sample: ``(safe action, replaced?)``; the proposed angle is kept when safe."""

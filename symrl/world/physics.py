@@ -56,10 +56,11 @@ def goal_reading(
     observation's ``goal``; ``angle``: the direction from (x, y) to the goal if already known.
     The C library's hypot and atan2 per element: numpy's SIMD loops round differently in the
     body and the tail of an array, so a robot's numbers would depend on its place in a batch."""
+    dx, dy = (goal_x - x).tolist(), (goal_y - y).tolist()  # once, for both functions
     if angle is None:
-        angle = _math_map(math.atan2, goal_y - y, goal_x - x)
-    out = np.empty((len(x), 2), np.float32)
-    out[:, 0] = _math_map(math.hypot, goal_x - x, goal_y - y)
+        angle = np.fromiter(map(math.atan2, dy, dx), np.float64, count=len(dx))
+    out = np.empty((len(dx), 2), np.float32)
+    out[:, 0] = np.fromiter(map(math.hypot, dx, dy), np.float64, count=len(dx))
     out[:, 1] = wrap_angle(angle - h)
     return out
 
