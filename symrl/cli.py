@@ -345,9 +345,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("recipe")
     p.add_argument("--sets", type=int, default=10)
     p.add_argument("--trials", type=int, default=20)
-    p.add_argument("--workers", type=int, default=1,
+    p.add_argument("--workers", type=int, default=None,
                    help="worker processes, each training its share of the sets as one batch "
-                   "(default 1: all sets in one batch)")
+                   "(default: one per CPU core; set k is the same run whatever the split)")
     p.add_argument("--seed", type=int, default=100, help="first seed; set k uses seed + k")
     p.add_argument("--map", default=None, help="built-in map name or map file (env.map)")
     p.add_argument("--out", default=None, help="results folder (default results/study-RECIPE)")
@@ -357,7 +357,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("ablate", help="the study for every recipe with the same seeds")
     p.add_argument("--sets", type=int, default=10, help="sets per recipe (default 10)")
     p.add_argument("--trials", type=int, default=20, help="trials per set (default 20)")
-    p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes, each training its share of the sets as one batch "
+                   "(default: one per CPU core; set k is the same run whatever the split)")
     p.add_argument("--seed", type=int, default=100, help="first seed; set k uses seed + k")
     p.add_argument("--recipes", default=None,
                    help="comma-separated recipes (default: all six; with --changes-of: none)")
@@ -428,7 +430,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--recipe", default="paper")
     p.add_argument("--sets", type=int, default=5)
     p.add_argument("--trials", type=int, default=20)
-    p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes, each training its share of the sets as one batch "
+                   "(default: one per CPU core; set k is the same run whatever the split)")
     p.add_argument("--seed", type=int, default=100)
     p.add_argument("--map", default="hailu2001",
                    help="built-in map name or map file (env.map; default hailu2001)")

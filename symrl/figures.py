@@ -12,7 +12,7 @@ study's drawing time) for the same margins.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -38,6 +38,7 @@ __all__ = [
     "plot_map_comparison",
     "plot_baseline",
     "plot_learning_curves",
+    "draw_in_parallel",
 ]
 
 _MARKERS = "osD^vP*Xh<>"
@@ -313,3 +314,48 @@ def plot_learning_curves(
     fig.tight_layout()
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
+
+
+def draw_in_parallel(jobs: Sequence[Callable[[], None]], workers: int | None = None) -> None:
+    """Run ``jobs`` (each draws and saves its own figures) in up to ``workers`` processes (None:
+    one per core), largest first as given; this process takes its share.
+
+    Matplotlib draws in one thread, and a PNG of a few panels costs 0.1-0.3 s of layout, Agg
+    rendering and encoding: a study's three figures are about 0.6 s, split over two cores about
+    0.35 s. The helpers are forked (Linux; elsewhere the jobs run here, one after the other),
+    so they share the data already in memory. A job a helper did not finish (an error, a
+    killed helper) runs again here, where its error is raised with its traceback."""
+    import multiprocessing
+    import os
+    import sys
+
+    workers = min(len(jobs), os.cpu_count() or 1) if workers is None else min(workers, len(jobs))
+    if workers <= 1 or not sys.platform.startswith("linux"):
+        for job in jobs:
+            job()
+        return
+    ctx = multiprocessing.get_context("fork")
+    taken = ctx.Value("i", 0)  # the next job to take, shared
+    finished = ctx.Array("b", len(jobs))  # 1 where a job is done
+
+    def take_jobs() -> None:
+        while True:
+            with taken.get_lock():
+                i = taken.value
+                taken.value += 1
+            if i >= len(jobs):
+                return
+            jobs[i]()
+            finished[i] = 1
+
+    helpers = [ctx.Process(target=take_jobs, daemon=True) for _ in range(workers - 1)]
+    for h in helpers:
+        h.start()
+    try:
+        take_jobs()
+    finally:
+        for h in helpers:
+            h.join()
+    for i, job in enumerate(jobs):
+        if not finished[i]:
+            job()

@@ -16,6 +16,7 @@ Variances are sample variances (ddof = 1) over the sets; the paper does not say 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import time
@@ -217,7 +218,8 @@ def write_figures(study: StudyResult) -> None:
     opt = study.table.get("optimum")
     if opt:
         ref[f"steps:optimum {opt['steps']}"] = opt["steps"]
-    F.plot_curves(
+    curves_figure = functools.partial(
+        F.plot_curves,
         {k: curves(rows, k) for k in ("neurons", "steps", "total_reinforcement")},
         out / "curves.png",
         reference=ref,
@@ -226,7 +228,8 @@ def write_figures(study: StudyResult) -> None:
     s0 = study.sets[0]
     trials = sorted(s0.paths)
     first, last = trials[0], trials[-1]
-    F.plot_paths(
+    trajectories_figure = functools.partial(
+        F.plot_paths,
         world,
         [
             (f"set 0, trial {first} (first)", [s0.paths[first]], []),
@@ -250,7 +253,9 @@ def write_figures(study: StudyResult) -> None:
                 [],
             )
         )
-    F.plot_paths(world, panels, out / "ghosts.png", columns=2)
+    ghosts_figure = functools.partial(F.plot_paths, world, panels, out / "ghosts.png", columns=2)
+    # largest first: the ghosts' four panels take about as long as the other two figures
+    F.draw_in_parallel([ghosts_figure, curves_figure, trajectories_figure])
 
 
 def study_command(args: argparse.Namespace) -> int:

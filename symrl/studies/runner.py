@@ -3,9 +3,10 @@
 Set k of a study is robot k of a batched training loop seeded ``seed + k`` (``symrl.train``), so
 it is the same run as ``symrl train RECIPE --seed SEED+k`` alone, whatever the batch size or the
 number of worker processes. ``workers`` > 1 splits the sets into that many batches, one per
-process. Workers are forked where the platform allows (Linux), so they start with torch,
-tensordict and torchrl already imported (a spawned worker imports them again: 2-4 s each);
-with one core per worker a split study then runs in about 1/``workers`` of the training time.
+process (None, the CLI's default: one per CPU core). Workers are forked where the platform
+allows (Linux), so they start with torch, tensordict and torchrl already imported (a spawned
+worker imports them again: 2-4 s each); with one core per worker a split study then trains
+in about 1/``workers`` of the time, less the smaller batches' dearer steps.
 """
 
 from __future__ import annotations
@@ -116,16 +117,17 @@ def _run_batch(
     seeds: Sequence[int],
     starts: Sequence[tuple[float, float, float]],
     progress: bool,
+    on_trial: Any = None,
 ) -> list[SetResult]:
     """Train one robot per seed in one batch, then drive each final controller from ``starts``
-    (runs in a worker process, or in this one)."""
+    (runs in a worker process, or in this one); ``on_trial`` as for ``train_batch``."""
     import torch
 
     from symrl.train import train_batch
 
     torch.set_num_threads(1)
     config = config_from_dict(config_data)
-    results = train_batch(config, seeds, progress=progress)
+    results = train_batch(config, seeds, progress=progress, on_trial=on_trial)
     out = []
     for index, res in zip(indices, results, strict=True):
         rows, paths, ghosts = [], {}, {}
@@ -171,7 +173,7 @@ def run_sets(
     interruption gives the same sets)."""
     if sets < 1 or trials < 1:
         raise ValueError(f"need at least 1 set and 1 trial, got sets={sets}, trials={trials}")
-    workers = 1 if workers is None else workers
+    workers = (os.cpu_count() or 1) if workers is None else workers  # None: one per core
     if workers < 1:
         raise ValueError(f"--workers must be >= 1, got {workers}")
     config = resolve_config(recipe, [*overrides, f"run.trials={trials}", f"run.seed={seed}"])
@@ -196,17 +198,39 @@ def run_sets(
     if len(jobs) == 1:
         finished(_run_batch(*jobs[0], progress=progress))
         return [done[k] for k in range(sets)]
-    from concurrent.futures import as_completed
+    import queue
+    from concurrent.futures import FIRST_COMPLETED, wait
 
     import torch
+    from tqdm.auto import tqdm
 
-    with worker_pool(len(jobs)) as pool:
-        futures = [pool.submit(_run_batch_in_worker, *job) for job in jobs]
-        for fut in as_completed(futures):  # each batch saved as soon as it is done
-            batch = fut.result()
-            for r in batch:
-                r.controller = {k: torch.from_numpy(v) for k, v in r.controller.items()}
-            finished(batch)
+    label = f"{config.recipe} x{len(todo)} ({len(jobs)} workers)"
+    bar = tqdm(total=len(todo) * trials, desc=label, unit="trial", disable=not progress)
+    trials_done = _fork_context().Queue() if progress else None
+    try:
+        with worker_pool(len(jobs), trials_done) as pool:
+            pending = {pool.submit(_run_batch_in_worker, *job) for job in jobs}
+            while pending:
+                ended, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
+                for fut in ended:  # each batch saved as soon as it is done
+                    batch = fut.result()
+                    for r in batch:
+                        r.controller = {k: torch.from_numpy(v) for k, v in r.controller.items()}
+                    finished(batch)
+                while trials_done is not None:
+                    try:
+                        bar.update(trials_done.get_nowait())
+                    except queue.Empty:
+                        break
+        while trials_done is not None and bar.n < bar.total:  # counts sent before the last
+            try:  # batch's result, still in the queue's pipe
+                bar.update(trials_done.get(timeout=1.0))
+            except queue.Empty:
+                break
+    finally:
+        bar.close()
+        if trials_done is not None:
+            trials_done.close()
     return [done[k] for k in range(sets)]
 
 
@@ -219,8 +243,9 @@ def _run_batch_in_worker(
     """:func:`_run_batch` in a worker process, its controllers as numpy arrays: a tensor sent
     between processes travels as a shared-memory file whose descriptor the receiver keeps open
     while the tensor lives, and an ablation of 40 sets x 20 variants holds ~20,000 of them
-    (beyond the usual limit on open files)."""
-    batch = _run_batch(config_data, indices, seeds, starts, False)
+    (beyond the usual limit on open files). Each finished trial is counted on the pool's
+    progress queue, if it has one."""
+    batch = _run_batch(config_data, indices, seeds, starts, False, on_trial=_count_trial)
     for r in batch:
         r.controller = {k: v.numpy() for k, v in r.controller.items()}
     return batch
@@ -264,26 +289,42 @@ def _load_set(folder, index: int, data: dict[str, Any], starts) -> SetResult | N
         return None
 
 
-def _init_worker() -> None:
+_TRIALS_DONE: Any = None
+"""In a worker process: the queue its finished trials are counted on (None: not counted)."""
+
+
+def _count_trial(*_: Any) -> None:
+    if _TRIALS_DONE is not None:
+        _TRIALS_DONE.put(1)
+
+
+def _init_worker(trials_done: Any = None) -> None:
     import torch
 
+    global _TRIALS_DONE
+    _TRIALS_DONE = trials_done
     torch.set_num_threads(1)  # one core per worker; and a forked child must not reuse the
     # parent's OpenMP pool (torch's DataLoader workers do the same)
 
 
-def worker_pool(workers: int) -> Any:
-    """A ``ProcessPoolExecutor`` of ``workers`` processes with one torch thread each.
-
-    Forked on Linux: a fork inherits the imported modules, where a spawned worker spends
+def _fork_context() -> Any:
+    """Fork on Linux: a fork inherits the imported modules, where a spawned worker spends
     2-4 s importing torch, tensordict and torchrl again (more than a 10-set study trains).
-    Spawned elsewhere (macOS and Windows do not fork safely)."""
+    Spawn elsewhere (macOS and Windows do not fork safely)."""
     import multiprocessing
     import sys
+
+    return multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+
+
+def worker_pool(workers: int, trials_done: Any = None) -> Any:
+    """A ``ProcessPoolExecutor`` of ``workers`` processes with one torch thread each (forked
+    where the platform allows, see ``_fork_context``); ``trials_done``: a queue of that context
+    on which the workers of :func:`run_sets` count their finished trials (the progress bar)."""
     from concurrent.futures import ProcessPoolExecutor
 
-    method = "fork" if sys.platform.startswith("linux") else "spawn"
-    ctx = multiprocessing.get_context(method)
-    return ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker)
+    return ProcessPoolExecutor(workers, mp_context=_fork_context(), initializer=_init_worker,
+                               initargs=(trials_done,))  # fmt: skip
 
 
 def run_jobs(fn: Any, jobs: Sequence[dict[str, Any]], workers: int | None = 1,

@@ -87,3 +87,13 @@ def test_set_k_of_a_study_is_train_with_seed_plus_k():
         assert a.controller.keys() == b.controller.keys()
         for key, value in a.controller.items():
             assert isinstance(value, torch.Tensor) and torch.equal(value, b.controller[key]), key
+
+
+def test_a_split_study_counts_every_trial_of_its_workers(capsys):
+    """The workers report each finished trial, so the bar of a split study moves while it
+    trains and ends at sets x trials."""
+    from symrl.studies.runner import run_sets
+
+    run_sets("reflex_only", sets=3, trials=2, seed=40, workers=2, progress=True)
+    err = capsys.readouterr().err
+    assert "(2 workers)" in err and "6/6" in err
