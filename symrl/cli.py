@@ -473,7 +473,7 @@ _TRAINING = ("symrl.train", "symrl.learner.policy", "symrl.learner.loss", "symrl
 _PRELOAD = {
     "train": (*_TRAINING, "symrl.runs"),
     "evaluate": (*_TRAINING, "symrl.evaluate", "symrl.figures"),
-    "study": (*_TRAINING, "symrl.studies.repeatability", "symrl.figures"),
+    "study": (*_TRAINING, "symrl.studies.repeatability"),  # matplotlib: in symrl.drawing's process
     "ablate": (*_TRAINING, "symrl.studies.ablation", "symrl.figures"),
     "generalise": (*_TRAINING, "symrl.studies.generalisation", "symrl.figures"),
 }
@@ -516,6 +516,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if command_line:
         if args.command != "sweep":
             _without_ray()
+        if args.command == "study":  # its figures: drawn by a process importing matplotlib now
+            from symrl import drawing
+
+            drawing.start()
         _preload(args.command)
     try:
         code = int(args.handler(args) or 0)

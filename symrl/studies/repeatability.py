@@ -16,7 +16,6 @@ Variances are sample variances (ddof = 1) over the sets; the paper does not say 
 from __future__ import annotations
 
 import argparse
-import functools
 import json
 import math
 import time
@@ -201,8 +200,9 @@ def write_study(study: StudyResult, figures: bool = True) -> None:
 
 
 def write_figures(study: StudyResult) -> None:
-    """Figs 5-9 of the paper for this study."""
-    from symrl import figures as F
+    """Figs 5-9 of the paper for this study (drawn by ``symrl.drawing``: in the drawing process
+    when the command started one)."""
+    from symrl import drawing
 
     out = study.out
     assert out is not None
@@ -218,24 +218,22 @@ def write_figures(study: StudyResult) -> None:
     opt = study.table.get("optimum")
     if opt:
         ref[f"steps:optimum {opt['steps']}"] = opt["steps"]
-    curves_figure = functools.partial(
-        F.plot_curves,
-        {k: curves(rows, k) for k in ("neurons", "steps", "total_reinforcement")},
-        out / "curves.png",
-        reference=ref,
-        title=f"{study.recipe}: mean over {len(study.sets)} sets, bars min-max (Figs 7-9)",
-    )
+    curves_figure: drawing.Figure = (
+        "plot_curves",
+        ({k: curves(rows, k) for k in ("neurons", "steps", "total_reinforcement")},
+         out / "curves.png"),
+        {"reference": ref,
+         "title": f"{study.recipe}: mean over {len(study.sets)} sets, bars min-max (Figs 7-9)"},
+    )  # fmt: skip
     s0 = study.sets[0]
     trials = sorted(s0.paths)
     first, last = trials[0], trials[-1]
-    trajectories_figure = functools.partial(
-        F.plot_paths,
-        world,
-        [
-            (f"set 0, trial {first} (first)", [s0.paths[first]], []),
-            (f"set 0, trial {last} (final)", [s0.paths[last]], []),
-        ],
-        out / "trajectories.png",
+    first_last = [
+        (f"set 0, trial {first} (first)", [s0.paths[first]], []),
+        (f"set 0, trial {last} (final)", [s0.paths[last]], []),
+    ]
+    trajectories_figure: drawing.Figure = (
+        "plot_paths", (world, first_last, out / "trajectories.png"), {}
     )
     success = [t for t in trials if t not in (first, last)]
     panels = [(f"trial {first} (first) + ghosts", [s0.paths[first]], [s0.ghosts[first]])]
@@ -253,9 +251,10 @@ def write_figures(study: StudyResult) -> None:
                 [],
             )
         )
-    ghosts_figure = functools.partial(F.plot_paths, world, panels, out / "ghosts.png", columns=2)
+    ghosts_figure: drawing.Figure = ("plot_paths", (world, panels, out / "ghosts.png"),
+                                     {"columns": 2})  # fmt: skip
     # largest first: the ghosts' four panels take about as long as the other two figures
-    F.draw_in_parallel([ghosts_figure, curves_figure, trajectories_figure])
+    drawing.draw([ghosts_figure, curves_figure, trajectories_figure])
 
 
 def study_command(args: argparse.Namespace) -> int:
