@@ -7,6 +7,10 @@ seeds 100-109). Prints the Markdown table: last-5-trial means over sets (± sd),
 actions divided by the optimum.
 
     python benchmarks/map_results.py [--sets 10] [--trials 20] [--seed 100] [--maps a,b]
+        [--variants reflex,hand,auto]
+
+``--maps`` takes built-in names or paths of map files (e.g. the tuning worlds in
+``benchmarks/worlds/``); ``--variants`` picks the rows per world.
 """
 
 from __future__ import annotations
@@ -29,13 +33,21 @@ MAPS = (
 )
 
 
+VARIANTS = {
+    "reflex": ("reflex alone", "reflex_only"),
+    "hand": ("`paper`, hand regions", "paper"),
+    "auto": ("`paper`, `regions: auto`", "paper"),
+}
+
+
 def auto_copy(name: str, folder: Path) -> Path:
-    """The map as a file with its hand regions removed (regions found from the walls)."""
+    """The map (a built-in name or a file) as a file with its hand regions removed (regions
+    found from the walls)."""
     world = load_map(name)
     doc = yaml.safe_load(Path(world.source).read_text())
     doc.pop("regions", None)
-    doc["name"] = f"{name}_auto"
-    path = folder / f"{name}_auto.yaml"
+    doc["name"] = f"{world.name}_auto"
+    path = folder / f"{world.name}_auto.yaml"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path
 
@@ -63,12 +75,16 @@ def main() -> None:
     ap.add_argument("--sets", type=int, default=10)
     ap.add_argument("--trials", type=int, default=20)
     ap.add_argument("--seed", type=int, default=100)
-    ap.add_argument("--maps", default=",".join(MAPS))
+    ap.add_argument("--maps", default=",".join(MAPS), help="built-in names or map file paths")
+    ap.add_argument("--variants", default=",".join(VARIANTS), help="of reflex, hand, auto")
     args = ap.parse_args()
     maps = [m.strip() for m in args.maps.split(",") if m.strip()]
-    unknown = sorted(set(maps) - set(builtin_maps()))
+    unknown = sorted(m for m in maps if m not in builtin_maps() and not Path(m).is_file())
     if unknown:
-        raise SystemExit(f"unknown map(s) {unknown}; built-in: {builtin_maps()}")
+        raise SystemExit(f"unknown map(s) {unknown}: not a file; built-in: {builtin_maps()}")
+    variants = [v.strip() for v in args.variants.split(",") if v.strip()]
+    if set(variants) - set(VARIANTS):
+        raise SystemExit(f"unknown variant(s) {sorted(set(variants) - set(VARIANTS))}")
     lines = [
         f"| world | controller | optimum actions | success last {LAST} "
         f"| actions last {LAST} | total reinf. last {LAST} | collisions per trial last {LAST} "
@@ -78,17 +94,15 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for name in maps:
             opt = optimum(name)
-            variants = [
-                ("reflex alone", "reflex_only", name),
-                ("`paper`, hand regions", "paper", name),
-                ("`paper`, `regions: auto`", "paper", str(auto_copy(name, Path(tmp)))),
-            ]
-            for label, recipe, world in variants:
+            title = load_map(name).name
+            for variant in variants:
+                label, recipe = VARIANTS[variant]
+                world = str(auto_copy(name, Path(tmp))) if variant == "auto" else name
                 t0 = time.perf_counter()
                 sets = run_sets(recipe, args.sets, args.trials, args.seed, [f"env.map={world}"],
                                 progress=False)  # fmt: skip
                 rows = [r for s in sets for r in s.rows]
-                lines.append(row(name, label, rows, opt, time.perf_counter() - t0))
+                lines.append(row(title, label, rows, opt, time.perf_counter() - t0))
                 print(lines[-1], flush=True)
     print()
     print(f"{args.sets} sets x {args.trials} trials, seeds {args.seed}-"

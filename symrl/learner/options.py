@@ -206,7 +206,13 @@ class SubgoalOptions(BufferViews):
 def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: float) -> SubgoalTable:
     """``table`` plus, per region, one more option: the last turn of the planner's shortest path
     (start to goal) inside the region, pushed out to ``clearance`` from the nearest wall. It is
-    the corner a route must round that no region line marks (a thin partition's end)."""
+    the corner a route must round that no region line marks (a thin partition's end).
+
+    A turn belongs to the region the path reaches it in (read 1 mm back along the path): a
+    tangent point at a wall corner often lies exactly on a region line through that corner, where
+    the strict rules name no region but the default one. A turn where the path passes into
+    another region (1 mm on, the region differs) counts for its region only if the path makes no
+    turn strictly inside it."""
     import numpy as np
 
     from symrl.studies.planner import shortest_path  # the planner is a study tool: import late
@@ -214,16 +220,27 @@ def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: floa
 
     plan = shortest_path(world)
     walls = Walls(world.segments)
-    last: dict[str, tuple[float, float]] = {}
+    inside: dict[str, tuple[float, float]] = {}
+    crossing: dict[str, tuple[float, float]] = {}
     start = plan.points[0]
-    for x, y in plan.waypoints[:-1]:  # the tangent points; the last one is in the goal disc
-        p = np.array((x, y))
+    way = np.asarray(plan.waypoints, dtype=np.float64)
+    of = world.regions.region_of
+
+    def toward(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+        return p + 1e-3 * (q - p) / max(float(np.hypot(*(q - p))), 1e-9)
+
+    for i in range(1, len(way) - 1):  # the tangent points; the last one is in the goal disc
+        p = way[i]
         if float(np.hypot(*(p - start))) < 0.05:
             continue
-        ex, ey, gap = walls.closest(float(x), float(y))  # wall points relative to p
+        ex, ey, gap = walls.closest(float(p[0]), float(p[1]))  # wall points relative to p
         j = int(np.argmin(ex * ex + ey * ey))
         out = p - np.array((ex[j], ey[j])) / max(gap, 1e-9) * (clearance - gap)
-        last[world.regions.region_of(float(x), float(y))] = (float(out[0]), float(out[1]))
+        back, on = toward(p, way[i - 1]), toward(p, way[i + 1])
+        region = of(float(back[0]), float(back[1]))
+        same = region == of(float(on[0]), float(on[1]))
+        (inside if same else crossing)[region] = (float(out[0]), float(out[1]))
+    last = crossing | inside
     names = list(table.region_names)
     r, k = table.valid.shape
     points = torch.cat((table.points, torch.zeros(r, 1, 2, dtype=table.points.dtype)), dim=1)

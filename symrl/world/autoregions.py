@@ -14,8 +14,10 @@ partition the region mapper and the sub-goal builder can use:
    order, the axis-parallel chords into the free area (up to the next wall or cut) are taken
    shortest first until every free sector left at the corner spans at most 180 degrees; chords
    as short as the last one taken (within ``tie``) are taken too, so the square where two equal
-   arms meet becomes its own piece. A corner that would need a chord longer than ``max_cut`` is
-   left whole (a passage wider than that gets no sub-goal either). Each chord is a cut, and the
+   arms meet becomes its own piece. A sharp corner (a free sector of 270 degrees or more: a
+   wall's free end, the outer corner of a pocket, a U or a pillar) that would need a chord
+   longer than ``sharp_cut`` (the sonar's 5 m), or a shallow one (a slight bend in a wall) that
+   would need one longer than ``max_cut`` (2 m), is left whole. Each chord is a cut, and the
    corners after it see it as a wall.
 3. **Regions.** The free area cut along the narrowings and chords falls into connected pieces; a
    piece of less than ``door_area`` square metres is a door (``door1``, ...), any other a room
@@ -56,7 +58,12 @@ class AutoRegionConfig:
     door_area: float = 1.0
     """Pieces smaller than this (square metres) are doors, larger ones rooms."""
     max_cut: float = 2.0
-    """Longest chord a concave corner is cut along (the sub-goal builder's widest passage)."""
+    """Longest chord a shallow concave corner is cut along (the sub-goal builder's widest
+    passage): one whose free side spans less than 270 degrees, a slight bend in a wall."""
+    sharp_cut: float = 5.0
+    """Longest chord a sharp concave corner is cut along: one whose free side spans 270 degrees
+    or more (a wall's free end, the outer corner of a pocket, a U or a pillar, the inner corner
+    of a square bend). The sonar's range (``RobotConfig.sonar_range``)."""
     tie: float = 0.01
     """Chords this much longer than the one that resolved a corner are taken too."""
 
@@ -263,17 +270,23 @@ def _corner_cuts(
         static = walls[tree.query(geometry, predicate="dwithin", distance=1e-6)]
         return np.concatenate([static, *[segment(*k)[None] for k in cuts + found]])
 
-    concave = corners[_concave(free, walls, tree, corners)]
+    widest = _concave(free, walls, tree, corners)
+    keep = widest > np.pi + 1e-9
+    concave, sharp = corners[keep], widest[keep] >= _SHARP
     # a corner whose axis chords all run past ``short`` between the walls, with no cut that
-    # near, can only need a chord longer than ``max_cut``: it is left whole
-    short = config.max_cut + config.tie + 0.01
-    near_wall = _short_chord(walls, tree, concave, short)
-    for p, close in zip(concave, near_wall, strict=True):
-        if not close and not _cut_within(p, cuts + found, short):
+    # near, can only need a chord longer than its limit: it is left whole
+    short = np.where(sharp, config.sharp_cut, config.max_cut) + config.tie + 0.01
+    near_wall = np.zeros(len(concave), dtype=bool)
+    for group in (sharp, ~sharp):
+        near_wall[group] = _short_chord(walls, tree, concave[group], float(short[group].max(
+            initial=0.0)))
+    for p, close, reach_p in zip(concave, near_wall, short, strict=True):
+        if not close and not _cut_within(p, cuts + found, float(reach_p)):
             continue
         for lo, hi in _open_sectors(free, p, near(shapely.Point(p))):
             if hi - lo <= np.pi + 1e-9:
                 continue
+            limit = config.sharp_cut if hi - lo >= _SHARP else config.max_cut
             # axis directions strictly inside the sector, with their chords
             options = []
             for k in range(int(np.floor(lo / (np.pi / 2))) + 1, int(np.ceil(hi / (np.pi / 2)))):
@@ -292,7 +305,7 @@ def _corner_cuts(
                 taken.append(option)
             if not taken or not _resolved(lo, hi, [t[1] for t in taken]):
                 continue
-            if taken[-1][0] > config.max_cut:
+            if taken[-1][0] > limit:
                 continue
             for _, angle, far in taken:
                 axis = 0 if abs(np.cos(angle)) < 0.5 else 1  # a vertical chord lies on x = c
@@ -302,8 +315,13 @@ def _corner_cuts(
     return found
 
 
+_SHARP = 1.5 * np.pi - 1e-9
+"""A free sector at least this wide (270 degrees) makes a corner sharp."""
+
+
 def _concave(free, walls: np.ndarray, tree, corners: np.ndarray) -> np.ndarray:
-    """Which corners have a free sector wider than 180 degrees between the walls alone.
+    """Each corner's widest free sector (radians; 0 where no sector is free) between the walls
+    alone: a corner is concave where it exceeds 180 degrees.
 
     ``_open_sectors`` for all corners at once, without the cuts: a cut through or to a corner
     only splits its free sectors, so a corner whose sectors are at most 180 degrees here needs no
@@ -335,9 +353,9 @@ def _concave(free, walls: np.ndarray, tree, corners: np.ndarray) -> np.ndarray:
     nxt[last] = angle[first] + 2 * np.pi
     mid = 0.5 * (angle + nxt)
     q = corners[at] + 1e-4 * np.stack([np.cos(mid), np.sin(mid)], axis=1)
-    wide = (nxt - angle > np.pi + 1e-9) & shapely.contains_xy(free, q[:, 0], q[:, 1])
-    out = np.zeros(len(corners), dtype=bool)
-    out[at[wide]] = True
+    span = np.where(shapely.contains_xy(free, q[:, 0], q[:, 1]), nxt - angle, 0.0)
+    out = np.zeros(len(corners))
+    np.maximum.at(out, at, span)
     return out
 
 

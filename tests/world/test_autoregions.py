@@ -115,15 +115,49 @@ ROOM = np.array([[0, 0], [6, 0], [6, 4], [0, 4]], float)
 NO_WALLS = np.zeros((0, 4))
 
 
-@pytest.mark.parametrize(("end", "regions"), [(1.8, 2), (2.5, 1)])
-def test_a_thin_wall_end_is_cut_along_its_continuation_up_to_max_cut(end, regions):
-    # a thin wall from the north wall down to y = end; the gap below it (1.8 m or 2.5 m) is wider
-    # than a door. From the wall's free end, the chord straight down resolves the 360 degree
-    # corner alone (two 180 degree sectors): cut when it is at most 2 m long
-    wall = np.array([[3.0, end, 3.0, 4.0]])
-    found = auto_regions(ROOM, [], wall)
+@pytest.mark.parametrize(("end", "regions"), [(1.8, 2), (2.5, 2), (4.9, 2), (5.2, 1)])
+def test_a_thin_wall_end_is_cut_along_its_continuation_up_to_sharp_cut(end, regions):
+    # a thin wall from the north wall down to y = 8 - end in a 12 m x 8 m room; the gap below it
+    # is wider than a door. From the wall's free end (a sharp corner: 360 degrees free), the
+    # chord straight down resolves the corner alone (two 180 degree sectors): cut when it is at
+    # most 5 m long (the sideways chords are 6 m)
+    room = np.array([[0, 0], [12, 0], [12, 8], [0, 8]], float)
+    wall = np.array([[6.0, end, 6.0, 8.0]])
+    found = auto_regions(room, [], wall)
     assert len(found["names"]) == regions
-    assert found["lines"] == ({"x1": {"x": 3.0}} if regions == 2 else {})
+    assert found["lines"] == ({"x1": {"x": 6.0}} if regions == 2 else {})
+
+
+@pytest.mark.parametrize(("width", "regions"), [(3.6, 3), (6.0, 1)])
+def test_a_shallow_corner_is_cut_only_up_to_max_cut(width, regions):
+    # the north wall bends down by 0.4 m at its middle: a concave corner whose free side spans
+    # only about 195-205 degrees. Its chords run 1.8 m or 3 m sideways: cut at 1.8 m (max_cut 2 m;
+    # the two slivers above the chords are doors), left whole at 3 m, where a sharp corner
+    # (above) would be cut
+    boundary = np.array([[0, 0], [width, 0], [width, 4], [width / 2, 3.6], [0, 4]], float)
+    found = auto_regions(boundary, [], NO_WALLS)
+    assert len(found["names"]) == regions
+
+
+def test_a_pocket_with_wide_passages_is_cut_off_from_them():
+    # a pocket of thin walls, 1.6 m wide (too wide for a door) and 2.5 m deep, opening west in an
+    # 8 m x 6.3 m hall; the passages round it are 2.2 m (south) and 2.5 m (north) wide. Its
+    # corners are sharp, so their chords (1.6 m to 2.5 m) cut it: west, pocket, south, north and
+    # east are separate regions (with a 2 m cap the whole hall was one region)
+    hall = np.array([[0, 0], [8, 0], [8, 6.3], [0, 6.3]], float)
+    pocket = np.array([[3.0, 2.2, 5.5, 2.2], [3.0, 3.8, 5.5, 3.8], [5.5, 2.2, 5.5, 3.8]])
+    found = auto_regions(hall, [], pocket)
+    world = load_map({"boundary": hall.tolist(), "segments": pocket.reshape(-1, 2, 2).tolist(),
+                      "start": {"x": 1.0, "y": 3.0}, "goal": {"x": 6.8, "y": 2.8, "radius": 0.4},
+                      "regions": found})  # fmt: skip
+    of = world.regions.region_of
+    west, inside, south, north, east = of(1.0, 3.0), of(4.2, 3.0), of(4.2, 1.0), of(4.2, 5.0), of(
+        6.8, 2.8)
+    assert len({west, inside, south, north, east}) == 5
+    assert of(2.9, 0.3) == of(2.9, 6.0) == west  # the mouth's line x = 3 bounds the west room
+    assert of(5.6, 0.3) == east  # and the back wall's x = 5.5 the east one, where the back
+    # wall's north end, with two equal 2.5 m chords, makes the north-east square a piece of its own
+    assert of(5.6, 6.0) == of(7.9, 3.9) not in {west, inside, south, north, east}
 
 
 def test_a_bend_is_cut_along_its_narrower_arm():
@@ -146,9 +180,12 @@ def test_a_pillar_is_cut_to_the_nearer_walls():
                       "regions": found})  # fmt: skip
     of = world.regions.region_of
     assert len({of(1.0, 2.0), of(5.0, 2.0), of(3.0, 0.5), of(3.0, 3.5)}) == 4
-    # a pillar more than 2 m from every wall is left whole: one region
-    far = np.array([[0, 0], [9, 0], [9, 5], [0, 5]], float)
-    assert auto_regions(far, [pillar + [1.5, 0.5]], NO_WALLS)["names"] == ["room1"]
+    # 4.25 m and 2.25 m from the walls (its corners are sharp: up to 5 m) it is still cut
+    room = np.array([[0, 0], [9, 0], [9, 5], [0, 5]], float)
+    assert len(auto_regions(room, [pillar + [1.5, 0.5]], NO_WALLS)["names"]) == 4
+    # a pillar more than 5 m from every wall is left whole: one region
+    far = np.array([[0, 0], [12, 0], [12, 12], [0, 12]], float)
+    assert auto_regions(far, [pillar + [3.0, 3.75]], NO_WALLS)["names"] == ["room1"]
 
 
 def test_auto_regions_give_the_paper_door_as_sub_goals():
@@ -161,6 +198,43 @@ def test_auto_regions_give_the_paper_door_as_sub_goals():
         abs(x - 3.5) < 1e-6 and abs(y + 0.5) < 1e-6
         for x, y in table.points[room][table.valid[room]].tolist()
     )
+
+
+def _planner_turns(world) -> dict[str, tuple[float, float]]:
+    from symrl.learner.options import with_planner_waypoints
+
+    table = with_planner_waypoints(world, build_subgoals(world), 0.45)
+    out = {}
+    for r, region in enumerate(table.region_names):
+        labels, points = table.labels[r], table.points[r][table.valid[r]].tolist()
+        for label, point in zip(labels, points, strict=True):
+            if label == "path":
+                out[region] = tuple(point)
+    return out
+
+
+@pytest.mark.parametrize(
+    ("name", "same"),
+    [
+        ("dead_end", {"west": "room1", "south": "room2", "east": "room3"}),
+        ("two_doors", {"room": "room1", "lower_door": "door1", "corridor": "room2"}),
+    ],
+)
+def test_planner_turns_on_found_region_lines_go_to_the_region_the_path_reaches_them_in(
+    name, same
+):
+    # The planner's path rounds the pocket's (the door's) corners; its tangent points there lie
+    # exactly on the found lines through those corners, where the strict rules name only the
+    # default region. Each turn goes to the region the path reaches it in, so the found regions
+    # get the hand regions' turns: on dead_end the start region keeps the turn before the
+    # pocket's corner (not the far end of the southern passage) and the southern passage keeps
+    # its own.
+    hand = _planner_turns(load_map(name))
+    auto = _planner_turns(load_map(_auto(name)))
+    assert auto == {same[region]: point for region, point in hand.items()}
+    if name == "dead_end":
+        assert auto["room1"] == pytest.approx((2.406, 1.060), abs=1e-3)
+        assert auto["room2"] == pytest.approx((4.5, 1.05), abs=1e-3)
 
 
 def test_bad_regions_value_names_auto():
@@ -245,9 +319,11 @@ PINNED = Path(__file__).with_name("auto_regions_pinned.json")
 
 
 def test_found_regions_are_the_pinned_ones_on_shipped_and_random_maps():
-    """The regions found on every shipped map and on 150 random ones are those of the first,
-    slow implementation (one shapely intersection per candidate line), pinned as digests of
-    the ``regions`` mapping: a faster search must find exactly the same rules."""
+    """The regions found on every shipped map and on 150 random ones, pinned as digests of the
+    ``regions`` mapping: a faster search must find exactly the same rules. First pinned from
+    the slow implementation (one shapely intersection per candidate line); re-pinned when sharp
+    corners got chords up to 5 m (``sharp_cut``): 52 random maps changed (pillars and thin-wall
+    ends 2-5 m from the walls now cut), no shipped map."""
     pinned = json.loads(PINNED.read_text())
     cases = _pinned_cases()
     assert sorted(pinned) == sorted(cases)
