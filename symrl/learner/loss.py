@@ -257,12 +257,13 @@ class TeseoLoss(LossModule):
         goal = policy.world.goal
         flat = policy.experts.flat
         means = flat.means
+        returns = self.trial_return.numpy()
         for b in rows.tolist():
             n = int(rec.steps[b])
             if n == 0:
                 continue
             # the price of one action more: the trial's own mean cost per action
-            cost = tg.step_cost * max(-float(self.trial_return[b]), 0.0) / n
+            cost = tg.step_cost * max(-float(returns[b]), 0.0) / n
             grad = trial_gradient(
                 policy.reflex, rec.pose[b, : n + 1], rec.sonar[b, : n + 1], rec.aim[b, :n],
                 rec.held[b, :n], (goal.x, goal.y),
