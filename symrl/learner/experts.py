@@ -31,6 +31,17 @@ __all__ = ["ExpertBank"]
 _ROWS = ("centres", "actions", "utilities", "means", "taken", "used")
 
 
+def _sum_last(squares: np.ndarray) -> np.ndarray:
+    """torch's sum over the last axis of float32 squares (the winner search's distances), as a
+    new array. Four terms (the pose input) are added in numpy in torch's order,
+    ((a + b) + c) + d, the same numbers (``tests/learner/test_experts.py`` pins it): a torch
+    reduction costs several numpy calls inside the control loop. Other lengths stay torch's
+    (its reduction order for them is not a plain left-to-right one)."""
+    if squares.shape[-1] == 4 and squares.dtype == np.float32:
+        return ((squares[..., 0] + squares[..., 1]) + squares[..., 2]) + squares[..., 3]
+    return torch.from_numpy(squares).sum(-1).numpy()
+
+
 class FlatViews(NamedTuple):
     """Numpy views of an :class:`ExpertBank`'s storage, one row per (controller, expert,
     neuron) slot: index them with :meth:`ExpertBank.flat_index_np`."""
@@ -166,7 +177,8 @@ class ExpertBank(BufferViews):
 
         In numpy on the tensors' memory (a fraction of the cost of ~20 torch dispatches for a
         handful of rows); the differences and squares are exact in either, and the sum over D
-        stays a torch reduction, so the distances are those of the torch version bit for bit."""
+        is torch's reduction (or its order, :func:`_sum_last`), so the distances are those of
+        the torch version bit for bit."""
         if int(self.flat.counts[self.flat.row_base + expert.numpy()].max()) == 0:
             return torch.full_like(expert, -1), torch.full((self.batch,), torch.inf)
         winner, distance = self.nearest_np(expert.numpy(), x.numpy())
@@ -181,7 +193,7 @@ class ExpertBank(BufferViews):
         if n == 0:
             return np.full(len(row), -1, dtype=np.int64), np.full(len(row), np.inf)
         centres = flat.banks[row, :n]
-        d2 = torch.from_numpy(np.square(centres - x[:, None, :])).sum(-1).numpy()
+        d2 = _sum_last(np.square(centres - x[:, None, :]))
         d2[flat.arange[:n] >= counts[:, None]] = np.inf
         winner = d2.argmin(axis=-1)  # the first of equal distances, as torch's min
         distance = np.sqrt(d2[np.arange(len(row)), winner])
