@@ -159,9 +159,11 @@ class TeseoLoss(LossModule):
         flat.taken[index] = read(td, k.taken).numpy()
         flat.used[index] = True
 
+        # the pose the robot believes in the state reached (the policy asks for it again when
+        # it acts there: the policy keeps the answer)
+        sonar_next = read(nxt, k.sonar)
+        pose_next, goal_next = policy.belief(sonar_next, read(nxt, k.odometry), read(nxt, k.goal))
         if self.record is not None:  # the poses the robot steered by (its belief)
-            sonar_next = read(nxt, k.sonar)
-            pose_next = policy.belief(sonar_next, read(nxt, k.odometry), read(nxt, k.goal))[0]
             self.record.append(
                 read(td, k.pose).numpy(), read(td, k.sonar).numpy(), read(td, k.aim).numpy(),
                 read(td, k.shielded).numpy(), flat.row_base + expert, winner,
@@ -172,8 +174,8 @@ class TeseoLoss(LossModule):
         terminated = read(nxt, k.terminated).numpy().reshape(-1)
         truncated = read(nxt, k.truncated).numpy().reshape(-1)
         u_prev = utilities[index]
-        _, seen_expert, _, seen_winner, seen_novel = policy.perceive_arrays(
-            read(nxt, k.sonar), read(nxt, k.odometry), read(nxt, k.goal)
+        _, seen_expert, _, seen_winner, seen_novel = policy.perceive_believed(
+            sonar_next, pose_next, goal_next
         )
         u_seen = utilities[bank.flat_index_np(seen_expert.numpy(), np.maximum(seen_winner, 0))]
         # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
