@@ -214,11 +214,26 @@ class ExpertBank(BufferViews):
         the new neurons' indices. Storage doubles when any expert is full. (Numpy writes on the
         storage's flat views: a handful of rows, a fraction of the torch dispatches; copies
         and casts only, so the same numbers.)"""
+        return torch.from_numpy(self.add_np(
+            rows.numpy(), expert.numpy(), centre.detach().numpy(), action.detach().numpy(),
+            utility.detach().numpy(),
+        ))  # fmt: skip
+
+    def add_np(
+        self,
+        rows: np.ndarray,
+        expert: np.ndarray,
+        centre: np.ndarray,
+        action: np.ndarray,
+        utility: np.ndarray,
+    ) -> np.ndarray:
+        """:meth:`add` on numpy arrays (the update's rows are numpy already: no small-tensor
+        indexing in between)."""
         flat = self.flat
-        row = flat.row_base[rows.numpy()] + expert.numpy()  # (controller, expert) rows
+        row = flat.row_base[rows] + expert  # (controller, expert) rows
         index = flat.counts[row]
         if len(index) == 0:
-            return torch.from_numpy(index)
+            return index
         top = int(index.max())
         if top >= self.capacity:
             if top >= self.max_neurons:
@@ -230,14 +245,14 @@ class ExpertBank(BufferViews):
             self._resize(min(2 * self.capacity, self.max_neurons))
             flat = self.flat
         slot = row * flat.capacity + index
-        flat.centres[slot] = centre.detach().numpy()
-        flat.actions[slot] = action.detach().numpy()
-        flat.utilities[slot] = utility.detach().numpy()
+        flat.centres[slot] = centre
+        flat.actions[slot] = action
+        flat.utilities[slot] = utility
         flat.means[slot] = 0.0
         flat.taken[slot] = 0.0
         flat.used[slot] = False
         flat.counts[row] = index + 1
-        return torch.from_numpy(index)
+        return index
 
     # -- end of trial ---------------------------------------------------------------------
     @no_grad
