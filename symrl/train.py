@@ -178,9 +178,12 @@ def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor],
     """The learner columns of the trial records of robots ``rows`` (``out``: what
     ``loss.end_trial`` returned for them; ``temperature``: the one each trial explored with,
     read before the cooling at its end). Tensors are read once per call, not per robot."""
-    counts = policy.experts.count[rows].tolist()
+    # numpy on the buffers' memory: a small tensor's indexing costs a torch dispatch
+    index = rows.numpy()
+    counts = policy.experts.count.numpy()[index].tolist()
     replaced, improved = out["replaced"].tolist(), out["improved"].tolist()
-    choices = policy.options.choice[rows].tolist() if policy.options is not None else None
+    choices = (policy.options.choice.numpy()[index].tolist()
+               if policy.options is not None else None)  # fmt: skip
     extras = []
     for j in range(len(counts)):
         extra: dict[str, Any] = {"neurons": sum(counts[j])}

@@ -462,22 +462,28 @@ class FuzzyReflex(nn.Module):
         """:meth:`forward` of a float64 batch (B, n) in numpy on the tensors' memory: the
         operations of the tensor path in the same order, so the same numbers bit for bit
         (``tests/knowledge/test_reflex_compiled.py``); sin, cos and atan2 stay torch ops."""
-        a = self._arrays
-        if a is None:
-            c = self._compiled(sonar)._asdict()
-            a = self._arrays = {
-                k: v.numpy() if isinstance(v, torch.Tensor) else v for k, v in c.items()
-            }
-            a["rule_out_t"] = np.ascontiguousarray(a["rule_out"].T)[:, :, None]  # (3, rules, 1)
-        cfg = self.config
         s, g = sonar.numpy(), goal_angle.numpy()
         # one reduction for the common case (a sum is finite only if every term is; a finite
         # sum's overflow to inf is then told apart by the exact test)
         finite = np.isfinite(s.sum() + g.sum())
         if not finite and not (np.isfinite(s).all() and np.isfinite(g).all()):
             raise ValueError("FuzzyReflex: sonar or goal_angle contains a non-finite value")
+        return torch.from_numpy(self.wrapped_batch(s, _wrap(goal_angle).numpy()))
+
+    def wrap(self, goal_angle: torch.Tensor) -> np.ndarray:
+        """The goal angles of a float64 batch wrapped to [-pi, pi] as :meth:`forward` wraps
+        them. torch's atan2 rounds the elements of a long batch's vectorised body differently
+        from the others, so an angle's bits depend on its place in the batch: a caller that
+        runs the reflex on some rows of a batch wraps the whole batch's angles here first."""
+        return _wrap(goal_angle).numpy()
+
+    def wrapped_batch(self, s: np.ndarray, wrapped: np.ndarray) -> np.ndarray:
+        """:meth:`forward` of float64 sonars ``(B, n)`` (finite) at goal angles already
+        wrapped (:meth:`wrap`), numpy in and out; each row's output depends on that row
+        alone."""
+        a = self._numpy_arrays()
+        cfg = self.config
         batch = s.shape[0]
-        wrapped = _wrap(goal_angle).numpy()
         t = wrapped / cfg.goal_span
         # (LEFT, FORWARD, RIGHT) columns clipped to [0, 1] (min/max: np.clip's dispatch costs
         # about twice as much; the same numbers)
@@ -486,8 +492,7 @@ class FuzzyReflex(nn.Module):
         follow[:, 1] = 1.0 - np.abs(t)
         follow[:, 2] = -t
         follow = np.minimum(np.maximum(follow, 0.0), 1.0) * cfg.d_g
-        sector = s[:, a["rays"]].reshape(batch, *a["rays_shape"]).min(axis=-1) * cfg.sonar_range
-        mu = np.minimum(np.maximum((a["b"] - sector) / a["b_minus_a"], 0.0), 1.0)
+        mu = self._memberships(s, a)
         if a["uses_side"]:  # the turning side, as _side
             diff = mu @ a["side_diff"]
             keys = np.sign(diff) * (np.abs(diff) > cfg.side_margin)
@@ -504,7 +509,30 @@ class FuzzyReflex(nn.Module):
         # C order again for the sums below (a reduction's rounding follows the layout)
         f = np.ascontiguousarray(fired.T) * cfg.d_a + follow
         total = np.maximum((f[:, 0] + f[:, 2]) + f[:, 1], 1e-12)
-        return torch.from_numpy((f * a["peaks"]).sum(axis=-1) / total)
+        return (f * a["peaks"]).sum(axis=-1) / total
+
+    def _numpy_arrays(self) -> dict[str, Any]:
+        """The float64 compiled rule base as numpy arrays (:meth:`_batch`'s constants)."""
+        a = self._arrays
+        if a is None:
+            c = self._compiled(torch.zeros((), dtype=torch.float64))._asdict()
+            a = self._arrays = {
+                k: v.numpy() if isinstance(v, torch.Tensor) else v for k, v in c.items()
+            }
+            a["rule_out_t"] = np.ascontiguousarray(a["rule_out"].T)[:, :, None]  # (3, rules, 1)
+        return a
+
+    def _memberships(self, s: np.ndarray, a: dict[str, Any]) -> np.ndarray:
+        """NEAR of every sector ``(B, S)`` from float64 sonars ``(B, n)`` (:meth:`_batch`'s)."""
+        sector = s[:, a["rays"]].reshape(len(s), *a["rays_shape"]).min(axis=-1)
+        return np.minimum(np.maximum((a["b"] - sector * self.config.sonar_range)
+                                     / a["b_minus_a"], 0.0), 1.0)  # fmt: skip
+
+    def memberships(self, sonar: np.ndarray) -> np.ndarray:
+        """NEAR of every sector ``(B, S)`` from float64 sonars ``(B, n)``, as :meth:`forward`
+        computes it (numpy in, numpy out): a row whose memberships are another row's, at the
+        same goal angle, has that row's output bit for bit."""
+        return self._memberships(sonar, self._numpy_arrays())
 
     def _single(self, sonar: torch.Tensor, goal_angle: torch.Tensor) -> float:
         """The crisp angle of one float64 sample with Python floats (same numbers bit for bit as

@@ -122,12 +122,16 @@ class RegionMapper(BufferViews):
         # numpy on the tensors' memory (a handful of poses: a fraction of the torch dispatches;
         # the product is exact, see _derive). (..., R, C): whether each condition holds
         # (padding always does)
+        return torch.from_numpy(self.ids_np(xy.numpy()))
+
+    def ids_np(self, xy: np.ndarray) -> np.ndarray:
+        """:meth:`ids` on a numpy array (the control loop's poses are numpy already)."""
         a = self.arrays
-        holds = xy.numpy() @ a["select"] > a["bound"]
+        holds = xy @ a["select"] > a["bound"]
         holds = holds.reshape(*holds.shape[:-1], *a["axis"].shape)
         # First matching rule: argmax over booleans returns the first True.
         first = holds.all(axis=-1).argmax(axis=-1)
-        return torch.from_numpy(np.asarray(a["rule_region"][first]))
+        return np.asarray(a["rule_region"][first])
 
     def extra_repr(self) -> str:
         return f"names={self.names}, rules={self.rule_region.numel()}"

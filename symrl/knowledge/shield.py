@@ -34,6 +34,9 @@ from symrl.world.robot import RobotConfig
 
 __all__ = ["ShieldConfig", "IRShield"]
 
+_FIRST = 48
+"""Candidates of the smallest turns tried first by the search for a safe action."""
+
 
 @dataclass(frozen=True)
 class ShieldConfig:
@@ -141,24 +144,43 @@ class IRShield(BufferViews):
         # the candidate search runs only on the rows whose action is unsafe (the rare case), in
         # numpy as the test above (its torch ops cost several times as much at these sizes)
         rows = np.flatnonzero(unsafe_np)
-        refl, act = refl_np[rows], action_np[rows]
+        out = action_np.copy()
+        out[rows] = self._search(refl_np[rows], action_np[rows])
+        return torch.from_numpy(out), unsafe
+
+    def _search(self, refl: np.ndarray, act: np.ndarray) -> np.ndarray:
+        """The safe actions of unsafe rows (``refl`` (k, n), ``act`` (k,)): the candidate with
+        the smallest turn from the proposed angle whose move keeps the margin (the first of
+        equal turns), or the one with the largest clearance if none does.
+
+        The candidates nearest in turn are tried first (``_FIRST`` of them, +-60 deg): a
+        candidate's clearance is its own (each one computed on its own), so the first safe one
+        among them, in the order of turn and then of index, is the one the whole grid would
+        give. Only rows with none safe there search the whole grid (the search took a
+        fifth of the policy's time at B = 10, in the one step in seven that needs it)."""
+        margin = self.config.margin
         # only the sensors that see a wall constrain a move: search over those bearings alone
         seen = refl > 0
         width = max(int(seen.sum(-1).max()), 1)
         sensors = np.argsort(~seen, axis=-1, kind="stable")[:, :width]
-        rho = self._distances(np.take_along_axis(refl, sensors, -1)) + self.radius
-        bearings = self.arrays["bearings"].reshape(-1, 3)[sensors].reshape(len(rows), -1)
+        rho = np.repeat(self._distances(np.take_along_axis(refl, sensors, -1)) + self.radius,
+                        3, axis=-1)  # fmt: skip
+        bearings = self.arrays["bearings"].reshape(-1, 3)[sensors].reshape(len(act), -1)
         candidates = self.arrays["candidates"]
-        grid = np.broadcast_to(candidates, (len(rows), len(candidates)))
-        room = self._clearance(np.repeat(rho, 3, axis=-1), bearings, grid)
-        safe = room >= margin
+        grid = np.broadcast_to(candidates, (len(act), len(candidates)))
         # np.mod as torch.remainder (they differ only in the sign of a zero, which - pi drops)
-        turn = np.mod(grid - act[:, None] + math.pi, 2 * math.pi) - math.pi
-        cost = np.where(safe, np.abs(turn), np.inf)
-        nearest, widest = candidates[cost.argmin(axis=-1)], candidates[room.argmax(axis=-1)]
-        out = action_np.copy()
-        out[rows] = np.where(safe.any(axis=-1), nearest, widest)
-        return torch.from_numpy(out), unsafe
+        turn = np.abs(np.mod(grid - act[:, None] + math.pi, 2 * math.pi) - math.pi)
+        order = np.argsort(turn, axis=-1, kind="stable")[:, :_FIRST]
+        safe = self._clearance(rho, bearings, candidates[order]) >= margin
+        out = candidates[np.take_along_axis(order, safe.argmax(axis=-1)[:, None], -1)[:, 0]]
+        wide = np.flatnonzero(~safe.any(axis=-1))
+        if len(wide):  # none near the proposed angle is safe: the whole grid
+            room = self._clearance(rho[wide], bearings[wide], grid[wide])
+            safe = room >= margin
+            cost = np.where(safe, turn[wide], np.inf)
+            nearest, widest = candidates[cost.argmin(axis=-1)], candidates[room.argmax(axis=-1)]
+            out[wide] = np.where(safe.any(axis=-1), nearest, widest)
+        return out
 
     def filter(self, reflectance: torch.Tensor, action: float) -> tuple[float, bool]:
         """One sample: ``(safe action, replaced?)``; the proposed angle is kept when safe."""

@@ -31,6 +31,17 @@ __all__ = ["ExpertBank"]
 _ROWS = ("centres", "actions", "utilities", "means", "taken", "used")
 
 
+def _sum_last(squares: np.ndarray) -> np.ndarray:
+    """torch's sum over the last axis of float32 squares (the winner search's distances), as a
+    new array. Four terms (the pose input) are added in numpy in torch's order,
+    ((a + b) + c) + d, the same numbers (``tests/learner/test_experts.py`` pins it): a torch
+    reduction costs several numpy calls inside the control loop. Other lengths stay torch's
+    (its reduction order for them is not a plain left-to-right one)."""
+    if squares.shape[-1] == 4 and squares.dtype == np.float32:
+        return ((squares[..., 0] + squares[..., 1]) + squares[..., 2]) + squares[..., 3]
+    return torch.from_numpy(squares).sum(-1).numpy()
+
+
 class FlatViews(NamedTuple):
     """Numpy views of an :class:`ExpertBank`'s storage, one row per (controller, expert,
     neuron) slot: index them with :meth:`ExpertBank.flat_index_np`."""
@@ -166,7 +177,8 @@ class ExpertBank(BufferViews):
 
         In numpy on the tensors' memory (a fraction of the cost of ~20 torch dispatches for a
         handful of rows); the differences and squares are exact in either, and the sum over D
-        stays a torch reduction, so the distances are those of the torch version bit for bit."""
+        is torch's reduction (or its order, :func:`_sum_last`), so the distances are those of
+        the torch version bit for bit."""
         if int(self.flat.counts[self.flat.row_base + expert.numpy()].max()) == 0:
             return torch.full_like(expert, -1), torch.full((self.batch,), torch.inf)
         winner, distance = self.nearest_np(expert.numpy(), x.numpy())
@@ -181,7 +193,7 @@ class ExpertBank(BufferViews):
         if n == 0:
             return np.full(len(row), -1, dtype=np.int64), np.full(len(row), np.inf)
         centres = flat.banks[row, :n]
-        d2 = torch.from_numpy(np.square(centres - x[:, None, :])).sum(-1).numpy()
+        d2 = _sum_last(np.square(centres - x[:, None, :]))
         d2[flat.arange[:n] >= counts[:, None]] = np.inf
         winner = d2.argmin(axis=-1)  # the first of equal distances, as torch's min
         distance = np.sqrt(d2[np.arange(len(row)), winner])
@@ -202,11 +214,26 @@ class ExpertBank(BufferViews):
         the new neurons' indices. Storage doubles when any expert is full. (Numpy writes on the
         storage's flat views: a handful of rows, a fraction of the torch dispatches; copies
         and casts only, so the same numbers.)"""
+        return torch.from_numpy(self.add_np(
+            rows.numpy(), expert.numpy(), centre.detach().numpy(), action.detach().numpy(),
+            utility.detach().numpy(),
+        ))  # fmt: skip
+
+    def add_np(
+        self,
+        rows: np.ndarray,
+        expert: np.ndarray,
+        centre: np.ndarray,
+        action: np.ndarray,
+        utility: np.ndarray,
+    ) -> np.ndarray:
+        """:meth:`add` on numpy arrays (the update's rows are numpy already: no small-tensor
+        indexing in between)."""
         flat = self.flat
-        row = flat.row_base[rows.numpy()] + expert.numpy()  # (controller, expert) rows
+        row = flat.row_base[rows] + expert  # (controller, expert) rows
         index = flat.counts[row]
         if len(index) == 0:
-            return torch.from_numpy(index)
+            return index
         top = int(index.max())
         if top >= self.capacity:
             if top >= self.max_neurons:
@@ -218,14 +245,14 @@ class ExpertBank(BufferViews):
             self._resize(min(2 * self.capacity, self.max_neurons))
             flat = self.flat
         slot = row * flat.capacity + index
-        flat.centres[slot] = centre.detach().numpy()
-        flat.actions[slot] = action.detach().numpy()
-        flat.utilities[slot] = utility.detach().numpy()
+        flat.centres[slot] = centre
+        flat.actions[slot] = action
+        flat.utilities[slot] = utility
         flat.means[slot] = 0.0
         flat.taken[slot] = 0.0
         flat.used[slot] = False
         flat.counts[row] = index + 1
-        return torch.from_numpy(index)
+        return index
 
     # -- end of trial ---------------------------------------------------------------------
     @no_grad

@@ -140,17 +140,17 @@ class TeseoLoss(LossModule):
             return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
                               neurons=policy.neurons().sum(-1), batch_size=[batch])  # fmt: skip
         bank = policy.experts
-        expert_t, x_t, proto_t = read(td, k.expert), read(td, k.x), read(td, k.proto)
-        expert, winner = expert_t.numpy(), read(td, k.winner).numpy()
+        expert, winner = read(td, k.expert).numpy(), read(td, k.winner).numpy()
+        x, proto = read(td, k.x).numpy(), read(td, k.proto).numpy()
         grown = np.zeros(batch, dtype=np.int64)
 
         # 1. the neuron the policy acted as at a novel state is born now
         novel = read(td, k.novel).numpy()
         if novel.any():
-            new = torch.from_numpy(np.flatnonzero(novel))
-            u0 = read(td, k.state_reward).view(-1)[new]
+            new = np.flatnonzero(novel)
+            u0 = read(td, k.state_reward).numpy().reshape(-1)[new]
             winner = winner.copy()
-            winner[new.numpy()] = bank.add(new, expert_t[new], x_t[new], proto_t[new], u0).numpy()
+            winner[new] = bank.add_np(new, expert[new], x[new], proto[new], u0)
             grown += novel
         # flat views of the storage, taken after any growth (the capacity may have doubled)
         flat = bank.flat
@@ -159,9 +159,11 @@ class TeseoLoss(LossModule):
         flat.taken[index] = read(td, k.taken).numpy()
         flat.used[index] = True
 
+        # the pose the robot believes in the state reached (the policy asks for it again when
+        # it acts there: the policy keeps the answer)
+        sonar_next = read(nxt, k.sonar)
+        pose_next, goal_next = policy.belief(sonar_next, read(nxt, k.odometry), read(nxt, k.goal))
         if self.record is not None:  # the poses the robot steered by (its belief)
-            sonar_next = read(nxt, k.sonar)
-            pose_next = policy.belief(sonar_next, read(nxt, k.odometry), read(nxt, k.goal))[0]
             self.record.append(
                 read(td, k.pose).numpy(), read(td, k.sonar).numpy(), read(td, k.aim).numpy(),
                 read(td, k.shielded).numpy(), flat.row_base + expert, winner,
@@ -172,8 +174,8 @@ class TeseoLoss(LossModule):
         terminated = read(nxt, k.terminated).numpy().reshape(-1)
         truncated = read(nxt, k.truncated).numpy().reshape(-1)
         u_prev = utilities[index]
-        _, seen_expert, _, seen_winner, seen_novel = policy.perceive_arrays(
-            read(nxt, k.sonar), read(nxt, k.odometry), read(nxt, k.goal)
+        _, seen_expert, _, seen_winner, seen_novel = policy.perceive_believed(
+            sonar_next, pose_next, goal_next
         )
         u_seen = utilities[bank.flat_index_np(seen_expert.numpy(), np.maximum(seen_winner, 0))]
         # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
@@ -187,9 +189,8 @@ class TeseoLoss(LossModule):
         delta = r + update.gamma * u_next - u_prev
         split = np.abs(delta) > update.error_threshold
         if split.any():
-            s = torch.from_numpy(np.flatnonzero(split))
-            utility = torch.from_numpy(u_prev + delta)[s]
-            bank.add(s, expert_t[s], x_t[s], proto_t[s], utility)
+            s = np.flatnonzero(split)
+            bank.add_np(s, expert[s], x[s], proto[s], (u_prev + delta)[s])
             grown += split
             utilities, means = bank.flat.utilities, bank.flat.means
             index = bank.flat_index_np(expert, winner)  # the capacity may have doubled
@@ -204,7 +205,7 @@ class TeseoLoss(LossModule):
             slots = index[a]
             centres = bank.flat.centres
             moved = torch.from_numpy(centres[slots])
-            moved.lerp_(torch.from_numpy(x_t.numpy()[a]), update.kappa)
+            moved.lerp_(torch.from_numpy(x[a]), update.kappa)
             centres[slots] = moved.numpy()
         return TensorDict._new_unsafe(
             {"td_error": torch.from_numpy(delta), "grown": torch.from_numpy(grown),
@@ -257,12 +258,13 @@ class TeseoLoss(LossModule):
         goal = policy.world.goal
         flat = policy.experts.flat
         means = flat.means
+        returns = self.trial_return.numpy()
         for b in rows.tolist():
             n = int(rec.steps[b])
             if n == 0:
                 continue
             # the price of one action more: the trial's own mean cost per action
-            cost = tg.step_cost * max(-float(self.trial_return[b]), 0.0) / n
+            cost = tg.step_cost * max(-float(returns[b]), 0.0) / n
             grad = trial_gradient(
                 policy.reflex, rec.pose[b, : n + 1], rec.sonar[b, : n + 1], rec.aim[b, :n],
                 rec.held[b, :n], (goal.x, goal.y),

@@ -15,6 +15,7 @@ per-trial choices (decision state the policy writes when it acts; :meth:`begin_t
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -25,7 +26,7 @@ from symrl.grad import no_grad
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
 from symrl.world.worldmap import WorldMap
 
-__all__ = ["SubgoalOptions", "subgoal_config", "with_planner_waypoints"]
+__all__ = ["SubgoalOptions", "subgoal_config", "subgoal_table", "with_planner_waypoints"]
 
 # a visit's stages: its first part (at the sub-goal; with a goal lead, at the goal while the
 # sub-goal is nearly in line with it), then at the sub-goal, then (the sub-goal reached) at the goal
@@ -70,13 +71,7 @@ class SubgoalOptions(BufferViews):
     ) -> None:
         super().__init__()
         self.config = config
-        self.table = table or build_subgoals(world, subgoal_config(config))
-        if table is None and config.subgoal_planner:  # type: ignore[attr-defined]
-            self.table = with_planner_waypoints(
-                world,
-                self.table,
-                max(config.subgoal_min_clearance, 0.45),  # type: ignore[attr-defined]
-            )
+        self.table = table or subgoal_table(world, config)
         r, k = self.table.valid.shape
         self.labels = self.table.labels
         self.region_names = self.table.region_names
@@ -201,6 +196,47 @@ class SubgoalOptions(BufferViews):
         q = torch.where((self.n[row] > 0) & self.valid, self.q[row], -math.inf)
         best = q.argmax(dim=1)
         return [int(o) if math.isfinite(float(q[r, o])) else -1 for r, o in enumerate(best)]
+
+
+_TABLES: dict[tuple, SubgoalTable] = {}
+"""The sub-goal tables built in this process, by :func:`_table_key` (a few maps at most)."""
+
+
+def _table_key(world: WorldMap, config: object) -> tuple:
+    """Everything a sub-goal table is computed from, exactly: every field of the map (arrays by
+    their bytes, shape and dtype; the frozen dataclasses by their repr, whose floats round-trip)
+    and the options' table settings."""
+    fields = []
+    for f in dataclasses.fields(world):
+        value = getattr(world, f.name)
+        items = value if isinstance(value, tuple) else (value,)
+        if any(isinstance(v, np.ndarray) for v in items):
+            fields.append(tuple((v.shape, v.dtype.str, v.tobytes()) for v in items))
+        else:
+            fields.append(repr(value))
+    planner = bool(config.subgoal_planner)  # type: ignore[attr-defined]
+    clearance = float(config.subgoal_min_clearance)  # type: ignore[attr-defined]
+    return (tuple(fields), subgoal_config(config), planner, clearance)
+
+
+def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
+    """The sub-goal table of ``world`` for an ``OptionsConfig`` section: the region lines'
+    points, plus with ``subgoal_planner`` the planner's turns. A pure function of the map and
+    those settings that takes tens of milliseconds (a run's largest setup cost), so it is built
+    once per map and settings in a process; the table is shared, and nothing writes into it (the
+    options copy its tensors into their buffers)."""
+    key = _table_key(world, config)
+    table = _TABLES.get(key)
+    if table is None:
+        table = build_subgoals(world, subgoal_config(config))
+        if config.subgoal_planner:  # type: ignore[attr-defined]
+            table = with_planner_waypoints(
+                world, table, max(config.subgoal_min_clearance, 0.45)  # type: ignore[attr-defined]
+            )
+        if len(_TABLES) >= 16:
+            _TABLES.clear()
+        _TABLES[key] = table
+    return table
 
 
 def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: float) -> SubgoalTable:

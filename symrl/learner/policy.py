@@ -220,8 +220,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         # torch's, whose last bit differs from numpy's
         pose = odometry.numpy().astype(np.float32, copy=False)
         theta = torch.from_numpy(pose[:, 2])
-        cos, sin = theta.cos().numpy(), theta.sin().numpy()
-        return torch.from_numpy(np.stack((pose[:, 0], pose[:, 1], h * cos, h * sin), axis=-1))
+        x = np.empty((len(pose), 4), dtype=np.float32)  # the four columns written in place
+        x[:, :2] = pose[:, :2]
+        np.multiply(h, theta.cos().numpy(), out=x[:, 2])
+        np.multiply(h, theta.sin().numpy(), out=x[:, 3])
+        return torch.from_numpy(x)
 
     def perceive(
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
@@ -238,12 +241,13 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray, np.ndarray]:
         """:meth:`perceive` with the winner and the novelty as numpy arrays (the control loop
         reads them as numpy: no tensors in between)."""
-        return self._perceive_belief(sonar, *self.belief(sonar, odometry, goal))
+        return self.perceive_believed(sonar, *self.belief(sonar, odometry, goal))
 
-    def _perceive_belief(
+    def perceive_believed(
         self, sonar: torch.Tensor, pose: torch.Tensor, goal: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray, np.ndarray]:
-        """:meth:`perceive_arrays` at the believed ``pose`` and ``goal``."""
+        """:meth:`perceive_arrays` at the believed ``pose`` and ``goal`` (:meth:`belief`'s
+        answer, for a caller that has it already)."""
         region, expert, x = self._gate_and_inputs(sonar, pose, goal)
         if not self.config.experts.learning:
             return region, expert, x, np.full(len(region), -1), np.ones(len(region), dtype=bool)
@@ -267,7 +271,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         last = self._last_seen
         if last is not None and last[0] == key:
             return last[1]
-        region = self.mapper.ids(torch.from_numpy(pose.numpy()[:, :2].astype(np.float64)))
+        region = torch.from_numpy(self.mapper.ids_np(pose.numpy()[:, :2].astype(np.float64)))
         expert = region if self.config.gate.partition else torch.zeros_like(region)
         x = self.encode_pose(pose) if pose_input else self.encode(sonar, goal[:, 0])
         self._last_seen = (key, (region, expert, x))
@@ -296,7 +300,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         greedy = is_greedy()
         sonar = read(td, "sonar")
         pose, goal = self.belief(sonar, read(td, "odometry"), read(td, "goal"))
-        region, expert, x, winner, novel = self._perceive_belief(sonar, pose, goal)
+        region, expert, x, winner, novel = self.perceive_believed(sonar, pose, goal)
         zero = self._zeros
         option, entered, aim = self._no_option, self._no_entry, self._goal_aim
         if self.options is not None:

@@ -32,6 +32,7 @@ differences of the replayed model.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import TYPE_CHECKING
 
@@ -99,6 +100,17 @@ def _bearing_partials(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.nd
     return dy / d2, -dx / d2
 
 
+@functools.lru_cache(maxsize=8)
+def _sector_rays(sectors: tuple[tuple[int, ...], ...]) -> tuple[np.ndarray, bool]:
+    """The rays of each sector ``(S, M)`` in the reflex config's order, padded by repeating a
+    sector's first ray (the first of equal readings stays the first), and whether no two
+    sectors share a ray."""
+    width = max(len(r) for r in sectors)
+    rays = np.array([[*r, *[r[0]] * (width - len(r))] for r in sectors], dtype=np.intp)
+    flat = [ray for r in sectors for ray in r]
+    return rays, len(set(flat)) == len(flat)
+
+
 def reflex_partials(
     reflex: FuzzyReflex, sonar: np.ndarray, beta: np.ndarray,
     eps: float = 1e-7, jump: float = 1e-4,
@@ -109,29 +121,51 @@ def reflex_partials(
     only ray of a sector the reflex reads): the reflex is piecewise linear in both, so a step
     of 1e-7 is exact within a piece. Where either side changes by more than ``jump`` (1000 rad
     per unit: no slope of the reflex, a crisp switch of the turning side) the partial is 0: a
-    jump is not a slope that a small change of the path can follow."""
+    jump is not a slope that a small change of the path can follow.
+
+    A ray's step changes the output only where it changes a sector's NEAR membership: far
+    from the walls NEAR is 0 on both sides, the output is the unperturbed one bit for bit and
+    the difference 0. So the reflex runs on the unperturbed rows, the beta steps and only those
+    ray steps that change a membership (most of the rows are not: about a third of the rows)."""
     t, n = sonar.shape
     steps = np.arange(t)
     # the reflex reads each sector's nearest ray: only that ray has a slope
-    nearest = [np.asarray(rays)[np.argmin(sonar[:, list(rays)], axis=1)]
-               for rays in reflex.config.sectors.values()]  # fmt: skip
-    k = 1 + len(nearest)
+    rays, disjoint = _sector_rays(tuple(tuple(r) for r in reflex.config.sectors.values()))
+    k = 1 + len(rays)
+    nearest = rays[np.arange(len(rays)), sonar[:, rays].argmin(axis=2)]  # (T, S)
     s = np.broadcast_to(sonar, (2 * k + 1, t, n)).copy()
     b = np.broadcast_to(beta, (2 * k + 1, t)).copy()
     b[1] += eps
     b[2] -= eps
-    for i, ray in enumerate(nearest):
-        s[3 + 2 * i, steps, ray] += eps
-        s[4 + 2 * i, steps, ray] -= eps
-    with torch.no_grad():
-        out = reflex(torch.from_numpy(s.reshape(-1, n)), torch.from_numpy(b.reshape(-1)))
-    out = out.numpy().reshape(2 * k + 1, t)
+    sector = np.arange(len(rays))[:, None]
+    s[3::2][sector, steps, nearest.T] += eps
+    s[4::2][sector, steps, nearest.T] -= eps
+    flat_s = s.reshape(-1, n)
+    finite = np.isfinite(flat_s.sum() + b.sum())  # the reflex's own test
+    if not finite and not (np.isfinite(flat_s).all() and np.isfinite(b).all()):
+        raise ValueError("FuzzyReflex: sonar or goal_angle contains a non-finite value")
+    # the angles wrapped as the reflex wraps the whole batch: their last bit depends on their
+    # place in it, so a ray step's row keeps its own
+    wrapped = reflex.wrap(torch.from_numpy(b.reshape(-1))).reshape(2 * k + 1, t)
+    # the rows whose memberships or wrapped angle differ from their step's unperturbed ones,
+    # and the first three
+    mu = reflex.memberships(flat_s).reshape(2 * k + 1, t, -1)
+    changed = (np.any(mu[3:] != mu[0], axis=2) | (wrapped[3:] != wrapped[0])).reshape(-1)
+    rows = np.concatenate((np.arange(3 * t), 3 * t + np.flatnonzero(changed)))
+    wrapped = wrapped.reshape(-1)
+    some = reflex.wrapped_batch(flat_s[rows], wrapped[rows])
+    out = np.tile(some[:t], 2 * k + 1)
+    out[rows] = some
+    out = out.reshape(2 * k + 1, t)
     up, down = out[1::2] - out[0], out[0] - out[2::2]
     jumps = np.maximum(np.abs(up), np.abs(down)) > jump
     slope = np.where(jumps, 0.0, (up + down) / (2 * eps))  # (k, T)
     r_sonar = np.zeros((t, n))
-    for i, ray in enumerate(nearest):
-        r_sonar[steps, ray] += slope[1 + i]
+    if disjoint:  # one ray per (step, sector): 0 + slope, as the sum below
+        r_sonar[steps[:, None], nearest] += slope[1:].T
+    else:
+        for i in range(len(rays)):
+            r_sonar[steps, nearest[:, i]] += slope[1 + i]
     return slope[0], r_sonar
 
 
@@ -169,43 +203,45 @@ def trial_gradient(
     else:
         r_beta, r_sonar = np.zeros(n), np.zeros_like(sonar)
     follows = (~held).astype(np.float64)
-    # da_t/ds_t (T, 3): through the target's bearing, and through the beams' lengths
+    # da_t/ds_t = (e0, e1, e2): through the target's bearing, and through the beams' lengths
+    # (the three columns as arrays of their own: fewer calls than a (T, 3) array's stacking)
     bx, by = _bearing_partials(dx, dy)
-    da_ds = (r_beta * follows)[:, None] * np.stack((bx, by, -np.ones(n)), axis=1)
+    r_follow = r_beta * follows
     w = r_sonar * follows[:, None] * (sonar < 1.0) / sonar_range  # dR / d(rim metres)
     beams = th[:, None] + np.arange(rays) * (2 * math.pi / rays)
-    da_ds[:, 0] -= (w * np.cos(beams)).sum(axis=1)
-    da_ds[:, 1] -= (w * np.sin(beams)).sum(axis=1)
-    # ds_{t+1}/da_t at the recorded next heading
+    e0 = r_follow * bx - (w * np.cos(beams)).sum(axis=1)
+    e1 = r_follow * by - (w * np.sin(beams)).sum(axis=1)
+    e2 = r_follow * -1.0
+    # ds_{t+1}/da_t = (d0, d1, 1) at the recorded next heading
     th1 = pose[1 : n + 1, 2]
     ml = np.where(moved, step, 0.0)
-    ds1_da = np.stack((-ml * np.sin(th1), ml * np.cos(th1), np.ones(n)), axis=1)
-    # d r_t / d s_{t+1}: f2 = -|wrap(theta' - psi(p'))| / pi, psi the goal's bearing
+    d0, d1 = -ml * np.sin(th1), ml * np.cos(th1)
+    # d r_t / d s_{t+1} = (r0, r1, r2): f2 = -|wrap(theta' - psi(p'))| / pi, psi the goal's
+    # bearing
     x1, y1 = pose[1 : n + 1, 0], pose[1 : n + 1, 1]
     gx, gy = goal[0] - x1, goal[1] - y1
     px, py = _bearing_partials(gx, gy)
     sign = -np.sign(wrap_angle(th1 - np.arctan2(gy, gx))) / math.pi
-    dr = sign[:, None] * np.stack((-px, -py, np.ones(n)), axis=1)
     # f1 = -1 + min_j rim_j / d_c below d_c: d f1 / dp = -u_min / d_c (a collision's -3: held)
     rim = next_sonar * sonar_range
     j = rim.argmin(axis=1)
     near = (rim[np.arange(n), j] < close) & moved
     nearest = th1 + j * (2 * math.pi / rays)
-    dr[:, 0] -= np.where(near, np.cos(nearest) / close, 0.0)
-    dr[:, 1] -= np.where(near, np.sin(nearest) / close, 0.0)
+    r0 = sign * -px - np.where(near, np.cos(nearest) / close, 0.0)
+    r1 = sign * -py - np.where(near, np.sin(nearest) / close, 0.0)
     if step_cost and moved[n - 1]:
         ex, ey = x1[-1] - goal[0], y1[-1] - goal[1]
         d = max(math.hypot(ex, ey), 1e-9)
-        dr[n - 1, 0] -= step_cost / step * ex / d
-        dr[n - 1, 1] -= step_cost / step * ey / d
+        r0[n - 1] -= step_cost / step * ex / d
+        r1[n - 1] -= step_cost / step * ey / d
     # the costate lam = dJ(rewards from step t on) / ds_{t+1}, backward on Python floats (a
     # handful of products per step: 3 x 3 numpy calls would cost 10x more). With d = ds_{t+1}/da_t
     # = (d0, d1, 1) and e = da_t/ds_t, ds_{t+1}/ds_t = I + (d0, d1 in the heading column) + d e^T.
     grad = [0.0] * n
     l0 = l1 = l2 = 0.0
-    d0s, d1s = ds1_da[:, 0].tolist(), ds1_da[:, 1].tolist()
-    e0s, e1s, e2s = da_ds[:, 0].tolist(), da_ds[:, 1].tolist(), da_ds[:, 2].tolist()
-    r0s, r1s, r2s = dr[:, 0].tolist(), dr[:, 1].tolist(), dr[:, 2].tolist()
+    d0s, d1s = d0.tolist(), d1.tolist()
+    e0s, e1s, e2s = e0.tolist(), e1.tolist(), e2.tolist()
+    r0s, r1s, r2s = r0.tolist(), r1.tolist(), sign.tolist()  # r2 = sign * 1
     for t in range(n - 1, -1, -1):
         l0 += r0s[t]
         l1 += r1s[t]

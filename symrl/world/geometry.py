@@ -237,7 +237,7 @@ class Walls:
         -1 for a ray that reaches ``max_range``): what a pose's derivative of a range needs."""
         hits = self._inverse_hits(x, y, angles)
         wall = np.argmax(hits, axis=1)
-        inv_t = np.take_along_axis(hits, wall[:, None], axis=1)[:, 0]
+        inv_t = np.max(hits, axis=1)  # the value at the argmax (a reduction, not a gather)
         far = ~(inv_t > 1.0 / max_range)
         wall[far] = -1
         return 1.0 / np.where(far, 1.0 / max_range, inv_t), wall

@@ -135,3 +135,29 @@ def test_rows_far_from_walls_are_skipped_exactly(near_row, far_row, angle):
     full = shield.clearance(refl, action[:, None])[:, 0] < shield.config.margin
     assert vetoed.tolist() == full.tolist()
     assert not bool(full[1])  # a row below the quiet reflectance is never unsafe
+
+
+def _full_grid_search(shield: IRShield, refl: torch.Tensor, action: float) -> float:
+    """The safe action by the whole candidate grid (what the search's shortcut must give)."""
+    grid = shield.candidates
+    room = shield.clearance(refl[None], grid[None])[0]
+    safe = room >= shield.config.margin
+    if not bool(safe.any()):
+        return float(grid[room.argmax()])
+    turn = torch.remainder(grid - action + math.pi, 2 * math.pi) - math.pi
+    return float(grid[torch.where(safe, turn.abs(), torch.inf).argmin()])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_search_finds_what_the_whole_grid_gives(seed):
+    """The candidate search tries the smallest turns first; its answer is the whole grid's:
+    the nearest safe turn (the first of equal turns), else the widest clearance."""
+    g = torch.Generator().manual_seed(seed)
+    refl = (torch.rand(300, 24, generator=g) ** 3 * 100) * (torch.rand(300, 24, generator=g) < 0.3)
+    action = (torch.rand(300, generator=g) * 2 - 1) * math.pi
+    shield = IRShield()
+    safe, replaced = shield(refl, action)
+    rows = torch.nonzero(replaced).flatten().tolist()
+    assert len(rows) > 20  # the sample exercises the search, near and far turns
+    for i in rows:
+        assert float(safe[i]) == _full_grid_search(shield, refl[i], float(action[i]))

@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from symrl.learner.experts import ExpertBank
+from symrl.learner.experts import ExpertBank, _sum_last
 
 D = 4
 
@@ -180,3 +181,14 @@ def test_a_copied_bank_writes_its_own_storage():
     other.flat.actions[1] = 2.0
     assert other.actions.view(-1)[:2].tolist() == [1.0, 2.0]
     assert bank.actions.view(-1)[:2].tolist() == [1.0, 0.0]
+
+
+@pytest.mark.parametrize("shape", [(1, 1, 4), (10, 40, 4), (1000, 100, 4), (10, 7, 27)])
+def test_the_distance_sum_is_torchs_bit_for_bit(shape):
+    """The winner search's squared distances: four terms are added in numpy in torch's order;
+    the sum is torch's own bits for any magnitudes."""
+    rng = np.random.default_rng(sum(shape))
+    d = rng.normal(size=shape) * 10.0 ** rng.uniform(-4, 4, size=shape)
+    squares = np.square(d.astype(np.float32))
+    want = torch.from_numpy(squares).sum(-1).numpy()
+    assert np.array_equal(_sum_last(squares).view(np.int32), want.view(np.int32))

@@ -169,6 +169,55 @@ def test_reflex_partials_are_its_slopes_and_zero_at_a_jump():
     assert r_beta[0] == 0.0
 
 
+def _partials_of_every_row(reflex, sonar, beta, eps=1e-7, jump=1e-4):
+    """reflex_partials written plainly: the reflex on every perturbed row in one call."""
+    t, n = sonar.shape
+    steps = np.arange(t)
+    nearest = [np.asarray(rays)[np.argmin(sonar[:, list(rays)], axis=1)]
+               for rays in reflex.config.sectors.values()]  # fmt: skip
+    k = 1 + len(nearest)
+    s = np.broadcast_to(sonar, (2 * k + 1, t, n)).copy()
+    b = np.broadcast_to(beta, (2 * k + 1, t)).copy()
+    b[1] += eps
+    b[2] -= eps
+    for i, ray in enumerate(nearest):
+        s[3 + 2 * i, steps, ray] += eps
+        s[4 + 2 * i, steps, ray] -= eps
+    out = reflex(torch.from_numpy(s.reshape(-1, n)), torch.from_numpy(b.reshape(-1)))
+    out = out.numpy().reshape(2 * k + 1, t)
+    up, down = out[1::2] - out[0], out[0] - out[2::2]
+    slope = np.where(np.maximum(np.abs(up), np.abs(down)) > jump, 0.0, (up + down) / (2 * eps))
+    r_sonar = np.zeros((t, n))
+    for i, ray in enumerate(nearest):
+        r_sonar[steps, ray] += slope[1 + i]
+    return slope[0], r_sonar
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.3, 0.1])
+def test_reflex_partials_are_those_of_every_perturbed_row(trial, scale):
+    """The partials skip the ray steps that change no membership; they are bit for bit those
+    of the reflex on every perturbed row (near walls and far, at many goal angles)."""
+    pose, sonar, _, aim, _, _ = trial
+    s = np.minimum(sonar * scale, 1.0)
+    beta = np.arctan2(aim[:, 1] - pose[:-1, 1], aim[:, 0] - pose[:-1, 0]) - pose[:-1, 2]
+    got, want = reflex_partials(REFLEX, s, beta), _partials_of_every_row(REFLEX, s, beta)
+    for g, w in zip(got, want, strict=True):
+        assert np.array_equal(g, w) and np.array_equal(np.signbit(g), np.signbit(w))
+
+
+def test_reflex_partials_keep_the_bits_of_every_rows_wrapped_angle():
+    """torch's atan2 rounds a long batch's vectorised body and its tail differently, so a ray
+    step's row may wrap its goal angle to another last bit than its step's unperturbed row:
+    the partials keep those rows' own outputs (random readings and angles, many lengths)."""
+    rng = np.random.default_rng(0)
+    for t in range(20, 60):
+        s = np.where(rng.random((t, 24)) < 0.2, rng.uniform(0.01, 0.2, (t, 24)), 1.0)
+        beta = rng.uniform(-4.0, 4.0, t)
+        got, want = reflex_partials(REFLEX, s, beta), _partials_of_every_row(REFLEX, s, beta)
+        for g, w in zip(got, want, strict=True):
+            assert np.array_equal(g, w) and np.array_equal(np.signbit(g), np.signbit(w)), t
+
+
 def test_the_rule_moves_each_neuron_by_at_most_max_step_per_trial():
     # REINFORCE off, so the means move by the trial gradient alone
     base = ["run.trials=2", "update.beta=0", "trial_gradient.max_step=0.01",
