@@ -91,8 +91,7 @@ def _serve(connection: Any, commands_end: Any) -> None:
 
     commands_end.close()
     try:
-        import symrl.figures  # noqa: F401 - the point of this process: matplotlib imported now
-
+        _warm_up()
         while True:
             try:
                 figures = connection.recv()
@@ -106,3 +105,21 @@ def _serve(connection: Any, commands_end: Any) -> None:
                 connection.send(None)
     except KeyboardInterrupt:  # Ctrl-C reaches the whole process group: the command reports it
         return
+
+
+def _warm_up() -> None:
+    """Import matplotlib and the map drawing, and draw one small figure to memory: a process's
+    first figure also loads the fonts and the Agg canvas, which this one does now, in
+    parallel with the command's own imports, instead of when the figures are due."""
+    import io
+
+    from symrl import figures as F
+    from symrl.world import render  # noqa: F401 - imported by the map panels when they draw
+
+    fig, ax = F.plt.subplots(figsize=(2.0, 2.0))
+    ax.plot([0.0, 1.0], [0.0, 1.0], marker="o", label="warm-up")
+    ax.set_title("warm-up")
+    ax.legend(loc="upper left")
+    fig.tight_layout()
+    fig.savefig(io.BytesIO(), format="png")
+    F.plt.close(fig)
