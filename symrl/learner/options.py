@@ -206,7 +206,7 @@ def _table_key(world: WorldMap, config: object) -> tuple:
     """Everything a sub-goal table is computed from, exactly: every field of the map (arrays by
     their bytes, shape and dtype; the frozen dataclasses by their repr, whose floats round-trip)
     and the options' table settings."""
-    fields = []
+    fields: list[object] = []
     for f in dataclasses.fields(world):
         value = getattr(world, f.name)
         items = value if isinstance(value, tuple) else (value,)

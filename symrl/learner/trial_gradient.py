@@ -152,8 +152,8 @@ def reflex_partials(
     mu = reflex.memberships(flat_s).reshape(2 * k + 1, t, -1)
     changed = (np.any(mu[3:] != mu[0], axis=2) | (wrapped[3:] != wrapped[0])).reshape(-1)
     rows = np.concatenate((np.arange(3 * t), 3 * t + np.flatnonzero(changed)))
-    wrapped = wrapped.reshape(-1)
-    some = reflex.wrapped_batch(flat_s[rows], wrapped[rows])
+    flat_wrapped = wrapped.reshape(-1)
+    some = reflex.wrapped_batch(flat_s[rows], flat_wrapped[rows])
     out = np.tile(some[:t], 2 * k + 1)
     out[rows] = some
     out = out.reshape(2 * k + 1, t)
