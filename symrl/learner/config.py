@@ -194,10 +194,11 @@ class OptionsConfig(_Section):
     planner's path from inside it (its way out), so a robot that strays there can leave."""
     subgoal_detour: float | None = Field(None, ge=0)
     """Drop the sub-goals a region's best route cannot use: in each region the planner's shortest
-    path enters, those the reflex cannot steer straight at from the path's entry point, and those
-    whose route (straight to the point, then the planner's path) is more than this many metres
-    longer than the planner's from the entry (``without_detours`` in ``symrl.learner.options``).
-    The goal and the planner's turns stay. None: every sub-goal stays (the paper has none)."""
+    path enters, those the reflex cannot steer straight at from any point of the path in the
+    region (every segment crosses a wall), and those whose route (straight from the path's
+    entry point, then the planner's path) is more than this many metres longer than the
+    planner's from the entry (``without_detours`` in ``symrl.learner.options``). The goal and
+    the planner's turns stay. None: every sub-goal stays (the paper has none)."""
     goal_lead_deg: float = Field(0.0, ge=0, le=180)
     """While a visit's sub-goal lies within this angle (degrees) of the goal's bearing, seen from
     the robot, the reflex steers at the goal itself; from the first step the sub-goal lies

@@ -315,8 +315,9 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
     False; the table keeps its shape). For each region the planner's shortest path (start to
     goal) passes through, with ``e`` the path's first point in the region (the start in the
     start's region), a sub-goal ``p`` is dropped when the reflex cannot steer straight at it
-    from ``e`` (the segment crosses a wall: the reflex would follow the bearing into the wall
-    or a dead end; a segment that only grazes a corner is left to the obstacle avoidance), or
+    from any point of the path in the region (every such segment crosses a wall: the reflex
+    would follow the bearing into the wall or a dead end; a segment that only grazes a corner
+    is left to the obstacle avoidance), or
     when the route through it, ``|e p|`` plus the planner's length from ``p`` to the goal, is
     more than ``margin`` metres longer than the planner's length from ``e`` (a point nearer a
     wall than the planner's clearance has no length and is judged by the first test only, and
@@ -336,9 +337,17 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
         inside = bool(world.contains_xy(mid[0], mid[1]))
         return inside and not walls.swept_disc_contact(a[0], a[1], b[0], b[1], 0.01)
 
+    # the path in each region, a point every 0.1 m or closer (the dense path's own points)
     entry: dict[str, np.ndarray] = {}
-    for p in np.asarray(plan.points, dtype=np.float64):
-        entry.setdefault(world.regions.region_of(float(p[0]), float(p[1])), p)
+    along: dict[str, list[np.ndarray]] = {}
+    pts = np.asarray(plan.points, dtype=np.float64)
+    for a, b in zip(pts[:-1], pts[1:], strict=True):
+        n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / 0.1)))
+        for t in np.arange(n) / n:
+            q = a + t * (b - a)
+            region = world.regions.region_of(float(q[0]), float(q[1]))
+            entry.setdefault(region, q)
+            along.setdefault(region, []).append(q)
     valid = table.valid.clone()
     lengths: dict[tuple[float, float], float] = {}
 
@@ -361,6 +370,7 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
                 continue
             p = table.points[i, k].to(torch.float64).numpy()
             longer = float(np.hypot(*(p - e))) + to_goal(p) > best + margin
-            if not straight(e, p) or (math.isfinite(best) and longer):
+            seen = any(straight(q, p) for q in along[region])
+            if not seen or (math.isfinite(best) and longer):
                 valid[i, k] = False
     return SubgoalTable(table.region_names, table.points, valid, table.labels)

@@ -298,28 +298,68 @@ def _offered(world, *overrides: str) -> dict[str, list[str]]:
     }
 
 
-def test_detour_drops_subgoals_behind_a_wall_and_off_the_short_way():
+def test_detour_drops_subgoals_off_the_short_way_and_unseen_from_it():
     world = load_map(LONG_WALL)
     full = _offered(world)
     cut = _offered(world, "options.subgoal_detour=1.0")
-    # south (the start's region): the points past the wall are behind it seen from the start,
-    # the west gap's points are 3 m out of the way; the east gap's and the planner's turn stay
-    assert "wall#2@+0.0/0.4" in full["south"] and "lips#1@+0.0/0.4" in full["south"]
-    assert cut["south"] == ["goal", "lips#3@+0.0/0.4", "lips#3@+0.8/0.4", "e_end@+0.8/0.4", "path"]
+    # south (the start's region): the west gap's points are 3 m out of the way; the east gap's,
+    # the points past the wall's east end and the planner's turn stay
+    assert "lips#1@+0.0/0.4" in full["south"] and "w_end@+0.8/0.4" in full["south"]
+    assert cut["south"] == ["goal", "wall#2@+0.0/0.4", "wall#2@+0.8/0.4", "lips#3@+0.0/0.4",
+                            "lips#3@+0.8/0.4", "e_end@+0.8/0.4", "path"]
     # north, entered from the east on the short way: the points by the west end are dropped
     assert [x for x in full["north"] if x not in cut["north"]] == ["wall#1@+0.0/0.4",
                                                                     "wall#1@+0.8/0.4"]
     # the west gap is off the planner's path: all its options stay
     assert cut["west_gap"] == full["west_gap"]
-    # a huge margin drops only the points the start cannot steer straight at
+    # a huge margin drops only the points no place of the path in the region sees: past the
+    # wall's west end, behind the wall and the west lip from the south's part of the path
     wide = _offered(world, "options.subgoal_detour=100")
-    assert "lips#1@+0.0/0.4" in wide["south"] and "wall#2@+0.0/0.4" not in wide["south"]
+    assert [x for x in full["south"] if x not in wide["south"]] == ["wall#1@+0.0/0.4",
+                                                                    "wall#1@+0.8/0.4"]
+    # margin 0: only the points on the planner's own length (here none but its turn)
+    assert _offered(world, "options.subgoal_detour=0")["east_gap"] == ["goal", "path"]
     # the table keeps its shape (a checkpoint's critic fits either way)
     shapes = {
         SubgoalOptions(world, 1, load_config("paper", _NEITHER + o).options, [0]).valid.shape
         for o in ([], ["options.subgoal_detour=1.0"])
     }
     assert len(shapes) == 1
+
+
+def test_detour_keeps_a_subgoal_the_path_sees_though_its_start_does_not():
+    # side_pocket of benchmarks/worlds: a pocket of thin walls opening west, start low in the
+    # west, goal high in the east. West's points by the pocket's north-east corner lie behind
+    # the pocket from everywhere on the short way (below it): dropped, whatever the margin.
+    # A point behind a wall seen from the start but in sight further along the path is kept
+    # (long_wall's points past the wall's east end).
+    world = load_map({
+        "name": "side_pocket_test",
+        "boundary": [[0.0, 0.0], [7.5, 0.0], [7.5, 5.0], [0.0, 5.0]],
+        "obstacles": [],
+        "segments": [[[2.8, 3.0], [4.8, 3.0]], [[2.8, 1.6], [4.8, 1.6]], [[4.8, 1.6], [4.8, 3.0]]],
+        "start": {"x": 0.8, "y": 1.0, "heading": 0.0},
+        "goal": {"x": 6.4, "y": 3.2, "radius": 0.40},
+        "regions": {
+            "names": ["west", "pocket", "north", "south", "east"],
+            "lines": {"mouth": {"x": 2.8}, "back": {"x": 4.8}, "top": {"y": 3.0},
+                      "bottom": {"y": 1.6}},
+            "rules": [
+                {"region": "west", "when": ["x < mouth"]},
+                {"region": "east", "when": ["x > back"]},
+                {"region": "north", "when": ["y > top"]},
+                {"region": "south", "when": ["y < bottom"]},
+                {"region": "pocket"},
+            ],
+        },
+    })  # fmt: skip
+    full = _offered(world)
+    cut = _offered(world, "options.subgoal_detour=100")
+    assert [x for x in full["west"] if x not in cut["west"]] == ["back#2@+0.0/0.4",
+                                                                  "back#2@+0.8/0.4"]
+    assert all(cut[name] == full[name] for name in full if name != "west")
+    assert "wall#2@+0.0/0.4" in _offered(load_map(LONG_WALL), "options.subgoal_detour=100")[
+        "south"]  # behind the wall from the start, in sight from the path's east end
 
 
 def test_way_out_gives_a_dead_end_region_the_planner_turn_out_of_it():
