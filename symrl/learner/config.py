@@ -188,6 +188,17 @@ class OptionsConfig(_Section):
     subgoal_planner: StrictBool = False
     """Each region also gets the last turn of the planner's shortest path inside it (pushed out
     to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end."""
+    subgoal_way_out: StrictBool = False
+    """With ``subgoal_planner``: a region off the planner's path whose only option is the goal,
+    and which does not hold the goal (a dead end such as a bay), gets the first turn of the
+    planner's path from inside it (its way out), so a robot that strays there can leave."""
+    subgoal_detour: float | None = Field(None, ge=0)
+    """Drop the sub-goals a region's best route cannot use: in each region the planner's shortest
+    path enters, those the reflex cannot steer straight at from any point of the path in the
+    region (every segment crosses a wall), and those whose route (straight from the path's
+    entry point, then the planner's path) is more than this many metres longer than the
+    planner's from the entry (``without_detours`` in ``symrl.learner.options``). The goal and
+    the planner's turns stay. None: every sub-goal stays (the paper has none)."""
     goal_lead_deg: float = Field(0.0, ge=0, le=180)
     """While a visit's sub-goal lies within this angle (degrees) of the goal's bearing, seen from
     the robot, the reflex steers at the goal itself; from the first step the sub-goal lies

@@ -26,7 +26,10 @@ from symrl.grad import no_grad
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
 from symrl.world.worldmap import WorldMap
 
-__all__ = ["SubgoalOptions", "subgoal_config", "subgoal_table", "with_planner_waypoints"]
+__all__ = [
+    "SubgoalOptions", "subgoal_config", "subgoal_table", "with_planner_waypoints",
+    "without_detours",
+]  # fmt: skip
 
 # a visit's stages: its first part (at the sub-goal; with a goal lead, at the goal while the
 # sub-goal is nearly in line with it), then at the sub-goal, then (the sub-goal reached) at the goal
@@ -216,12 +219,16 @@ def _table_key(world: WorldMap, config: object) -> tuple:
             fields.append(repr(value))
     planner = bool(config.subgoal_planner)  # type: ignore[attr-defined]
     clearance = float(config.subgoal_min_clearance)  # type: ignore[attr-defined]
-    return (tuple(fields), subgoal_config(config), planner, clearance)
+    way_out = bool(config.subgoal_way_out)  # type: ignore[attr-defined]
+    detour = config.subgoal_detour  # type: ignore[attr-defined]
+    detour = None if detour is None else float(detour)
+    return (tuple(fields), subgoal_config(config), planner, clearance, way_out, detour)
 
 
 def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
     """The sub-goal table of ``world`` for an ``OptionsConfig`` section: the region lines'
-    points, plus with ``subgoal_planner`` the planner's turns. A pure function of the map and
+    points, plus with ``subgoal_planner`` the planner's turns (and with ``subgoal_way_out`` a
+    dead end's way out), less with ``subgoal_detour`` the detours. A pure function of the map and
     those settings that takes tens of milliseconds (a run's largest setup cost), so it is built
     once per map and settings in a process; the table is shared, and nothing writes into it (the
     options copy its tensors into their buffers)."""
@@ -231,15 +238,23 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
         table = build_subgoals(world, subgoal_config(config))
         if config.subgoal_planner:  # type: ignore[attr-defined]
             table = with_planner_waypoints(
-                world, table, max(config.subgoal_min_clearance, 0.45)  # type: ignore[attr-defined]
+                world,
+                table,
+                max(config.subgoal_min_clearance, 0.45),  # type: ignore[attr-defined]
+                way_out=config.subgoal_way_out,  # type: ignore[attr-defined]
             )
+        detour = config.subgoal_detour  # type: ignore[attr-defined]
+        if detour is not None:
+            table = without_detours(world, table, float(detour))
         if len(_TABLES) >= 16:
             _TABLES.clear()
         _TABLES[key] = table
     return table
 
 
-def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: float) -> SubgoalTable:
+def with_planner_waypoints(
+    world: WorldMap, table: SubgoalTable, clearance: float, way_out: bool = False
+) -> SubgoalTable:
     """``table`` plus, per region, one more option: the last turn of the planner's shortest path
     (start to goal) inside the region, pushed out to ``clearance`` from the nearest wall. It is
     the corner a route must round that no region line marks (a thin partition's end).
@@ -248,7 +263,13 @@ def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: floa
     tangent point at a wall corner often lies exactly on a region line through that corner, where
     the strict rules name no region but the default one. A turn where the path passes into
     another region (1 mm on, the region differs) counts for its region only if the path makes no
-    turn strictly inside it."""
+    turn strictly inside it.
+
+    With ``way_out``, a region the path leaves no turn in, whose only option is the goal and
+    which does not hold the goal (a dead end off the route: steering at the goal from there
+    drives into its back wall for the rest of the trial), gets the first turn of the planner's
+    path from its centre (the centroid of its largest piece, or the piece's most open point
+    if the centroid is too near a wall), labelled ``out``."""
     import numpy as np
 
     from symrl.studies.planner import shortest_path  # the planner is a study tool: import late
@@ -277,6 +298,40 @@ def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: floa
         same = region == of(float(on[0]), float(on[1]))
         (inside if same else crossing)[region] = (float(out[0]), float(out[1]))
     last = crossing | inside
+
+    def pushed(p: np.ndarray) -> tuple[float, float]:
+        ex, ey, gap = walls.closest(float(p[0]), float(p[1]))
+        j = int(np.argmin(ex * ex + ey * ey))
+        out = p - np.array((ex[j], ey[j])) / max(gap, 1e-9) * (clearance - gap)
+        return (float(out[0]), float(out[1]))
+
+    outs: dict[str, tuple[float, float]] = {}
+    if way_out:
+        from shapely.ops import polylabel
+
+        from symrl.knowledge.subgoals import region_pieces
+
+        goal_region = of(float(world.goal.x), float(world.goal.y))
+        pieces = region_pieces(world)
+        for i, region in enumerate(table.region_names):
+            only_goal = table.labels[i][: int(table.valid[i].sum())] == ["goal"]
+            if region in last or region == goal_region or not only_goal:
+                continue
+            piece = max((g for name, g in pieces if name == region),
+                        key=lambda g: g.area, default=None)
+            if piece is None:
+                continue
+            turns = None
+            for here in (piece.centroid, polylabel(piece, tolerance=0.01)):
+                try:
+                    turns = shortest_path(world, start=(here.x, here.y)).waypoints
+                    break
+                except ValueError:  # too near a wall for the planner, or no way on
+                    continue
+            if turns is None:
+                continue
+            if len(turns) > 2:  # [from, first turn, ..., end]; a straight way needs none
+                outs[region] = pushed(np.asarray(turns[1], dtype=np.float64))
     names = list(table.region_names)
     r, k = table.valid.shape
     points = torch.cat((table.points, torch.zeros(r, 1, 2, dtype=table.points.dtype)), dim=1)
@@ -288,7 +343,79 @@ def with_planner_waypoints(world: WorldMap, table: SubgoalTable, clearance: floa
         points[i, n] = torch.tensor(xy, dtype=table.points.dtype)
         valid[i, n] = True
         labels[i].append("path")
+    for region, xy in outs.items():
+        i = names.index(region)
+        n = int(table.valid[i].sum())
+        points[i, n] = torch.tensor(xy, dtype=table.points.dtype)
+        valid[i, n] = True
+        labels[i].append("out")
     # always one column more, valid or not: the table's shape (and a checkpoint's critic) then
     # does not depend on where the path turns, so a controller learned on a world can be run on
     # the world with an obstacle or another start (re-planned: "the planner's turn" again)
     return SubgoalTable(table.region_names, points, valid, labels)
+
+
+def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> SubgoalTable:
+    """``table`` with the sub-goals a region's best route cannot use switched off (``valid``
+    False; the table keeps its shape). For each region the planner's shortest path (start to
+    goal) passes through, with ``e`` the path's first point in the region (the start in the
+    start's region), a sub-goal ``p`` is dropped when the reflex cannot steer straight at it
+    from any point of the path in the region (every such segment crosses a wall: the reflex
+    would follow the bearing into the wall or a dead end; a segment that only grazes a corner
+    is left to the obstacle avoidance), or
+    when the route through it, ``|e p|`` plus the planner's length from ``p`` to the goal, is
+    more than ``margin`` metres longer than the planner's length from ``e`` (a point nearer a
+    wall than the planner's clearance has no length and is judged by the first test only, and
+    so are all points of a region whose entry is).
+    The goal (the paper's reflex) and the planner's own turns (``path``) are always kept, and
+    so is every option of a region the path does not enter."""
+    import numpy as np
+
+    from symrl.studies.planner import shortest_path
+    from symrl.world.geometry import Walls
+
+    plan = shortest_path(world)
+    walls = Walls(world.segments)
+
+    def straight(a: np.ndarray, b: np.ndarray) -> bool:  # crosses no wall (1 cm: not a graze)
+        mid = 0.5 * (a + b)
+        inside = bool(world.contains_xy(mid[0], mid[1]))
+        return inside and not walls.swept_disc_contact(a[0], a[1], b[0], b[1], 0.01)
+
+    # the path in each region, a point every 0.1 m or closer (the dense path's own points)
+    entry: dict[str, np.ndarray] = {}
+    along: dict[str, list[np.ndarray]] = {}
+    pts = np.asarray(plan.points, dtype=np.float64)
+    for a, b in zip(pts[:-1], pts[1:], strict=True):
+        n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / 0.1)))
+        for t in np.arange(n) / n:
+            q = a + t * (b - a)
+            region = world.regions.region_of(float(q[0]), float(q[1]))
+            entry.setdefault(region, q)
+            along.setdefault(region, []).append(q)
+    valid = table.valid.clone()
+    lengths: dict[tuple[float, float], float] = {}
+
+    def to_goal(xy: np.ndarray) -> float:
+        key = (round(float(xy[0]), 6), round(float(xy[1]), 6))
+        if key not in lengths:
+            try:
+                lengths[key] = shortest_path(world, start=key).length
+            except ValueError:  # nearer a wall than the planner's clearance: length unknown
+                lengths[key] = -math.inf
+        return lengths[key]
+
+    for i, region in enumerate(table.region_names):
+        e = entry.get(region)
+        if e is None:
+            continue
+        best = to_goal(e)
+        for k, label in enumerate(table.labels[i]):
+            if not bool(valid[i, k]) or label in ("goal", "path"):
+                continue
+            p = table.points[i, k].to(torch.float64).numpy()
+            longer = float(np.hypot(*(p - e))) + to_goal(p) > best + margin
+            seen = any(straight(q, p) for q in along[region])
+            if not seen or (math.isfinite(best) and longer):
+                valid[i, k] = False
+    return SubgoalTable(table.region_names, table.points, valid, table.labels)

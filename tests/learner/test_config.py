@@ -54,6 +54,8 @@ def test_paper_sets_its_switches_and_keeps_the_budget():
     assert o.enabled and o.critic == "mean" and o.try_untried and o.subgoal_past
     assert not o.subgoal_on_line and o.subgoal_min_clearance == 0.45
     assert o.goal_lead_deg == 20.0 and literal.options.goal_lead_deg == 0.0
+    assert o.subgoal_detour == 1.0 and o.subgoal_way_out
+    assert literal.options.subgoal_detour is None and not literal.options.subgoal_way_out
     assert paper.shield.enabled and paper.shield.margin == 0.06
     # softer avoidance behind the shield; the rules and the other sectors unchanged
     assert paper.reflex.d_a == 0.5 and paper.reflex.rules == literal.reflex.rules
@@ -133,6 +135,8 @@ def _error(overrides: list[str], recipe: str = "paper_literal") -> str:
         ("shield.margin=-0.1", ["shield.margin", "-0.1"]),
         ("options.epsilon=1.5", ["options.epsilon", "1.5"]),
         ("options.goal_lead_deg=-5", ["options.goal_lead_deg", "-5"]),
+        ("options.subgoal_detour=-1", ["options.subgoal_detour", "-1"]),
+        ("options.subgoal_way_out=2", ["options.subgoal_way_out", "2"]),
         ("update.eta=nan", ["update.eta", "nan", "finite"]),
         ("update.beta=.inf", ["update.beta", "inf", "finite"]),
         ("env.robot.radius=-1", ["env.robot", "radius", "-1"]),

@@ -257,3 +257,135 @@ def test_planner_waypoint_rounds_the_partition_that_no_region_line_marks():
         world, 1, load_config("paper", ["options.subgoal_planner=false"]).options, [0]
     )
     assert "path" not in plain.labels[corridor]
+
+
+# long_wall of benchmarks/worlds: a long thin wall at y = 2.5 between the start (south) and the
+# goal (north), two lips hanging from it make a bay right above the start; the short way round
+# is east (past x = 7.8), the long one west (past x = 2)
+LONG_WALL = {
+    "name": "long_wall_test",
+    "boundary": [[0.0, 0.0], [9.0, 0.0], [9.0, 5.0], [0.0, 5.0]],
+    "obstacles": [],
+    "segments": [[[2.0, 2.5], [7.8, 2.5]], [[4.0, 1.5], [4.0, 2.5]], [[6.5, 1.5], [6.5, 2.5]]],
+    "start": {"x": 5.5, "y": 0.8, "heading": math.pi / 2},
+    "goal": {"x": 5.0, "y": 3.9, "radius": 0.40},
+    "regions": {
+        "names": ["south", "bay", "north", "west_gap", "east_gap"],
+        "lines": {"wall": {"y": 2.5}, "lips": {"y": 1.5}, "bay_w": {"x": 4.0},
+                  "bay_e": {"x": 6.5}, "w_end": {"x": 2.0}, "e_end": {"x": 7.8}},
+        "rules": [
+            {"region": "north", "when": ["y > wall"]},
+            {"region": "west_gap", "when": ["x < w_end", "y > lips"]},
+            {"region": "east_gap", "when": ["x > e_end", "y > lips"]},
+            {"region": "bay", "when": ["x > bay_w", "x < bay_e", "y > lips"]},
+            {"region": "south"},
+        ],
+    },
+}  # fmt: skip
+
+
+_NEITHER = ["options.subgoal_detour=null", "options.subgoal_way_out=false"]
+
+
+def _offered(world, *overrides: str) -> dict[str, list[str]]:
+    """The labels of the valid options of each region under ``paper`` without the detour and
+    way-out rules, then ``overrides``."""
+    config = load_config("paper", _NEITHER + list(overrides)).options
+    opt = SubgoalOptions(world, 1, config, [0])
+    return {
+        name: [label for k, label in enumerate(opt.labels[r]) if bool(opt.valid[r, k])]
+        for r, name in enumerate(opt.region_names)
+    }
+
+
+def test_detour_drops_subgoals_off_the_short_way_and_unseen_from_it():
+    world = load_map(LONG_WALL)
+    full = _offered(world)
+    cut = _offered(world, "options.subgoal_detour=1.0")
+    # south (the start's region): the west gap's points are 3 m out of the way; the east gap's,
+    # the points past the wall's east end and the planner's turn stay
+    assert "lips#1@+0.0/0.4" in full["south"] and "w_end@+0.8/0.4" in full["south"]
+    assert cut["south"] == ["goal", "wall#2@+0.0/0.4", "wall#2@+0.8/0.4", "lips#3@+0.0/0.4",
+                            "lips#3@+0.8/0.4", "e_end@+0.8/0.4", "path"]
+    # north, entered from the east on the short way: the points by the west end are dropped
+    assert [x for x in full["north"] if x not in cut["north"]] == ["wall#1@+0.0/0.4",
+                                                                    "wall#1@+0.8/0.4"]
+    # the west gap is off the planner's path: all its options stay
+    assert cut["west_gap"] == full["west_gap"]
+    # a huge margin drops only the points no place of the path in the region sees: past the
+    # wall's west end, behind the wall and the west lip from the south's part of the path
+    wide = _offered(world, "options.subgoal_detour=100")
+    assert [x for x in full["south"] if x not in wide["south"]] == ["wall#1@+0.0/0.4",
+                                                                    "wall#1@+0.8/0.4"]
+    # margin 0: only the points on the planner's own length (here none but its turn)
+    assert _offered(world, "options.subgoal_detour=0")["east_gap"] == ["goal", "path"]
+    # the table keeps its shape (a checkpoint's critic fits either way)
+    shapes = {
+        SubgoalOptions(world, 1, load_config("paper", _NEITHER + o).options, [0]).valid.shape
+        for o in ([], ["options.subgoal_detour=1.0"])
+    }
+    assert len(shapes) == 1
+
+
+def test_detour_keeps_a_subgoal_the_path_sees_though_its_start_does_not():
+    # side_pocket of benchmarks/worlds: a pocket of thin walls opening west, start low in the
+    # west, goal high in the east. West's points by the pocket's north-east corner lie behind
+    # the pocket from everywhere on the short way (below it): dropped, whatever the margin.
+    # A point behind a wall seen from the start but in sight further along the path is kept
+    # (long_wall's points past the wall's east end).
+    world = load_map({
+        "name": "side_pocket_test",
+        "boundary": [[0.0, 0.0], [7.5, 0.0], [7.5, 5.0], [0.0, 5.0]],
+        "obstacles": [],
+        "segments": [[[2.8, 3.0], [4.8, 3.0]], [[2.8, 1.6], [4.8, 1.6]], [[4.8, 1.6], [4.8, 3.0]]],
+        "start": {"x": 0.8, "y": 1.0, "heading": 0.0},
+        "goal": {"x": 6.4, "y": 3.2, "radius": 0.40},
+        "regions": {
+            "names": ["west", "pocket", "north", "south", "east"],
+            "lines": {"mouth": {"x": 2.8}, "back": {"x": 4.8}, "top": {"y": 3.0},
+                      "bottom": {"y": 1.6}},
+            "rules": [
+                {"region": "west", "when": ["x < mouth"]},
+                {"region": "east", "when": ["x > back"]},
+                {"region": "north", "when": ["y > top"]},
+                {"region": "south", "when": ["y < bottom"]},
+                {"region": "pocket"},
+            ],
+        },
+    })  # fmt: skip
+    full = _offered(world)
+    cut = _offered(world, "options.subgoal_detour=100")
+    assert [x for x in full["west"] if x not in cut["west"]] == ["back#2@+0.0/0.4",
+                                                                  "back#2@+0.8/0.4"]
+    assert all(cut[name] == full[name] for name in full if name != "west")
+    assert "wall#2@+0.0/0.4" in _offered(load_map(LONG_WALL), "options.subgoal_detour=100")[
+        "south"]  # behind the wall from the start, in sight from the path's east end
+
+
+def test_way_out_gives_a_dead_end_region_the_planner_turn_out_of_it():
+    from symrl.knowledge.subgoals import _clearance
+
+    world = load_map(LONG_WALL)
+    assert _offered(world)["bay"] == ["goal"]  # steering at the goal from the bay: its wall
+    out = _offered(world, "options.subgoal_way_out=true")
+    assert out["bay"] == ["goal", "out"]
+    config = load_config("paper", _NEITHER + ["options.subgoal_way_out=true"]).options
+    opt = SubgoalOptions(world, 1, config, [0])
+    bay = opt.region_names.index("bay")
+    x, y = opt.table.point(bay, 1)
+    # below the bay, 0.45 m off the east lip's end: the bay's short way out (east, round the
+    # lip; the west lip's end is 2.3 m away)
+    assert y < 1.5 and math.dist((x, y), (6.5, 1.5)) == pytest.approx(0.45, abs=1e-6)
+    assert _clearance(world, (x, y)) == pytest.approx(0.45, abs=1e-6)
+    # the goal's region and the regions with sub-goals of their own get no way out
+    assert all("out" not in labels for name, labels in out.items() if name != "bay")
+
+
+def test_detour_and_way_out_leave_the_paper_world_unchanged():
+    # hailu2001: every sub-goal is straight ahead of its region's entry and on a short way,
+    # and every region has sub-goals, so the table (and the learning) are those of paper
+    base = SubgoalOptions(WORLD, 1, load_config("paper", _NEITHER).options, [0])
+    both = SubgoalOptions(WORLD, 1, load_config(
+        "paper", ["options.subgoal_detour=1.0", "options.subgoal_way_out=true"]).options, [0])
+    assert torch.equal(base.valid, both.valid) and torch.equal(base.points, both.points)
+    assert base.labels == both.labels
