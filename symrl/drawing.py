@@ -1,9 +1,10 @@
 """Figures drawn by a process of their own, forked when a command starts.
 
-A study spends about 1.8 s importing torch, tensordict and torchrl on one core before it
-trains, and matplotlib is another 0.2 s. ``symrl study`` therefore forks a drawing process
-first (:func:`start`): it imports matplotlib on the other core while this process imports
-torch, then waits for figures. :func:`draw` sends it a list of figures, each a function of
+A study spends about 1.4 s importing torch, tensordict and torchrl on one core before it
+trains; matplotlib and a process's first figure (its fonts and canvas) are another 0.25 s.
+``symrl study`` therefore forks a drawing process first (:func:`start`): it imports matplotlib
+and draws a warm-up figure on the other core while this process imports torch, then waits for
+figures. :func:`draw` sends it a list of figures, each a function of
 ``symrl.figures`` named with its arguments, and returns when they are written (the drawing
 process shares them out over the cores with ``symrl.figures.draw_in_parallel``). Without a
 drawing process (not started, not Linux, or it died) the figures are drawn here, the same
