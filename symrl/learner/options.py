@@ -337,18 +337,13 @@ def with_planner_waypoints(
     points = torch.cat((table.points, torch.zeros(r, 1, 2, dtype=table.points.dtype)), dim=1)
     valid = torch.cat((table.valid, torch.zeros(r, 1, dtype=torch.bool)), dim=1)
     labels = [list(row) for row in table.labels]
-    for region, xy in last.items():
-        i = names.index(region)
-        n = int(table.valid[i].sum())
-        points[i, n] = torch.tensor(xy, dtype=table.points.dtype)
-        valid[i, n] = True
-        labels[i].append("path")
-    for region, xy in outs.items():
-        i = names.index(region)
-        n = int(table.valid[i].sum())
-        points[i, n] = torch.tensor(xy, dtype=table.points.dtype)
-        valid[i, n] = True
-        labels[i].append("out")
+    for label, extra in (("path", last), ("out", outs)):  # a region gets one of them at most
+        for region, xy in extra.items():
+            i = names.index(region)
+            n = int(table.valid[i].sum())
+            points[i, n] = torch.tensor(xy, dtype=table.points.dtype)
+            valid[i, n] = True
+            labels[i].append(label)
     # always one column more, valid or not: the table's shape (and a checkpoint's critic) then
     # does not depend on where the path turns, so a controller learned on a world can be run on
     # the world with an obstacle or another start (re-planned: "the planner's turn" again)
