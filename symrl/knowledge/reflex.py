@@ -246,6 +246,16 @@ def parse_rule(
     return literals, OUTPUTS.index(m["set"]), weight
 
 
+def check_finite(sonar: np.ndarray, goal_angle: np.ndarray) -> None:
+    """Raise the reflex's ValueError if a numpy batch holds a NaN or an inf: one reduction for
+    the common case (a sum is finite only if every term is; a finite sum's overflow to inf is
+    then told apart by the exact test)."""
+    if not np.isfinite(sonar.sum() + goal_angle.sum()) and not (
+        np.isfinite(sonar).all() and np.isfinite(goal_angle).all()
+    ):
+        raise ValueError("FuzzyReflex: sonar or goal_angle contains a non-finite value")
+
+
 class FuzzyReflex(nn.Module):
     """``reflex(sonar (..., n_rays) in [0, 1], goal_angle (...)) -> crisp angle (...)``.
 
@@ -462,12 +472,8 @@ class FuzzyReflex(nn.Module):
         """:meth:`forward` of a float64 batch (B, n) in numpy on the tensors' memory: the
         operations of the tensor path in the same order, so the same numbers bit for bit
         (``tests/knowledge/test_reflex_compiled.py``); sin, cos and atan2 stay torch ops."""
-        s, g = sonar.numpy(), goal_angle.numpy()
-        # one reduction for the common case (a sum is finite only if every term is; a finite
-        # sum's overflow to inf is then told apart by the exact test)
-        finite = np.isfinite(s.sum() + g.sum())
-        if not finite and not (np.isfinite(s).all() and np.isfinite(g).all()):
-            raise ValueError("FuzzyReflex: sonar or goal_angle contains a non-finite value")
+        s = sonar.numpy()
+        check_finite(s, goal_angle.numpy())
         return torch.from_numpy(self.wrapped_batch(s, _wrap(goal_angle).numpy()))
 
     def wrap(self, goal_angle: torch.Tensor) -> np.ndarray:

@@ -270,8 +270,6 @@ def with_planner_waypoints(
     drives into its back wall for the rest of the trial), gets the first turn of the planner's
     path from its centre (the centroid of its largest piece, or the piece's most open point
     if the centroid is too near a wall), labelled ``out``."""
-    import numpy as np
-
     from symrl.studies.planner import shortest_path  # the planner is a study tool: import late
     from symrl.world.geometry import Walls
 
@@ -286,24 +284,21 @@ def with_planner_waypoints(
     def toward(p: np.ndarray, q: np.ndarray) -> np.ndarray:
         return p + 1e-3 * (q - p) / max(float(np.hypot(*(q - p))), 1e-9)
 
+    def pushed(p: np.ndarray) -> tuple[float, float]:  # out to ``clearance`` from its wall
+        ex, ey, gap = walls.closest(float(p[0]), float(p[1]))  # wall points relative to p
+        j = int(np.argmin(ex * ex + ey * ey))
+        out = p - np.array((ex[j], ey[j])) / max(gap, 1e-9) * (clearance - gap)
+        return (float(out[0]), float(out[1]))
+
     for i in range(1, len(way) - 1):  # the tangent points; the last one is in the goal disc
         p = way[i]
         if float(np.hypot(*(p - start))) < 0.05:
             continue
-        ex, ey, gap = walls.closest(float(p[0]), float(p[1]))  # wall points relative to p
-        j = int(np.argmin(ex * ex + ey * ey))
-        out = p - np.array((ex[j], ey[j])) / max(gap, 1e-9) * (clearance - gap)
         back, on = toward(p, way[i - 1]), toward(p, way[i + 1])
         region = of(float(back[0]), float(back[1]))
         same = region == of(float(on[0]), float(on[1]))
-        (inside if same else crossing)[region] = (float(out[0]), float(out[1]))
+        (inside if same else crossing)[region] = pushed(p)
     last = crossing | inside
-
-    def pushed(p: np.ndarray) -> tuple[float, float]:
-        ex, ey, gap = walls.closest(float(p[0]), float(p[1]))
-        j = int(np.argmin(ex * ex + ey * ey))
-        out = p - np.array((ex[j], ey[j])) / max(gap, 1e-9) * (clearance - gap)
-        return (float(out[0]), float(out[1]))
 
     outs: dict[str, tuple[float, float]] = {}
     if way_out:
@@ -364,8 +359,6 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
     so are all points of a region whose entry is).
     The goal (the paper's reflex) and the planner's own turns (``path``) are always kept, and
     so is every option of a region the path does not enter."""
-    import numpy as np
-
     from symrl.studies.planner import shortest_path
     from symrl.world.geometry import Walls
 
@@ -410,7 +403,6 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
                 continue
             p = table.points[i, k].to(torch.float64).numpy()
             longer = float(np.hypot(*(p - e))) + to_goal(p) > best + margin
-            seen = any(straight(q, p) for q in along[region])
-            if not seen or (math.isfinite(best) and longer):
+            if (math.isfinite(best) and longer) or not any(straight(q, p) for q in along[region]):
                 valid[i, k] = False
     return SubgoalTable(table.region_names, table.points, valid, table.labels)

@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import torch
 
+from symrl.knowledge.reflex import check_finite
 from symrl.world.physics import wrap_angle
 
 if TYPE_CHECKING:
@@ -141,9 +142,7 @@ def reflex_partials(
     s[3::2][sector, steps, nearest.T] += eps
     s[4::2][sector, steps, nearest.T] -= eps
     flat_s = s.reshape(-1, n)
-    finite = np.isfinite(flat_s.sum() + b.sum())  # the reflex's own test
-    if not finite and not (np.isfinite(flat_s).all() and np.isfinite(b).all()):
-        raise ValueError("FuzzyReflex: sonar or goal_angle contains a non-finite value")
+    check_finite(flat_s, b)  # the reflex's own test (it is run below without forward)
     # the angles wrapped as the reflex wraps the whole batch: their last bit depends on their
     # place in it, so a ray step's row keeps its own
     wrapped = reflex.wrap(torch.from_numpy(b.reshape(-1))).reshape(2 * k + 1, t)
