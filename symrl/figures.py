@@ -7,7 +7,10 @@ its figure, so long studies do not accumulate open figures. Trial axes have inte
 start with a marker; curves that coincide stay visible (each recipe its own marker, line style
 and a small horizontal offset). Figures laid out by ``tight_layout`` are saved without
 ``bbox_inches="tight"``, which would draw the whole figure once more (about a sixth of a
-study's drawing time) for the same margins.
+study's drawing time) for the same margins. The study's figures (:func:`plot_paths`,
+:func:`plot_curves`) have fixed margins in inches (:func:`_fixed_margins`) instead: their
+panels are always the same kind, and ``tight_layout`` measures every tick label by laying the
+figure out once more, 35-60 % of their drawing time (measured on a study's three figures).
 """
 
 from __future__ import annotations
@@ -62,6 +65,18 @@ def _start(ax: plt.Axes, xy: Any, label: str | None = "start") -> None:
     xy = np.asarray(xy, dtype=float).reshape(-1, 2)
     if len(xy):
         ax.plot(xy[0, 0], xy[0, 1], "o", ms=6, mfc="white", mec="black", zorder=5, label=label)
+
+
+def _fixed_margins(fig: Any, rows: int, cols: int, left: float, bottom: float, top: float,
+                   gap_x: float, gap_y: float = 0.0, right: float = 0.15) -> None:
+    """Lay out a grid of panels with margins and gaps in inches (room for the tick labels, the
+    axis labels and the titles of panels of one kind)."""
+    width, height = fig.get_size_inches()
+    panel_w = (width - left - right - (cols - 1) * gap_x) / cols
+    panel_h = (height - bottom - top - (rows - 1) * gap_y) / rows
+    fig.subplots_adjust(left=left / width, right=1.0 - right / width, bottom=bottom / height,
+                        top=1.0 - top / height, wspace=gap_x / panel_w,
+                        hspace=gap_y / panel_h)  # fmt: skip
 
 
 def _ghosts(ax: plt.Axes, ghosts: Any, label: str | None) -> None:
@@ -149,7 +164,7 @@ def plot_paths(
             _ghosts(ax, g, "ghosts" if j == 0 else None)
         ax.set_title(title, fontsize=9)
         ax.legend(loc="upper left", fontsize=7)
-    fig.tight_layout()
+    _fixed_margins(fig, rows, cols, left=0.65, bottom=0.55, top=0.35, gap_x=0.8, gap_y=0.9)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -182,7 +197,8 @@ def plot_curves(
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
+    _fixed_margins(fig, 1, len(names), left=0.75, bottom=0.55, top=0.55 if title else 0.3,
+                   gap_x=0.85)  # fmt: skip
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

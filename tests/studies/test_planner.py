@@ -81,3 +81,22 @@ def test_paper_world_optimum_is_25_actions_and_the_walk_is_legal():
     walk = chord_walk(outer.points, 0.2, (world.goal.x, world.goal.y), world.goal.radius)
     check = check_walk(world, walk, 0.26, plan.clearance)
     assert check == {**check, "moves": 25, "sweep_contacts": 0, "virtual_collisions": 0}
+
+
+def test_plans_on_one_map_reuse_its_checks_and_give_the_same_plan_as_a_fresh_map():
+    """The checker of a map remembers its answers: a second plan from another start asks
+    mostly the same questions again, and its plan is the one a fresh copy of the map gives."""
+    from symrl.studies import planner
+
+    world = load_map("hailu2001")
+    shortest_path(world)
+    radius, ir_distance, _ = planner.robot_clearances()
+    chk = planner._checker(world, float(radius + ir_distance))
+    asked = len(chk._points)
+    second = shortest_path(world, start=(1.0, 1.5))
+    new = len(chk._points) - asked
+    assert 0 < new < asked / 2  # the start's own tangents only: the rest is remembered
+    fresh = shortest_path(load_map("hailu2001"), start=(1.0, 1.5))
+    assert second.length == fresh.length
+    np.testing.assert_array_equal(second.points, fresh.points)
+    assert planner._checker(load_map("hailu2001"), chk.r) is not chk  # a map object of its own
