@@ -34,6 +34,7 @@ from pydantic import (
 
 from symrl.knowledge.reflex import ReflexConfig
 from symrl.world.robot import RobotConfig
+from symrl.world.worldmap import YAML_LOADER
 
 __all__ = [
     "ConfigError",
@@ -311,11 +312,11 @@ def _recipe_path(recipe: str | Path) -> tuple[str, Path]:
     return text, path
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
+class _UniqueKeyLoader(YAML_LOADER):  # type: ignore[misc,valid-type]
     """A YAML loader that refuses a key given twice in one mapping (PyYAML keeps the last)."""
 
 
-def _no_duplicates(loader: yaml.SafeLoader, node: yaml.MappingNode, deep: bool = False) -> Any:
+def _no_duplicates(loader: Any, node: yaml.MappingNode, deep: bool = False) -> Any:
     seen: set[Any] = set()
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=deep)
