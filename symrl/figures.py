@@ -10,7 +10,8 @@ and a small horizontal offset). Figures laid out by ``tight_layout`` are saved w
 study's drawing time) for the same margins. The study's figures (:func:`plot_paths`,
 :func:`plot_curves`) have fixed margins in inches (:func:`_fixed_margins`) instead: their
 panels are always the same kind, and ``tight_layout`` measures every tick label by laying the
-figure out once more, 35-60 % of their drawing time (measured on a study's three figures).
+figure out once more, about a third of their drawing time (measured on a study's three
+figures: 0.22 / 0.13 / 0.14 s -> 0.15 / 0.09 / 0.09 s).
 """
 
 from __future__ import annotations

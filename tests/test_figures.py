@@ -47,3 +47,38 @@ def test_a_failing_job_raises_here_with_its_error(tmp_path):
     jobs = [_job(tmp_path, 0), broken, _job(tmp_path, 2), _job(tmp_path, 3)]
     with pytest.raises(ValueError, match="no such panel"):
         draw_in_parallel(jobs, workers=2)
+
+
+def _reaches_outside(fig) -> bool:
+    """Whether anything drawn in ``fig`` (tick labels, axis labels, titles, legends) reaches
+    outside the figure, i.e. is clipped in the PNG (what tight_layout would have measured)."""
+    drawn = fig.get_tightbbox(fig.canvas.get_renderer())  # inches
+    width, height = fig.get_size_inches()
+    return bool(drawn.x0 < -0.01 or drawn.y0 < -0.01 or drawn.x1 > width + 0.01
+                or drawn.y1 > height + 0.01)
+
+
+@pytest.mark.parametrize("panels", [1, 2, 3, 4])
+def test_the_study_figures_fixed_margins_keep_every_label_inside(tmp_path, monkeypatch, panels):
+    """The study figures are laid out by fixed margins, not tight_layout: every tick label,
+    axis label and title must still lie inside the figure, for the paper's map and a wide one."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from symrl import figures
+    from symrl.world import load_map
+
+    kept: list = []
+    close = plt.close
+    monkeypatch.setattr(figures.plt, "close", kept.append)
+    path = [[0.0, 0.0], [1.0, -0.5], [3.5, -0.5], [4.0, -2.0]]
+    for world in (load_map("hailu2001"), load_map("two_doors")):
+        figures.plot_paths(world, [(f"panel {i}: final controller from 4 other starts", [path],
+                                    [path]) for i in range(panels)], tmp_path / "p.png", columns=2)
+    curves = {k: np.random.default_rng(0).normal(size=(3, 20)) * 30
+              for k in ("neurons", "steps", "total_reinforcement")}
+    figures.plot_curves(curves, tmp_path / "c.png", title="paper: mean over 10 sets")
+    assert len(kept) == 3
+    for fig in kept:
+        assert not _reaches_outside(fig)
+        close(fig)

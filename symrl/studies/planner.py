@@ -125,7 +125,8 @@ class _Checker:
     The answers of the scalar queries are remembered (:func:`_checker` keeps one checker per map
     and clearance): the plans of one map from different starts share their circle-to-circle
     tangents, goal tangents, arcs and rim points, and a sub-goal table asks for eight plans
-    (measured: 83 ms for the eight, 38 % of them the same queries again).
+    (measured on the paper's world: 5,048 point checks of which 778 differ; the table's build
+    105 -> 45 ms).
     """
 
     def __init__(self, world: WorldMap, r: float) -> None:
