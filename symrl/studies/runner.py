@@ -14,7 +14,7 @@ from __future__ import annotations
 import functools
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -163,9 +163,14 @@ def run_sets(
     workers: int | None = 1,
     progress: bool = True,
     keep: str | os.PathLike | None = None,
+    while_waiting: Callable[[], Any] | None = None,
 ) -> list[SetResult]:
     """Train ``sets`` sets (set k: ``seed + k``) of ``trials`` trials and drive each final
     controller from ``starts``; sets in order.
+
+    ``while_waiting``: work of the caller's own (e.g. the map's optimum for the tables), done
+    here once, as soon as one worker is done while another still runs (a core is free then),
+    or after the last batch.
 
     ``keep``: a folder where each finished set is saved (``set-K.pt``, with the settings it was
     run with); a set found there with the same settings is loaded, not run again (set k is the
@@ -182,7 +187,10 @@ def run_sets(
     if keep is not None:
         done = {k: s for k in range(sets) if (s := _load_set(keep, k, data, starts)) is not None}
     todo = np.array([k for k in range(sets) if k not in done], dtype=np.int64)
+    waiting = [while_waiting] if while_waiting is not None else []
     if len(todo) == 0:
+        for fn in waiting:
+            fn()
         return [done[k] for k in range(sets)]
 
     def finished(batch: list[SetResult]) -> list[SetResult]:
@@ -197,6 +205,8 @@ def run_sets(
     jobs = [(data, c, [seed + k for k in c], list(starts)) for c in chunks]
     if len(jobs) == 1:
         finished(_run_batch(*jobs[0], progress=progress))
+        for fn in waiting:
+            fn()
         return [done[k] for k in range(sets)]
     import queue
     from concurrent.futures import FIRST_COMPLETED, wait
@@ -217,6 +227,8 @@ def run_sets(
                     for r in batch:
                         r.controller = {k: torch.from_numpy(v) for k, v in r.controller.items()}
                     finished(batch)
+                if ended and waiting:
+                    waiting.pop()()
                 while trials_done is not None:
                     try:
                         bar.update(trials_done.get_nowait())

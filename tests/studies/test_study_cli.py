@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 import torch
 
 from symrl.cli import main
@@ -97,3 +98,17 @@ def test_a_split_study_counts_every_trial_of_its_workers(capsys):
     run_sets("reflex_only", sets=3, trials=2, seed=40, workers=2, progress=True)
     err = capsys.readouterr().err
     assert "(2 workers)" in err and "6/6" in err
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_the_callers_work_runs_once_while_a_study_waits_on_its_workers(tmp_path, workers):
+    """``while_waiting`` (the tables' optimum) runs exactly once: when the first worker is done
+    (or after the only batch), and also when every set was found kept and nothing runs."""
+    from symrl.studies.runner import run_sets
+
+    calls = []
+    for _ in range(2):  # the second run finds every set kept in the folder
+        rows = run_sets("reflex_only", sets=3, trials=1, seed=40, workers=workers,
+                        progress=False, keep=tmp_path, while_waiting=lambda: calls.append(1))
+        assert len(rows) == 3
+    assert calls == [1, 1]
