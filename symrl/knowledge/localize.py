@@ -34,12 +34,27 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.linalg import _umath_linalg
 
 from symrl.world.geometry import Walls
 from symrl.world.physics import wrap_angle
 from symrl.world.robot import RobotConfig
 
 __all__ = ["MapLocalizer", "PoseTracker"]
+
+# np.linalg.solve's LAPACK gufunc and error handling (a singular matrix or a NaN raises
+# LinAlgError), called directly: the wrapper's checks and conversions, for float64 (B, 3, 3)
+# stacks here always, cost more than the solves (measured in the training loop at B = 10:
+# the solve's line 26 -> 17 us a batch step)
+_solve = _umath_linalg.solve
+
+
+def _singular(err: str, flag: int) -> None:
+    raise np.linalg.LinAlgError("Singular matrix")
+
+
+_SOLVE_ERRORS: dict = dict(call=_singular, invalid="call", over="ignore", divide="ignore",
+                           under="ignore")  # fmt: skip
 
 
 class MapLocalizer:
@@ -97,6 +112,11 @@ class MapLocalizer:
         self.wall_dx, self.wall_dy = walls.dx, walls.dy
         self.wall_inv_len2 = walls.inv_len2
         self.wall_length = np.sqrt(1.0 / walls.inv_len2)
+        # the same with one more entry, wall 0's, read by wall -1 (no hit): a ray's wall index
+        # gathers from them directly (no clamp to 0 before each gather)
+        self._per_wall = tuple(np.append(v, v[0]) for v in (
+            walls.dx, walls.dy, -walls.dy, self.wall_length, walls.ax, walls.ay, walls.inv_len2,
+        ))  # fmt: skip
 
     def __call__(
         self,
@@ -123,28 +143,26 @@ class MapLocalizer:
     ) -> np.ndarray:
         """One Gauss-Newton step of the estimate at ``pose``."""
         angles = pose[:, 2:3] + self.offsets
-        t, wall = self.walls.cast_many_walls(pose[:, 0], pose[:, 1], angles, self.cast_range)
+        u = np.empty((2, *angles.shape))  # the rays' directions, for the cast and here
+        ux, uy = np.cos(angles, out=u[0]), np.sin(angles, out=u[1])
+        t, wall = self.walls.cast_many_walls(pose[:, 0], pose[:, 1], angles, self.cast_range, u)
         if self.cone_rays > 1:  # per sensor, the nearest sub-ray
             b, m = len(pose), self.cone_rays
             nearest = np.argmin(t.reshape(b, -1, m), axis=2)[..., None]
-            t, wall, angles = (np.take_along_axis(v.reshape(b, -1, m), nearest, 2)[..., 0]
-                               for v in (t, wall, angles))  # fmt: skip
-        index = np.maximum(wall, 0)
-        dx, dy = self.wall_dx[index], self.wall_dy[index]
-        ux, uy = np.cos(angles), np.sin(angles)
+            t, wall, ux, uy = (np.take_along_axis(v.reshape(b, -1, m), nearest, 2)[..., 0]
+                               for v in (t, wall, ux, uy))  # fmt: skip
+        dx, dy, neg_dy, length, ax, ay, inv_len2 = (v[wall] for v in self._per_wall)
         cross = ux * dy - uy * dx  # u x d
-        length = self.wall_length[index]
         incidence = np.abs(cross) / length  # |cos| between the ray and the wall's normal
         # where along its wall the ray hits: near an end (a corner, a door post) the range's
         # derivative jumps, and a step on it bounces back and forth across the corner
-        along = ((pose[:, 0:1] + t * ux - self.wall_ax[index]) * dx
-                 + (pose[:, 1:2] + t * uy - self.wall_ay[index]) * dy) * self.wall_inv_len2[index]
+        along = ((pose[:, 0:1] + t * ux - ax) * dx + (pose[:, 1:2] + t * uy - ay) * dy) * inv_len2
         inside = np.minimum(along, 1.0 - along) * length >= self.edge
         ok = usable & (wall >= 0) & (incidence >= self.min_incidence) & inside
         safe = np.where(ok, cross, 1.0)
         # the three columns divided into place (np.stack of three quotients copies them again)
         jac = np.empty((*t.shape, 3))
-        np.divide(-dy, safe, out=jac[..., 0])
+        np.divide(neg_dy, safe, out=jac[..., 0])
         np.divide(dx, safe, out=jac[..., 1])
         np.divide(t * (ux * dx + uy * dy), safe, out=jac[..., 2])
         predicted = np.minimum(t - self.robot.radius, self.robot.sonar_range)
@@ -156,8 +174,9 @@ class MapLocalizer:
         offset = pose - prior_pose
         offset[:, 2] = wrap_angle(offset[:, 2])
         gradient = (jw_t @ residual[..., None])[..., 0] + offset @ self.prior
-        move = np.linalg.solve(jw_t @ jac + self.prior, -gradient[..., None])[..., 0]
-        out = pose + move
+        with np.errstate(**_SOLVE_ERRORS):
+            move = _solve(jw_t @ jac + self.prior, -gradient[..., None], signature="dd->d")
+        out = pose + move[..., 0]
         out[:, 2] = wrap_angle(out[:, 2])
         return out
 
@@ -175,34 +194,41 @@ class PoseTracker:
     def __init__(self, localizer: MapLocalizer, batch: int) -> None:
         self.localizer = localizer
         width = 3 + localizer.robot.n_sensors
-        # the last two observations (odometry, sonar) of each robot and their estimates; NaN:
-        # none yet this trial
-        self._seen = [np.full((batch, width), np.nan, dtype=np.float32) for _ in range(2)]
-        self._estimate = [np.zeros((batch, 3)) for _ in range(2)]
+        # the last two observations (odometry, sonar) of each robot and their estimates, the
+        # last first; NaN: none yet this trial (one array each: one comparison tests both)
+        self._seen = np.full((2, batch, width), np.nan, dtype=np.float32)
+        self._estimate = np.zeros((2, batch, 3))
 
     @property
     def correction(self) -> np.ndarray:
         """(B, 3): each robot's last estimate minus its odometry pose (0 before its first)."""
-        last = self._seen[0][:, :3].astype(np.float64)
-        out = self._estimate[0] - last
-        out[:, 2] = wrap_angle(out[:, 2])
+        out, last = self._offset()
         return np.where(np.isnan(last), 0.0, out)
 
+    def _offset(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each robot's last estimate minus its odometry pose (NaN before its first) and that
+        odometry pose."""
+        last = self._seen[0, :, :3].astype(np.float64)
+        out = self._estimate[0] - last
+        out[:, 2] = wrap_angle(out[:, 2])
+        return out, last
+
     def begin_trial(self, rows: np.ndarray) -> None:
-        for seen in self._seen:
-            seen[rows] = np.nan
+        self._seen[:, rows] = np.nan
 
     def __call__(self, odometry: np.ndarray, sonar: np.ndarray) -> np.ndarray:
         """``odometry`` (B, 3) and ``sonar`` (B, n) as the env gives them: believed poses (B, 3)."""
         obs = np.concatenate((odometry, sonar), axis=1, dtype=np.float32)
-        last, previous = (np.all(obs == seen, axis=1) for seen in self._seen)
-        known = last | previous
-        warm = ~np.isnan(self._seen[0][:, 0])  # the trial has had an observation
-        if not known.any() and warm.all():  # the common step: every robot moved on
+        match = np.all(obs == self._seen, axis=2)  # (2, B): the last, the one before
+        warm = ~np.isnan(self._seen[0, :, 0])  # the trial has had an observation
+        if not match.any() and warm.all():  # the common step: every robot moved on
             pose = odometry.astype(np.float64)
-            estimate = self.localizer(pose, sonar, pose + self.correction, 1)
+            # every robot warm: the correction is the offset, no NaN to mask
+            estimate = self.localizer(pose, sonar, pose + self._offset()[0], 1)
             self._remember(slice(None), obs, estimate)
             return estimate
+        last = match[0]
+        known = last | match[1]
         out = np.where(last[:, None], self._estimate[0], self._estimate[1])
         new = np.flatnonzero(~known)
         if len(new):
@@ -223,5 +249,5 @@ class PoseTracker:
 
     def _remember(self, rows: slice | np.ndarray, obs: np.ndarray, estimate: np.ndarray) -> None:
         """Robots ``rows`` took ``estimate`` for the observation ``obs``."""
-        self._seen[1][rows], self._estimate[1][rows] = self._seen[0][rows], self._estimate[0][rows]
-        self._seen[0][rows], self._estimate[0][rows] = obs, estimate
+        self._seen[1, rows], self._estimate[1, rows] = self._seen[0, rows], self._estimate[0, rows]
+        self._seen[0, rows], self._estimate[0, rows] = obs, estimate
