@@ -59,10 +59,25 @@ def goal_reading(
     dx, dy = (goal_x - x).tolist(), (goal_y - y).tolist()  # once, for both functions
     if angle is None:
         angle = np.fromiter(map(math.atan2, dy, dx), np.float64, count=len(dx))
+    return _goal_block(dx, dy, angle, h)
+
+
+def _goal_block(dx: list[float], dy: list[float], angle: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """:func:`goal_reading` from the offsets to the goal (lists) and the direction to it."""
     out = np.empty((len(dx), 2), np.float32)
     out[:, 0] = np.fromiter(map(math.hypot, dx, dy), np.float64, count=len(dx))
     out[:, 1] = wrap_angle(angle - h)
     return out
+
+
+def _goal_direction(
+    goal_x: float, goal_y: float, x: np.ndarray, y: np.ndarray, h: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The direction from (x, y) to the goal (C library atan2, as the scalar model) and
+    :func:`goal_reading` at (x, y, h), sharing the offsets to the goal."""
+    dx, dy = (goal_x - x).tolist(), (goal_y - y).tolist()
+    angle = np.fromiter(map(math.atan2, dy, dx), np.float64, count=len(dx))
+    return angle, _goal_block(dx, dy, angle, h)
 
 
 def _math_map(fn: Callable[..., float], a: np.ndarray, b: np.ndarray | float) -> np.ndarray:
@@ -274,17 +289,20 @@ class RobotBatch:
         poses = np.asarray(poses, dtype=np.float64)
         if poses.shape != (len(rows), 3):
             raise ValueError(f"reset: poses must have shape ({len(rows)}, 3), got {poses.shape}")
-        if len(rows) and (rows.min() < 0 or rows.max() >= self.size):
-            raise ValueError(f"reset: rows must be in [0, {self.size}), got {rows.tolist()}")
-        if len(np.unique(rows)) != len(rows):
-            raise ValueError(f"reset: rows must be distinct, got {rows.tolist()}")
+        # on a list: a partial reset restarts a few robots, and np.unique or a reduction on
+        # a few elements costs more than Python's min, max and set
+        listed = rows.tolist()
+        if listed and (min(listed) < 0 or max(listed) >= self.size):
+            raise ValueError(f"reset: rows must be in [0, {self.size}), got {listed}")
+        if len(set(listed)) != len(listed):
+            raise ValueError(f"reset: rows must be distinct, got {listed}")
         self.check_poses(poses, rows)
         x, y = poses[:, 0].copy(), poses[:, 1].copy()
         h = wrap_angle(poses[:, 2])
         near, rim, refl, clear = self._sense_at(poses, x, y, h)
         if self._sonar_std > 0.0:
             noise = np.empty((len(rows), self.n_sensors))
-            for i, b in enumerate(rows.tolist()):
+            for i, b in enumerate(listed):
                 rngs[b].standard_normal(out=noise[i])
             rim = rim + self._sonar_std * noise
         sonar = np.minimum(np.maximum(rim, 0.0), self.robot.sonar_range)
@@ -299,11 +317,11 @@ class RobotBatch:
             state[rows] = value
             setattr(self, name, state)
 
-        f1 = self._f1(sonar, np.zeros(len(rows), dtype=bool))
-        angle = self._goal_angle(x, y)
+        f1 = self._f1(sonar, np.zeros(len(rows), dtype=bool), False)
+        angle, goal = _goal_direction(self._goal[0], self._goal[1], x, y, h)
         f2 = -np.abs(wrap_angle(h - angle)) / _PI
         no = np.zeros(len(rows), dtype=bool)  # no collision, no goal, no truncation
-        return self._readings(sonar, refl, x, y, h, x, y, h, f1, f2, no, no, no, no, no, angle)
+        return self._readings(sonar, refl, x, y, h, x, y, h, f1, f2, no, no, no, no, no, goal)
 
     def step(self, alpha: np.ndarray, rngs: Sequence[np.random.Generator]) -> Readings:
         """Every robot takes one action: rotate by ``alpha[b]`` (radians, clipped to [-pi, pi];
@@ -360,7 +378,8 @@ class RobotBatch:
         else:
             virtual = close
             collision = real
-        if collision.any():  # emergency handler: back to the pose before the translation
+        stuck = bool(collision.any())
+        if stuck:  # emergency handler: back to the pose before the translation
             x1 = np.where(collision, x0, x1)
             y1 = np.where(collision, y0, y1)
             back = collision[:, None]
@@ -375,10 +394,9 @@ class RobotBatch:
             xo, yo, ho = x1, y1, h1
         else:
             xo, yo, ho = self._xo, self._yo, wrap_angle(self._ho + alpha)
-            if not collision.all():  # a collision reverses the odometry's translation too
+            if not (stuck and collision.all()):  # a collision reverses its translation too
                 moved_x = xo + robot.step * np.cos(ho)
                 moved_y = yo + robot.step * np.sin(ho)
-                stuck = collision.any()
                 xo = np.where(collision, xo, moved_x) if stuck else moved_x
                 yo = np.where(collision, yo, moved_y) if stuck else moved_y
         self._xo, self._yo, self._ho = xo, yo, ho
@@ -388,15 +406,15 @@ class RobotBatch:
             rim = rim + self._sonar_std * z[:, 2:]
         sonar = np.minimum(np.maximum(rim, 0.0), robot.sonar_range)
         self.sonar = sonar
-        f1 = self._f1(sonar, collision)
-        angle = self._goal_angle(xo, yo)
-        f2 = -np.abs(wrap_angle(ho - angle)) / _PI
+        f1 = self._f1(sonar, collision, stuck)
         gx, gy, gr = self._goal
+        angle, goal = _goal_direction(gx, gy, xo, yo, ho)
+        f2 = -np.abs(wrap_angle(ho - angle)) / _PI
         reached = _math_map(math.hypot, x1 - gx, y1 - gy) <= gr
         truncated = ~reached & (self.actions_taken >= self.max_actions)
         return self._readings(
             sonar, refl, xo, yo, ho, x1, y1, h1, f1, f2, collision, real, virtual, reached,
-            truncated, angle,
+            truncated, goal,
         )  # fmt: skip
 
     def _step_one(self, alpha: float, rng: np.random.Generator) -> Readings:
@@ -553,19 +571,15 @@ class RobotBatch:
             refl[clear >= self._ir_reach] = 0.0  # rows with nothing within IR range read 0
         return rim, refl
 
-    def _f1(self, sonar: np.ndarray, collision: np.ndarray) -> np.ndarray:
-        """Eq. 3: -3 on a collision, -1 + d_min / d_c if the nearest sonar reading is below d_c."""
+    def _f1(self, sonar: np.ndarray, collision: np.ndarray, any_collision: bool) -> np.ndarray:
+        """Eq. 3: -3 on a collision, -1 + d_min / d_c if the nearest sonar reading is below d_c
+        (``any_collision``: ``collision.any()``, known to the caller)."""
         close = self.robot.close_distance
         dmin = np.minimum.reduce(sonar, axis=1)
         f1 = np.where(dmin < close, -1.0 + dmin / close, 0.0)
-        if collision.any():
+        if any_collision:
             f1[collision] = -3.0
         return f1
-
-    def _goal_angle(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Direction from (x, y) to the goal (C library atan2, as the scalar model)."""
-        gx, gy, _ = self._goal
-        return _math_map(math.atan2, gy - y, gx - x)
 
     def _readings(
         self,
@@ -584,11 +598,9 @@ class RobotBatch:
         virtual: np.ndarray,
         reached: np.ndarray,
         truncated: np.ndarray,
-        angle: np.ndarray,
+        goal: np.ndarray,
     ) -> Readings:
-        gx, gy, _ = self._goal
         f32 = np.float32
-        goal = goal_reading(gx, gy, xo, yo, ho, angle)
         return Readings(
             sonar=(sonar * (1.0 / self.robot.sonar_range)).astype(f32),
             ir=refl.astype(f32),
