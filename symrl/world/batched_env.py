@@ -176,7 +176,7 @@ class BatchedWorldEnv(EnvBase):
                 full[rows] = value
                 merged[key] = full
             out = merged
-        self._last = out
+        self._keep(out)
         return out
 
     def step_and_maybe_reset(
@@ -261,8 +261,14 @@ class BatchedWorldEnv(EnvBase):
         out["terminated"] = r.reached_goal.reshape(-1, 1).copy()
         out["truncated"] = r.truncated.reshape(-1, 1)
         out["done"] = out["terminated"] | out["truncated"]
-        self._last = out
+        self._keep(out)
         return self._tensordict(out)
+
+    def _keep(self, out: dict[str, np.ndarray]) -> None:
+        """Remember the outputs of this reset or step. Set past ``nn.Module.__setattr__`` (an
+        EnvBase is a module: its setter looks the name up among parameters, buffers and
+        submodules, about 5 us a batch step in the training loop); ``_last`` is none of them."""
+        object.__setattr__(self, "_last", out)
 
     # --- internals -------------------------------------------------------------------------
 
