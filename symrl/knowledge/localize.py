@@ -34,28 +34,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.linalg import _umath_linalg
 
 from symrl.world.geometry import Walls
 from symrl.world.physics import wrap_angle
 from symrl.world.robot import RobotConfig
 
 __all__ = ["MapLocalizer", "PoseTracker"]
-
-# np.linalg.solve's LAPACK gufunc and error handling (a singular matrix or a NaN raises
-# LinAlgError), called directly: the wrapper's checks and conversions, for float64 (B, 3, 3)
-# stacks here always, cost more than the solves (measured in the training loop at B = 10:
-# the solve's line 26 -> 17 us a batch step)
-_solve = _umath_linalg.solve
-
-
-def _singular(err: str, flag: int) -> None:
-    raise np.linalg.LinAlgError("Singular matrix")
-
-
-_SOLVE_ERRORS: dict = dict(call=_singular, invalid="call", over="ignore", divide="ignore",
-                           under="ignore")  # fmt: skip
-
 
 class MapLocalizer:
     """The believed poses of B robots from their odometry poses and sonar scans.
@@ -174,9 +158,8 @@ class MapLocalizer:
         offset = pose - prior_pose
         offset[:, 2] = wrap_angle(offset[:, 2])
         gradient = (jw_t @ residual[..., None])[..., 0] + offset @ self.prior
-        with np.errstate(**_SOLVE_ERRORS):
-            move = _solve(jw_t @ jac + self.prior, -gradient[..., None], signature="dd->d")
-        out = pose + move[..., 0]
+        move = np.linalg.solve(jw_t @ jac + self.prior, -gradient[..., None])[..., 0]
+        out = pose + move
         out[:, 2] = wrap_angle(out[:, 2])
         return out
 
