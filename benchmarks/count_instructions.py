@@ -7,7 +7,9 @@ so ``bench_train.py --compare`` cannot resolve a change of a few per cent there.
 count does not depend on the machine's load: valgrind's cachegrind (``--cache-sim=no``) counts
 every instruction of ``symrl.train.train_batch`` run twice, with few and with more trials; the
 difference divided by the batch steps between the two runs is the loop's cost per batch step,
-without the imports and the setup. It takes about two minutes a run (cachegrind runs the
+without the imports and the setup. Runs of the same code still differ by up to 1 % (the
+allocator's and the garbage collector's timing): a difference of a few per cent needs two or
+more runs of each side. It takes about two minutes a run (cachegrind runs the
 process 30-50x slower); ``--compare DIR`` counts another checkout's code the same way.
 Needs ``valgrind`` on the PATH.
 """
@@ -41,7 +43,9 @@ def count(checkout: Path, recipe: str, size: int, trials: int) -> tuple[int, int
         args = ["valgrind", "--tool=cachegrind", "--cache-sim=no",
                 f"--cachegrind-out-file={out_file}", sys.executable, "-c", _CHILD, recipe,
                 str(size), str(trials)]  # fmt: skip
-        env = {**os.environ, "PYTHONPATH": str(checkout.resolve())}
+        # a fixed hash seed: string hashes decide dict and set layouts, and so a little of
+        # the work, which would vary from run to run
+        env = {**os.environ, "PYTHONPATH": str(checkout.resolve()), "PYTHONHASHSEED": "0"}
         # run in the empty folder: `python -c` puts the working folder first on sys.path,
         # where another checkout's symrl would shadow this one's
         run = subprocess.run(args, env=env, cwd=tmp, capture_output=True, text=True, check=True)
