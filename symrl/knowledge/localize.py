@@ -92,9 +92,7 @@ class MapLocalizer:
         self.reading_weight = 1.0 / noise**2
         self.prior = np.diag([prior_xy**-2, prior_xy**-2, prior_heading**-2])
         # wall starts and directions, for the derivative of a range and where a ray hits
-        self.wall_ax, self.wall_ay = walls.ax, walls.ay
         self.wall_dx, self.wall_dy = walls.dx, walls.dy
-        self.wall_inv_len2 = walls.inv_len2
         self.wall_length = np.sqrt(1.0 / walls.inv_len2)
         # the same with one more entry, wall 0's, read by wall -1 (no hit): a ray's wall index
         # gathers from them directly (no clamp to 0 before each gather)

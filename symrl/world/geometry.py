@@ -16,6 +16,8 @@ stack), the same BLAS call as the scalar :meth:`Walls.cast`, so no result depend
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -61,10 +63,7 @@ class Walls:
         self._axd = self.ax * self.dy - self.ay * self.dx  # a x d; w x d = a x d - p x d
         self._k = np.empty((3 * n, 2))
         self._k[:n] = self._nd
-        self._scratch: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        self._bins: dict[tuple[int, int], np.ndarray] = {}
-        self._rows: dict[tuple[int, int], np.ndarray] = {}
-        self._edge_steps: dict[int, np.ndarray] = {}
+        self._kept: dict[tuple[Any, ...], Any] = {}  # see _keep
         ends = np.concatenate([seg[:, :2], seg[:, 2:]], axis=0)
         self.vertices = np.unique(ends, axis=0)  # (m, 2) distinct segment end points
         self.vx, self.vy = self.vertices[:, 0].copy(), self.vertices[:, 1].copy()
@@ -287,28 +286,31 @@ class Walls:
         ok = (s >= -_S_EPS) & (s <= 1.0 + _S_EPS)
         return np.where(ok, prod[:, 2 * n :], -np.inf)
 
+    def _keep(self, key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
+        """``make()``, made once per ``key`` and kept for the next calls: the index arrays and
+        scratch buffers of the batched queries, whose few shapes recur every step (making them
+        is a noticeable part of a step at these sizes)."""
+        value = self._kept.get(key)
+        if value is None:
+            if len(self._kept) >= 32:  # a handful of shapes per run; forget old ones
+                self._kept.clear()
+            value = self._kept[key] = make()
+        return value
+
     def _flat_rows(self, b: int, r: int) -> np.ndarray:
-        """``(b, r)``: the flat index of wall 0 for each ray in a ``(b, n, r)`` array (kept
-        per shape)."""
-        rows = self._rows.get((b, r))
-        if rows is None:
-            if len(self._rows) >= 8:
-                self._rows.clear()
-            rows = self._n * r * np.arange(b)[:, None] + np.arange(r)
-            self._rows[(b, r)] = rows
-        return rows
+        """``(b, r)``: the flat index of wall 0 for each ray in a ``(b, n, r)`` array."""
+        n = self._n
+        return self._keep(("rows", b, r), lambda: n * r * np.arange(b)[:, None] + np.arange(r))
 
     def _cast_buffers(self, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Scratch arrays of :meth:`cast_many` for B = b, kept for the next call (the same
-        few shapes recur every step; allocating them is a noticeable part of a step)."""
-        bufs = self._scratch.get(b)
-        if bufs is None:
-            if len(self._scratch) >= 8:
-                self._scratch.clear()
+        """Scratch arrays of :meth:`cast_many` for B = b (overwritten by every call)."""
+
+        def make() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             k = np.empty((b, 3 * self._n, 2))
             k[:, : self._n] = self._nd
-            bufs = self._scratch[b] = (k, np.empty((b, 2, 1)), np.empty((b, 1, 2)))
-        return bufs
+            return k, np.empty((b, 2, 1)), np.empty((b, 1, 2))
+
+        return self._keep(("cast", b), make)
 
     def _sectors_many(
         self,
@@ -337,14 +339,8 @@ class Walls:
         return best[:, :n]
 
     def _row_bins(self, b: int, n: int) -> np.ndarray:
-        """``(b, 1)``: the first of row i's n + 1 bins in :meth:`_sectors_many`'s flat buffer
-        (kept per shape)."""
-        bins = self._bins.get((b, n))
-        if bins is None:
-            if len(self._bins) >= 8:
-                self._bins.clear()
-            bins = self._bins[(b, n)] = (n + 1) * np.arange(b)[:, None]
-        return bins
+        """``(b, 1)``: the first of row i's n + 1 bins in :meth:`_sectors_many`'s flat buffer."""
+        return self._keep(("bins", b, n), lambda: (n + 1) * np.arange(b)[:, None])
 
     def _scan_angles(
         self, heading: np.ndarray, ray_offsets: np.ndarray, n_sectors: int
@@ -352,11 +348,8 @@ class Walls:
         """``(B, R + n_sectors + 1)``: the ray angles ``heading + ray_offsets``, then the sector
         edges ``(heading - width / 2) + width * k``, written into one new array (no
         concatenation; the edges' ``width * k`` kept per sector count)."""
-        steps = self._edge_steps.get(n_sectors)
-        if steps is None:
-            if len(self._edge_steps) >= 8:
-                self._edge_steps.clear()
-            steps = self._edge_steps[n_sectors] = (_TWO_PI / n_sectors) * np.arange(n_sectors + 1)
+        steps = self._keep(("edges", n_sectors),
+                           lambda: (_TWO_PI / n_sectors) * np.arange(n_sectors + 1))  # fmt: skip
         nr = len(ray_offsets)
         angles = np.empty((len(heading), nr + n_sectors + 1))
         np.add(heading[:, None], ray_offsets, out=angles[:, :nr])

@@ -49,35 +49,26 @@ def wrap_angle(angle: np.ndarray) -> np.ndarray:
 
 
 def goal_reading(
-    goal_x: float, goal_y: float, x: np.ndarray, y: np.ndarray, h: np.ndarray,
-    angle: np.ndarray | None = None,
+    goal_x: float, goal_y: float, x: np.ndarray, y: np.ndarray, h: np.ndarray
 ) -> np.ndarray:
     """(k, 2) float32: distance and signed angle (left +) to the goal from poses (x, y, h), the
-    observation's ``goal``; ``angle``: the direction from (x, y) to the goal if already known.
-    The C library's hypot and atan2 per element: numpy's SIMD loops round differently in the
-    body and the tail of an array, so a robot's numbers would depend on its place in a batch."""
-    dx, dy = (goal_x - x).tolist(), (goal_y - y).tolist()  # once, for both functions
-    if angle is None:
-        angle = np.fromiter(map(math.atan2, dy, dx), np.float64, count=len(dx))
-    return _goal_block(dx, dy, angle, h)
-
-
-def _goal_block(dx: list[float], dy: list[float], angle: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """:func:`goal_reading` from the offsets to the goal (lists) and the direction to it."""
-    out = np.empty((len(dx), 2), np.float32)
-    out[:, 0] = np.fromiter(map(math.hypot, dx, dy), np.float64, count=len(dx))
-    out[:, 1] = wrap_angle(angle - h)
-    return out
+    observation's ``goal``. The C library's hypot and atan2 per element: numpy's SIMD loops
+    round differently in the body and the tail of an array, so a robot's numbers would depend
+    on its place in a batch."""
+    return _goal_direction(goal_x, goal_y, x, y, h)[1]
 
 
 def _goal_direction(
     goal_x: float, goal_y: float, x: np.ndarray, y: np.ndarray, h: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The direction from (x, y) to the goal (C library atan2, as the scalar model) and
-    :func:`goal_reading` at (x, y, h), sharing the offsets to the goal."""
-    dx, dy = (goal_x - x).tolist(), (goal_y - y).tolist()
+    """The direction from (x, y) to the goal and :func:`goal_reading` at (x, y, h): the physics
+    needs both (the reward's f2 and the observation), from the same offsets."""
+    dx, dy = (goal_x - x).tolist(), (goal_y - y).tolist()  # once, for both functions
     angle = np.fromiter(map(math.atan2, dy, dx), np.float64, count=len(dx))
-    return angle, _goal_block(dx, dy, angle, h)
+    out = np.empty((len(dx), 2), np.float32)
+    out[:, 0] = np.fromiter(map(math.hypot, dx, dy), np.float64, count=len(dx))
+    out[:, 1] = wrap_angle(angle - h)
+    return angle, out
 
 
 def _math_map(fn: Callable[..., float], a: np.ndarray, b: np.ndarray | float) -> np.ndarray:
@@ -317,7 +308,7 @@ class RobotBatch:
             state[rows] = value
             setattr(self, name, state)
 
-        f1 = self._f1(sonar, np.zeros(len(rows), dtype=bool), False)
+        f1 = self._f1(sonar, np.zeros(len(rows), dtype=bool))
         angle, goal = _goal_direction(self._goal[0], self._goal[1], x, y, h)
         f2 = -np.abs(wrap_angle(h - angle)) / _PI
         no = np.zeros(len(rows), dtype=bool)  # no collision, no goal, no truncation
@@ -406,7 +397,7 @@ class RobotBatch:
             rim = rim + self._sonar_std * z[:, 2:]
         sonar = np.minimum(np.maximum(rim, 0.0), robot.sonar_range)
         self.sonar = sonar
-        f1 = self._f1(sonar, collision, stuck)
+        f1 = self._f1(sonar, collision)
         gx, gy, gr = self._goal
         angle, goal = _goal_direction(gx, gy, xo, yo, ho)
         f2 = -np.abs(wrap_angle(ho - angle)) / _PI
@@ -571,13 +562,12 @@ class RobotBatch:
             refl[clear >= self._ir_reach] = 0.0  # rows with nothing within IR range read 0
         return rim, refl
 
-    def _f1(self, sonar: np.ndarray, collision: np.ndarray, any_collision: bool) -> np.ndarray:
-        """Eq. 3: -3 on a collision, -1 + d_min / d_c if the nearest sonar reading is below d_c
-        (``any_collision``: ``collision.any()``, known to the caller)."""
+    def _f1(self, sonar: np.ndarray, collision: np.ndarray) -> np.ndarray:
+        """Eq. 3: -3 on a collision, -1 + d_min / d_c if the nearest sonar reading is below d_c."""
         close = self.robot.close_distance
         dmin = np.minimum.reduce(sonar, axis=1)
         f1 = np.where(dmin < close, -1.0 + dmin / close, 0.0)
-        if any_collision:
+        if collision.any():
             f1[collision] = -3.0
         return f1
 
