@@ -39,6 +39,7 @@ __all__ = [
     "region_pieces",
     "routes",
     "build_subgoals",
+    "passage_labels",
 ]
 
 
@@ -349,7 +350,7 @@ class SubgoalTable:
         return float(x), float(y)
 
 
-def _labels(passages: list[Passage]) -> list[str]:
+def passage_labels(passages: list[Passage]) -> list[str]:
     """The name of each passage in labels: its line, and ``#k`` (k-th along it) when the line
     crosses free space more than once, so that every label in a table is unique."""
     out = []
@@ -366,7 +367,7 @@ def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> Subg
     config = config or SubgoalConfig()
     passages = find_passages(world, config)
     ahead_of, from_start = routes(world, passages)
-    names = _labels(passages)
+    names = passage_labels(passages)
     goal = (world.goal.x, world.goal.y)
     if config.visible:
         pieces = region_pieces(world)

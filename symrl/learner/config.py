@@ -188,7 +188,9 @@ class OptionsConfig(_Section):
     """Drop sub-goals closer than this to a wall (metres; 0 keeps all)."""
     subgoal_planner: StrictBool = False
     """Each region also gets the last turn of the planner's shortest path inside it (pushed out
-    to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end."""
+    to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end.
+    A region the path crosses without a turn and whose table has nothing ahead (only the goal
+    and points just past the passage it is entered by) gets the path's next turn instead."""
     subgoal_way_out: StrictBool = False
     """With ``subgoal_planner``: a region off the planner's path whose only option is the goal,
     and which does not hold the goal (a dead end such as a bay), gets the first turn of the

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 import torch
@@ -242,6 +243,7 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
                 table,
                 max(config.subgoal_min_clearance, 0.45),  # type: ignore[attr-defined]
                 way_out=config.subgoal_way_out,  # type: ignore[attr-defined]
+                subgoals=subgoal_config(config),
             )
         detour = config.subgoal_detour  # type: ignore[attr-defined]
         if detour is not None:
@@ -253,7 +255,11 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
 
 
 def with_planner_waypoints(
-    world: WorldMap, table: SubgoalTable, clearance: float, way_out: bool = False
+    world: WorldMap,
+    table: SubgoalTable,
+    clearance: float,
+    way_out: bool = False,
+    subgoals: SubgoalConfig | None = None,
 ) -> SubgoalTable:
     """``table`` plus, per region, one more option: the last turn of the planner's shortest path
     (start to goal) inside the region, pushed out to ``clearance`` from the nearest wall. It is
@@ -264,6 +270,13 @@ def with_planner_waypoints(
     the strict rules name no region but the default one. A turn where the path passes into
     another region (1 mm on, the region differs) counts for its region only if the path makes no
     turn strictly inside it.
+
+    A region the path crosses straight (no turn in it, not the goal's) whose table offers nothing
+    ahead (only the goal and points just past the passage it is entered by: the passage it
+    leaves by is open floor, or none) gets the path's next turn, the one after it. A region line
+    through a thin wall's end puts that end's turn just past the line: steering at the goal from
+    there drives into the wall's far side (``subgoals``: the table's settings, to tell which of
+    its passages lie ahead).
 
     With ``way_out``, a region the path leaves no turn in, whose only option is the goal and
     which does not hold the goal (a dead end off the route: steering at the goal from there
@@ -299,6 +312,7 @@ def with_planner_waypoints(
         same = region == of(float(on[0]), float(on[1]))
         (inside if same else crossing)[region] = pushed(p)
     last = crossing | inside
+    last |= _next_turns(world, table, way, last, pushed, subgoals or SubgoalConfig())
 
     outs: dict[str, tuple[float, float]] = {}
     if way_out:
@@ -343,6 +357,43 @@ def with_planner_waypoints(
     # does not depend on where the path turns, so a controller learned on a world can be run on
     # the world with an obstacle or another start (re-planned: "the planner's turn" again)
     return SubgoalTable(table.region_names, points, valid, labels)
+
+
+def _next_turns(
+    world: WorldMap,
+    table: SubgoalTable,
+    way: np.ndarray,
+    turned: dict[str, tuple[float, float]],
+    pushed: Callable[[np.ndarray], tuple[float, float]],
+    subgoals: SubgoalConfig,
+) -> dict[str, tuple[float, float]]:
+    """The regions the path ``way`` (start, turns, end) crosses straight, off ``turned`` and the
+    goal's region, whose table has no option ahead: each with the path's next turn, pushed."""
+    from symrl.knowledge.subgoals import find_passages, passage_labels, routes
+
+    of = world.regions.region_of
+    goal_region = of(float(world.goal.x), float(world.goal.y))
+    crossed: dict[str, tuple[float, float]] = {}
+    for i in range(len(way) - 2):  # the last leg ends in the goal disc: no turn after it
+        a, b = way[i], way[i + 1]
+        n = max(2, int(math.ceil(float(np.hypot(*(b - a))) / 0.05)))
+        for t in np.arange(1, n) / n:  # the leg's inside, every 5 cm
+            region = of(*(float(v) for v in a + t * (b - a)))
+            if region not in turned and region != goal_region and region not in crossed:
+                crossed[region] = pushed(b)
+    if not crossed:
+        return {}
+    passages = find_passages(world, subgoals)
+    ahead_of, _ = routes(world, passages)
+    names = passage_labels(passages)
+    out = {}
+    for region, xy in crossed.items():
+        i = table.region_names.index(region)
+        ahead = {names[k] for k in ahead_of[region]}
+        options = table.labels[i][: int(table.valid[i].sum())]
+        if not any(label.split("@")[0] in ahead for label in options):
+            out[region] = xy
+    return out
 
 
 def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> SubgoalTable:

@@ -389,3 +389,53 @@ def test_detour_and_way_out_leave_the_paper_world_unchanged():
         "paper", ["options.subgoal_detour=1.0", "options.subgoal_way_out=true"]).options, [0])
     assert torch.equal(base.valid, both.valid) and torch.equal(base.points, both.points)
     assert base.labels == both.labels
+
+
+# a 1.2 m corridor opening east into a room; a thin wall hangs from the room's north wall at
+# x = 6.5 down to y = 1.0, and the goal lies behind it; the region line `stub` runs through the
+# wall, so the planner's path (straight out of the corridor, round the wall's lower end) turns
+# only just past the line, in room_east
+CORRIDOR_ROOM = {
+    "name": "corridor_room_test",
+    "boundary": [[0.0, 0.0], [4.0, 0.0], [4.0, -2.0], [9.0, -2.0], [9.0, 4.0], [4.0, 4.0],
+                 [4.0, 1.2], [0.0, 1.2]],
+    "obstacles": [],
+    "segments": [[[6.5, 4.0], [6.5, 1.0]]],
+    "start": {"x": 0.6, "y": 0.6, "heading": 0.0},
+    "goal": {"x": 8.0, "y": 3.3, "radius": 0.40},
+    "regions": {
+        "names": ["corridor", "room_west", "room_east"],
+        "lines": {"mouth": {"x": 4.0}, "stub": {"x": 6.5}},
+        "rules": [
+            {"region": "corridor", "when": ["x < mouth"]},
+            {"region": "room_west", "when": ["x < stub"]},
+            {"region": "room_east"},
+        ],
+    },
+}  # fmt: skip
+
+
+def test_a_region_the_path_crosses_straight_with_nothing_ahead_gets_the_next_turn():
+    from symrl.knowledge.subgoals import _clearance
+
+    world = load_map(CORRIDOR_ROOM)
+    offered = _offered(world)
+    # room_west's way out is 3 m of open floor (no passage point): before the rule it offered
+    # the goal (behind the wall) and the points just past the corridor's mouth only
+    assert offered["room_west"] == ["goal", "mouth@+0.0/0.4", "mouth@+0.8/0.4", "path"]
+    config = load_config("paper", _NEITHER).options
+    opt = SubgoalOptions(world, 1, config, [0])
+    west = opt.region_names.index("room_west")
+    x, y = opt.table.point(west, opt.labels[west].index("path"))
+    # below the wall's lower end, 0.45 m from it: the turn round it
+    assert y < 1.0 and math.dist((x, y), (6.5, 1.0)) == pytest.approx(0.45, abs=1e-6)
+    assert _clearance(world, (x, y)) == pytest.approx(0.45, abs=1e-6)
+    # the corridor has its mouth ahead, and the goal's region needs no turn after it
+    assert "path" not in offered["corridor"]
+    assert offered["room_east"][-1] == "path"  # its own last turn, as before
+
+
+def test_regions_with_a_passage_ahead_get_no_next_turn():
+    # hailu2001: the path runs straight through the room, whose door points lie ahead
+    names = _offered(WORLD)
+    assert "path" not in names["room"] and names["corridor"][-1] == "path"
