@@ -331,12 +331,15 @@ class SubgoalTable:
     ``points`` (R, K, 2) float32 world points, ``valid`` (R, K) bool, ``labels[r][k]`` a name
     such as ``"goal"`` or ``"l2@+0.8/0.4"`` (line, along fraction, beyond offset). Option 0 is
     the goal when ``include_goal``. Region order follows the map's ``regions.names``.
+    ``then`` (R, K, 2) float32: where the robot steers once it has reached an option's point,
+    NaN for the goal (every option when ``then`` is None).
     """
 
     region_names: tuple[str, ...]
     points: torch.Tensor
     valid: torch.Tensor
     labels: list[list[str]]
+    then: torch.Tensor | None = None
 
     @property
     def counts(self) -> torch.Tensor:

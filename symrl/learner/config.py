@@ -202,6 +202,16 @@ class OptionsConfig(_Section):
     entry point, then the planner's path) is more than this many metres longer than the
     planner's from the entry (``without_detours`` in ``symrl.learner.options``). The goal and
     the planner's turns stay. None: every sub-goal stays (the paper has none)."""
+    subgoal_approach: float | None = Field(None, gt=0)
+    """Side-on passages get an approach option: for a region on the planner's path, a passage
+    ahead of it that the straight line from the path's entry into the region meets more than
+    ``subgoal_approach_deg`` off the passage's normal gets the point this many metres before
+    the passage's centre, on its normal; once the robot has reached that point it steers at the
+    passage's centre 0.4 m past the line (not at the goal). The reflex turns at most 45 degrees
+    an action, so coming along a wall it misses a narrow door's turn. None: no approach points
+    (the paper has none)."""
+    subgoal_approach_deg: float = Field(60.0, ge=0, le=180)
+    """How far off a passage's normal (degrees) the way to it must run for an approach option."""
     goal_lead_deg: float = Field(0.0, ge=0, le=180)
     """While a visit's sub-goal lies within this angle (degrees) of the goal's bearing, seen from
     the robot, the reflex steers at the goal itself; from the first step the sub-goal lies

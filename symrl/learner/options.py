@@ -34,6 +34,7 @@ __all__ = [
 
 # a visit's stages: its first part (at the sub-goal; with a goal lead, at the goal while the
 # sub-goal is nearly in line with it), then at the sub-goal, then (the sub-goal reached) at the goal
+# (an approach option: at the point past its passage)
 _FIRST_STAGE, _SUBGOAL_STAGE, _GOAL_STAGE = 0, 1, 2
 
 
@@ -83,6 +84,14 @@ class SubgoalOptions(BufferViews):
         self._goal = np.array(self.goal, dtype=np.float64)
         self._lead = math.radians(float(config.goal_lead_deg))  # type: ignore[attr-defined]
         self.register_buffer("points", self.table.points.to(torch.float64), persistent=False)
+        # where each option steers once its point is reached: the goal, or (approach options)
+        # a point of their own; None when every option goes on to the goal
+        then = self.table.then
+        self._after: np.ndarray | None = None
+        if then is not None and not bool(torch.isnan(then).all()):
+            after = then.to(torch.float64).numpy().copy()
+            after[np.isnan(after[..., 0])] = self._goal
+            self._after = after
         self.register_buffer("valid", self.table.valid.clone(), persistent=False)
         self.register_buffer("q", torch.zeros(batch, r, k, dtype=torch.float64))
         self.register_buffer("n", torch.zeros(batch, r, k, dtype=torch.long))
@@ -133,7 +142,11 @@ class SubgoalOptions(BufferViews):
                 off = np.abs(np.arctan2(g[:, 0] * q[:, 1] - g[:, 1] * q[:, 0], (g * q).sum(axis=1)))
                 stage[first & (off >= self._lead)] = _SUBGOAL_STAGE
                 at_goal = at_goal | (stage == _FIRST_STAGE)
-        aim = np.where(at_goal[:, None], self._goal, point)
+        if self._after is not None:  # options that steer on at a point of their own
+            after = self._after.reshape(-1, 2)[region_np * points.shape[1] + chosen]
+        else:
+            after = self._goal
+        aim = np.where(at_goal[:, None], after, point)
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
@@ -223,7 +236,11 @@ def _table_key(world: WorldMap, config: object) -> tuple:
     way_out = bool(config.subgoal_way_out)  # type: ignore[attr-defined]
     detour = config.subgoal_detour  # type: ignore[attr-defined]
     detour = None if detour is None else float(detour)
-    return (tuple(fields), subgoal_config(config), planner, clearance, way_out, detour)
+    approach = config.subgoal_approach  # type: ignore[attr-defined]
+    approach = None if approach is None else float(approach)
+    approach_deg = float(config.subgoal_approach_deg)  # type: ignore[attr-defined]
+    return (tuple(fields), subgoal_config(config), planner, clearance, way_out, detour,
+            approach, approach_deg)  # fmt: skip
 
 
 def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
@@ -245,6 +262,13 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
                 way_out=config.subgoal_way_out,  # type: ignore[attr-defined]
                 subgoals=subgoal_config(config),
             )
+        approach = config.subgoal_approach  # type: ignore[attr-defined]
+        if approach is not None:
+            table = with_approaches(
+                world, table, subgoal_config(config), float(approach),
+                float(config.subgoal_approach_deg),  # type: ignore[attr-defined]
+                max(config.subgoal_min_clearance, 0.0),  # type: ignore[attr-defined]
+            )  # fmt: skip
         detour = config.subgoal_detour  # type: ignore[attr-defined]
         if detour is not None:
             table = without_detours(world, table, float(detour))
@@ -356,7 +380,10 @@ def with_planner_waypoints(
     # always one column more, valid or not: the table's shape (and a checkpoint's critic) then
     # does not depend on where the path turns, so a controller learned on a world can be run on
     # the world with an obstacle or another start (re-planned: "the planner's turn" again)
-    return SubgoalTable(table.region_names, points, valid, labels)
+    then = table.then
+    if then is not None:
+        then = torch.cat((then, torch.full((r, 1, 2), math.nan, dtype=then.dtype)), dim=1)
+    return SubgoalTable(table.region_names, points, valid, labels, then)
 
 
 def _next_turns(
@@ -396,6 +423,89 @@ def _next_turns(
     return out
 
 
+def _route_in_regions(world: WorldMap) -> dict[str, list[np.ndarray]]:
+    """The planner's shortest path (start to goal) in each region it passes through, a point
+    every 0.1 m or closer, in order (a region's first point is where the path enters it)."""
+    from symrl.studies.planner import shortest_path
+
+    along: dict[str, list[np.ndarray]] = {}
+    pts = np.asarray(shortest_path(world).points, dtype=np.float64)
+    for a, b in zip(pts[:-1], pts[1:], strict=True):
+        n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / 0.1)))
+        for t in np.arange(n) / n:
+            q = a + t * (b - a)
+            along.setdefault(world.regions.region_of(float(q[0]), float(q[1])), []).append(q)
+    return along
+
+
+def with_approaches(
+    world: WorldMap,
+    table: SubgoalTable,
+    subgoals: SubgoalConfig,
+    distance: float,
+    min_angle_deg: float,
+    min_clearance: float,
+) -> SubgoalTable:
+    """``table`` plus approach options (``OptionsConfig.subgoal_approach``): per region, one per
+    passage of the table ahead of it whose approach point (``distance`` metres before the
+    passage's centre on its normal) lies in the region, in the free area and at least
+    ``min_clearance`` from the walls. Its ``then`` is the passage's centre 0.4 m past the line.
+    Valid only where the planner's path enters the region and the straight line from that
+    entry to the passage's centre runs more than ``min_angle_deg`` off the passage's normal (a
+    door in a side wall); the columns exist either way, so the table's shape depends on the
+    map's passages only, not on the start or the route."""
+    from symrl.knowledge.subgoals import _clearance, find_passages, passage_labels, routes
+
+    passages = find_passages(world, subgoals)
+    ahead_of, _ = routes(world, passages)
+    names = passage_labels(passages)
+    along = _route_in_regions(world)
+    cos_max = math.cos(math.radians(min_angle_deg))
+    Approach = tuple[tuple[float, float], tuple[float, float], str, bool]  # point, then, label, on
+    extra: list[list[Approach]] = []
+    for region in table.region_names:
+        found: list[Approach] = []
+        for k in sorted(ahead_of[region]):
+            p = passages[k]
+            if p.width > subgoals.max_width or p.width / 2 < subgoals.clearance:
+                continue
+            centre = (p.lo + p.hi) / 2
+            a = p.point(centre, -distance)
+            if world.regions.region_of(*a) != region or not bool(world.in_free_area(*a)):
+                continue
+            if _clearance(world, a) < min_clearance:
+                continue
+            if any(math.dist(a, q) < distance / 2 for q, *_ in found):
+                continue  # a door's two faces: one approach for it
+            on = False
+            if region in along:
+                to = np.asarray(p.point(centre, 0.0)) - along[region][0]
+                normal = np.zeros(2)
+                normal[p.axis] = p.normal
+                on = float(to @ normal) < cos_max * max(float(np.hypot(*to)), 1e-9)
+            found.append((a, p.point(centre, 0.4), f"{names[k]}@approach", on))
+        extra.append(found)
+    width = max((len(f) for f in extra), default=0)
+    if width == 0:
+        return table
+    r, k = table.valid.shape
+    n = table.valid.sum(dim=1)
+    points = torch.cat((table.points, torch.zeros(r, width, 2, dtype=table.points.dtype)), 1)
+    valid = torch.cat((table.valid, torch.zeros(r, width, dtype=torch.bool)), 1)
+    then = table.then if table.then is not None else torch.full_like(table.points, math.nan)
+    then = torch.cat((then, torch.full((r, width, 2), math.nan, dtype=then.dtype)), 1)
+    labels = [list(row) for row in table.labels]
+    for i, found in enumerate(extra):
+        for j, (a, past, label, on) in enumerate(found):
+            # after the region's own options, in its first free columns (the rest pad)
+            col = int(n[i]) + j
+            points[i, col] = torch.tensor(a, dtype=points.dtype)
+            then[i, col] = torch.tensor(past, dtype=then.dtype)
+            valid[i, col] = on
+            labels[i].insert(col, label)
+    return SubgoalTable(table.region_names, points, valid, labels, then)
+
+
 def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> SubgoalTable:
     """``table`` with the sub-goals a region's best route cannot use switched off (``valid``
     False; the table keeps its shape). For each region the planner's shortest path (start to
@@ -413,7 +523,6 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
     from symrl.studies.planner import shortest_path
     from symrl.world.geometry import Walls
 
-    plan = shortest_path(world)
     walls = Walls(world.segments)
 
     def straight(a: np.ndarray, b: np.ndarray) -> bool:  # crosses no wall (1 cm: not a graze)
@@ -421,17 +530,8 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
         inside = bool(world.contains_xy(mid[0], mid[1]))
         return inside and not walls.swept_disc_contact(a[0], a[1], b[0], b[1], 0.01)
 
-    # the path in each region, a point every 0.1 m or closer (the dense path's own points)
-    entry: dict[str, np.ndarray] = {}
-    along: dict[str, list[np.ndarray]] = {}
-    pts = np.asarray(plan.points, dtype=np.float64)
-    for a, b in zip(pts[:-1], pts[1:], strict=True):
-        n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / 0.1)))
-        for t in np.arange(n) / n:
-            q = a + t * (b - a)
-            region = world.regions.region_of(float(q[0]), float(q[1]))
-            entry.setdefault(region, q)
-            along.setdefault(region, []).append(q)
+    along = _route_in_regions(world)
+    entry = {region: points[0] for region, points in along.items()}
     valid = table.valid.clone()
     lengths: dict[tuple[float, float], float] = {}
 
@@ -456,4 +556,4 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
             longer = float(np.hypot(*(p - e))) + to_goal(p) > best + margin
             if (math.isfinite(best) and longer) or not any(straight(q, p) for q in along[region]):
                 valid[i, k] = False
-    return SubgoalTable(table.region_names, table.points, valid, table.labels)
+    return SubgoalTable(table.region_names, table.points, valid, table.labels, table.then)

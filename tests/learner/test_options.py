@@ -220,8 +220,10 @@ def test_paper_table_shapes_follow_the_switches():
     from symrl.learner.policy import MixtureOfExpertsPolicy
 
     def labels(*overrides: str) -> list[list[str]]:
-        p = MixtureOfExpertsPolicy(load_config("paper", list(overrides)))
-        return p.options.labels
+        """The labels of each region's valid options."""
+        o = MixtureOfExpertsPolicy(load_config("paper", list(overrides))).options
+        return [[label for k, label in enumerate(row) if bool(o.valid[r, k])]
+                for r, row in enumerate(o.labels)]  # fmt: skip
 
     names = list(load_map("hailu2001").regions.names)
     room, corridor = names.index("room"), names.index("corridor")
@@ -439,3 +441,81 @@ def test_regions_with_a_passage_ahead_get_no_next_turn():
     # hailu2001: the path runs straight through the room, whose door points lie ahead
     names = _offered(WORLD)
     assert "path" not in names["room"] and names["corridor"][-1] == "path"
+
+
+# an 8 m x 3 m hall with a side room on its north wall, entered by a 0.8 m door (x 5.8-6.6) in
+# the 0.25 m wall at y = 3: coming from the start along the hall, the way meets the door side-on
+SIDE_ROOM = {
+    "name": "side_room_test",
+    "boundary": [[0.0, 0.0], [8.0, 0.0], [8.0, 3.0], [6.6, 3.0], [6.6, 3.25], [7.0, 3.25],
+                 [7.0, 6.0], [5.0, 6.0], [5.0, 3.25], [5.8, 3.25], [5.8, 3.0], [0.0, 3.0]],
+    "obstacles": [],
+    "segments": [],
+    "start": {"x": 0.8, "y": 1.5, "heading": 0.0},
+    "goal": {"x": 6.0, "y": 5.2, "radius": 0.40},
+    "regions": {
+        "names": ["hall", "door", "room"],
+        "lines": {"wall": {"y": 3.0}, "inner": {"y": 3.25}},
+        "rules": [
+            {"region": "hall", "when": ["y < wall"]},
+            {"region": "door", "when": ["y < inner"]},
+            {"region": "room"},
+        ],
+    },
+}  # fmt: skip
+
+
+def _approach_options(world, *overrides: str) -> SubgoalOptions:
+    config = load_config("paper", ["options.subgoal_approach=0.7", *overrides]).options
+    return SubgoalOptions(world, 1, config, [0])
+
+
+def test_a_side_on_door_gets_one_approach_option_that_then_steers_through_it():
+    opt = _approach_options(load_map(SIDE_ROOM))
+    hall = opt.region_names.index("hall")
+    valid = [k for k in range(len(opt.labels[hall])) if bool(opt.valid[hall, k])]
+    approach = [k for k in valid if opt.labels[hall][k].endswith("@approach")]
+    assert [opt.labels[hall][k] for k in approach] == ["wall@approach"]  # one for both faces
+    k = approach[0]
+    # 0.7 m before the door's centre (x = 6.2) on its normal, then 0.4 m past the line
+    assert opt.table.point(hall, k) == pytest.approx((6.2, 2.3), abs=1e-6)
+    assert opt.table.then[hall, k].tolist() == pytest.approx([6.2, 3.4], abs=1e-6)
+    # the door is met head-on from its own region: no approach there
+    door = opt.region_names.index("door")
+    assert not any(label.endswith("@approach") and bool(opt.valid[door, j])
+                   for j, label in enumerate(opt.labels[door]))  # fmt: skip
+    # steering: at the approach point, then (reached) at the point past the door, not the goal
+    opt.choice[0, hall] = k
+    region = torch.tensor([hall])
+    *_, aim = opt.steer(region, _odometry((3.0, 2.0, 0.0)), greedy=True)
+    assert aim[0].tolist() == pytest.approx([6.2, 2.3], abs=1e-6)
+    *_, aim = opt.steer(region, _odometry((6.1, 2.2, 1.5)), greedy=True)  # within reach
+    assert aim[0].tolist() == pytest.approx([6.2, 3.4], abs=1e-6)
+    # any other option goes on to the goal once reached, as without approaches
+    other = opt.labels[hall].index("inner@+0.0/0.4")
+    opt.choice[0, hall] = other
+    opt.stage[0], opt.visit[0] = 0, -1
+    *_, aim = opt.steer(region, _odometry((6.2, 3.6, 1.5)), greedy=True)
+    assert aim[0].tolist() == pytest.approx([6.0, 5.2], abs=1e-6)
+
+
+def test_approach_options_leave_a_head_on_world_unchanged_and_the_shape_fixed():
+    # hailu2001: the way meets the door 8 and 30 degrees off its normal: no valid approach, so
+    # the valid options (and the learning) are those without the rule
+    base = SubgoalOptions(WORLD, 1, load_config("paper", ["options.subgoal_approach=null"])
+                          .options, [0])  # fmt: skip
+    both = _approach_options(WORLD)
+    for opt in (base, both):
+        opt.offered = [[(label, opt.table.point(r, k)) for k, label in enumerate(row)
+                        if bool(opt.valid[r, k])] for r, row in enumerate(opt.labels)]  # fmt: skip
+    assert base.offered == both.offered
+    # the columns depend on the map's passages, not on the route: another start, same shape
+    moved = load_map(SIDE_ROOM)
+    other = dict(SIDE_ROOM, start={"x": 6.2, "y": 0.6, "heading": math.pi / 2})
+    assert (_approach_options(moved).table.points.shape
+            == _approach_options(load_map(other)).table.points.shape)  # fmt: skip
+    # from below the door the way is head-on: its approach option is not valid
+    below = _approach_options(load_map(other))
+    hall = below.region_names.index("hall")
+    assert not any(label.endswith("@approach") and bool(below.valid[hall, k])
+                   for k, label in enumerate(below.labels[hall]))  # fmt: skip
