@@ -191,6 +191,10 @@ class OptionsConfig(_Section):
     to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end.
     A region the path crosses without a turn and whose table has nothing ahead (only the goal
     and points just past the passage it is entered by) gets the path's next turn instead."""
+    subgoal_planner_first: StrictBool = False
+    """With ``subgoal_planner``: a region in which the planner's path rounds two corners or more
+    (its first and last turns over 1 m apart: an obstacle on open floor, then the exit) gets the
+    first turn as its planner option, and goes on to the last once the first is reached."""
     subgoal_way_out: StrictBool = False
     """With ``subgoal_planner``: a region off the planner's path whose only option is the goal,
     and which does not hold the goal (a dead end such as a bay), gets the first turn of the

@@ -33,9 +33,10 @@ __all__ = [
 ]  # fmt: skip
 
 # a visit's stages: its first part (at the sub-goal; with a goal lead, at the goal while the
-# sub-goal is nearly in line with it), then at the sub-goal, then (the sub-goal reached) at the goal
-# (an approach option: at the point past its passage)
-_FIRST_STAGE, _SUBGOAL_STAGE, _GOAL_STAGE = 0, 1, 2
+# sub-goal is nearly in line with it), then at the sub-goal, then (the sub-goal reached) at the
+# goal; an option with a point to go on to (the table's ``then``) steers at that point between
+# reaching its own and the goal
+_FIRST_STAGE, _SUBGOAL_STAGE, _GOAL_STAGE, _THEN_STAGE = 0, 1, 2, 3
 
 
 def subgoal_config(options: object) -> SubgoalConfig:
@@ -84,14 +85,12 @@ class SubgoalOptions(BufferViews):
         self._goal = np.array(self.goal, dtype=np.float64)
         self._lead = math.radians(float(config.goal_lead_deg))  # type: ignore[attr-defined]
         self.register_buffer("points", self.table.points.to(torch.float64), persistent=False)
-        # where each option steers once its point is reached: the goal, or (approach options)
-        # a point of their own; None when every option goes on to the goal
+        # the point each option goes on to once its own is reached (NaN: the goal); None when
+        # no valid option has one (the stages are then those of the paper's options)
         then = self.table.then
-        self._after: np.ndarray | None = None
-        if then is not None and not bool(torch.isnan(then).all()):
-            after = then.to(torch.float64).numpy().copy()
-            after[np.isnan(after[..., 0])] = self._goal
-            self._after = after
+        self._then: np.ndarray | None = None
+        if then is not None and bool((~torch.isnan(then[..., 0]) & self.table.valid).any()):
+            self._then = then.to(torch.float64).numpy().copy()
         self.register_buffer("valid", self.table.valid.clone(), persistent=False)
         self.register_buffer("q", torch.zeros(batch, r, k, dtype=torch.float64))
         self.register_buffer("n", torch.zeros(batch, r, k, dtype=torch.long))
@@ -131,9 +130,20 @@ class SubgoalOptions(BufferViews):
         pose = odometry.numpy().astype(np.float64)
         xy = pose[:, :2]
         points = a["points"]
-        point = points.reshape(-1, 2)[region_np * points.shape[1] + chosen]
+        index = region_np * points.shape[1] + chosen
+        point = points.reshape(-1, 2)[index]
         distance = torch.linalg.vector_norm(torch.from_numpy(point - xy), dim=-1).numpy()
-        stage[distance < self.config.reach] = _GOAL_STAGE  # type: ignore[attr-defined]
+        reach = self.config.reach  # type: ignore[attr-defined]
+        if self._then is None:
+            stage[distance < reach] = _GOAL_STAGE
+        else:  # the point reached: on to the option's next point if it has one, else the goal
+            then = self._then.reshape(-1, 2)[index]
+            going_on = stage == _THEN_STAGE
+            if going_on.any():
+                left = torch.linalg.vector_norm(torch.from_numpy(then - xy), dim=-1).numpy()
+                stage[going_on & (left < reach)] = _GOAL_STAGE
+            reached = (distance < reach) & ((stage == _FIRST_STAGE) | (stage == _SUBGOAL_STAGE))
+            stage[reached] = np.where(np.isnan(then[reached, 0]), _GOAL_STAGE, _THEN_STAGE)
         at_goal = stage == _GOAL_STAGE
         if self._lead > 0:
             first = stage == _FIRST_STAGE
@@ -142,11 +152,9 @@ class SubgoalOptions(BufferViews):
                 off = np.abs(np.arctan2(g[:, 0] * q[:, 1] - g[:, 1] * q[:, 0], (g * q).sum(axis=1)))
                 stage[first & (off >= self._lead)] = _SUBGOAL_STAGE
                 at_goal = at_goal | (stage == _FIRST_STAGE)
-        if self._after is not None:  # options that steer on at a point of their own
-            after = self._after.reshape(-1, 2)[region_np * points.shape[1] + chosen]
-        else:
-            after = self._goal
-        aim = np.where(at_goal[:, None], after, point)
+        aim = np.where(at_goal[:, None], self._goal, point)
+        if self._then is not None:
+            aim = np.where((stage == _THEN_STAGE)[:, None], then, aim)
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
@@ -239,8 +247,9 @@ def _table_key(world: WorldMap, config: object) -> tuple:
     approach = config.subgoal_approach  # type: ignore[attr-defined]
     approach = None if approach is None else float(approach)
     approach_deg = float(config.subgoal_approach_deg)  # type: ignore[attr-defined]
+    first_turn = bool(config.subgoal_planner_first)  # type: ignore[attr-defined]
     return (tuple(fields), subgoal_config(config), planner, clearance, way_out, detour,
-            approach, approach_deg)  # fmt: skip
+            approach, approach_deg, first_turn)  # fmt: skip
 
 
 def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
@@ -261,6 +270,7 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
                 max(config.subgoal_min_clearance, 0.45),  # type: ignore[attr-defined]
                 way_out=config.subgoal_way_out,  # type: ignore[attr-defined]
                 subgoals=subgoal_config(config),
+                first_turn=config.subgoal_planner_first,  # type: ignore[attr-defined]
             )
         approach = config.subgoal_approach  # type: ignore[attr-defined]
         if approach is not None:
@@ -284,6 +294,7 @@ def with_planner_waypoints(
     clearance: float,
     way_out: bool = False,
     subgoals: SubgoalConfig | None = None,
+    first_turn: bool = False,
 ) -> SubgoalTable:
     """``table`` plus, per region, one more option: the last turn of the planner's shortest path
     (start to goal) inside the region, pushed out to ``clearance`` from the nearest wall. It is
@@ -302,6 +313,11 @@ def with_planner_waypoints(
     there drives into the wall's far side (``subgoals``: the table's settings, to tell which of
     its passages lie ahead).
 
+    With ``first_turn``, a region in which the path rounds two corners or more (an obstacle on
+    open floor, then the region's exit) gets, as its ``path`` option, the first turn with the
+    last as the point to go on to (the table's ``then``): the last turn alone sends the reflex
+    straight at it, round the obstacle on whichever side it meets first.
+
     With ``way_out``, a region the path leaves no turn in, whose only option is the goal and
     which does not hold the goal (a dead end off the route: steering at the goal from there
     drives into its back wall for the rest of the trial), gets the first turn of the planner's
@@ -314,6 +330,7 @@ def with_planner_waypoints(
     walls = Walls(world.segments)
     inside: dict[str, tuple[float, float]] = {}
     crossing: dict[str, tuple[float, float]] = {}
+    first: dict[str, tuple[float, float]] = {}  # each region's first turn strictly inside it
     start = plan.points[0]
     way = np.asarray(plan.waypoints, dtype=np.float64)
     of = world.regions.region_of
@@ -335,6 +352,8 @@ def with_planner_waypoints(
         region = of(float(back[0]), float(back[1]))
         same = region == of(float(on[0]), float(on[1]))
         (inside if same else crossing)[region] = pushed(p)
+        if same:
+            first.setdefault(region, pushed(p))
     last = crossing | inside
     last |= _next_turns(world, table, way, last, pushed, subgoals or SubgoalConfig())
 
@@ -370,20 +389,33 @@ def with_planner_waypoints(
     points = torch.cat((table.points, torch.zeros(r, 1, 2, dtype=table.points.dtype)), dim=1)
     valid = torch.cat((table.valid, torch.zeros(r, 1, dtype=torch.bool)), dim=1)
     labels = [list(row) for row in table.labels]
+    # with ``first_turn``, a region whose path rounds two corners or more steers at the first,
+    # then the last: its first turn over 1 m from the last and from where the path enters the
+    # region (a corner whose arc a region line cuts is the previous region's)
+    entry: dict[str, np.ndarray] = {}
+    if first_turn:
+        for q in np.asarray(plan.points, dtype=np.float64):
+            entry.setdefault(of(float(q[0]), float(q[1])), q)
+    two_corners = {region: xy for region, xy in first.items() if first_turn
+                   and region in inside and math.dist(xy, inside[region]) > 1.0
+                   and math.dist(xy, entry.get(region, xy)) > 1.0}  # fmt: skip
+    then = table.then if table.then is not None else torch.full_like(table.points, math.nan)
+    then = torch.cat((then, torch.full((r, 1, 2), math.nan, dtype=then.dtype)), dim=1)
     for label, extra in (("path", last), ("out", outs)):  # a region gets one of them at most
         for region, xy in extra.items():
             i = names.index(region)
             n = int(table.valid[i].sum())
+            if label == "path" and region in two_corners:
+                xy, then_xy = two_corners[region], xy
+                then[i, n] = torch.tensor(then_xy, dtype=then.dtype)
             points[i, n] = torch.tensor(xy, dtype=table.points.dtype)
             valid[i, n] = True
             labels[i].append(label)
     # always one column more, valid or not: the table's shape (and a checkpoint's critic) then
     # does not depend on where the path turns, so a controller learned on a world can be run on
     # the world with an obstacle or another start (re-planned: "the planner's turn" again)
-    then = table.then
-    if then is not None:
-        then = torch.cat((then, torch.full((r, 1, 2), math.nan, dtype=then.dtype)), dim=1)
-    return SubgoalTable(table.region_names, points, valid, labels, then)
+    keep = table.then is not None or bool(two_corners)
+    return SubgoalTable(table.region_names, points, valid, labels, then if keep else None)
 
 
 def _next_turns(

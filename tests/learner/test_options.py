@@ -519,3 +519,47 @@ def test_approach_options_leave_a_head_on_world_unchanged_and_the_shape_fixed():
     hall = below.region_names.index("hall")
     assert not any(label.endswith("@approach") and bool(below.valid[hall, k])
                    for k, label in enumerate(below.labels[hall]))  # fmt: skip
+
+
+# a 10 m x 8 m room, a 2 m box between the start (south-west) and a nook in the north-east
+# corner that two thin walls close on the west and the south; the planner's path rounds the
+# box's south-east corner, then the nook's wall end: two corners in the one region `main`
+BOX_AND_NOOK = {
+    "name": "box_nook_test",
+    "boundary": [[0.0, 0.0], [10.0, 0.0], [10.0, 8.0], [0.0, 8.0]],
+    "obstacles": [[[4.0, 3.0], [6.0, 3.0], [6.0, 5.0], [4.0, 5.0]]],
+    "segments": [[[7.5, 8.0], [7.5, 6.5]], [[7.5, 6.5], [9.0, 6.5]]],
+    "start": {"x": 1.0, "y": 1.0, "heading": math.pi / 2},
+    "goal": {"x": 9.4, "y": 7.4, "radius": 0.40},
+    "regions": {
+        "names": ["main", "nook"],
+        "lines": {"nx": {"x": 7.5}, "ny": {"y": 6.5}},
+        "rules": [{"region": "nook", "when": ["x > nx", "y > ny"]}, {"region": "main"}],
+    },
+}  # fmt: skip
+
+
+def test_a_region_whose_path_rounds_two_corners_steers_at_the_first_then_the_last():
+    world = load_map(BOX_AND_NOOK)
+
+    def path_option(first: bool) -> tuple[SubgoalOptions, int]:
+        config = load_config("paper", [f"options.subgoal_planner_first={str(first).lower()}"])
+        opt = SubgoalOptions(world, 1, config.options, [0])
+        return opt, opt.labels[0].index("path")
+
+    last_only, k = path_option(False)
+    x, y = last_only.table.point(0, k)
+    assert x > 9.0 and 6.0 < y < 6.5  # below the nook's wall end (9, 6.5)
+    assert last_only._then is None  # no option goes on to a point of its own
+    both, k = path_option(True)
+    # the box's south-east corner (6, 3), pushed 0.45 m out; then the nook's wall end as before
+    assert math.dist(both.table.point(0, k), (6.0, 3.0)) == pytest.approx(0.45, abs=1e-6)
+    assert both.table.then[0, k].tolist() == pytest.approx([x, y], abs=1e-6)
+    # steering: the first turn, the last once the first is reached, the goal once that is
+    both.choice[0, 0] = k
+    region = torch.tensor([0])
+    for pose, aim_at in (((2.0, 1.5, 0.0), both.table.point(0, k)), ((6.2, 2.6, 0.8), (x, y)),
+                         ((8.0, 5.0, 0.8), (x, y)), ((x, y - 0.1, 1.5), (9.4, 7.4)),
+                         ((9.3, 6.8, 1.5), (9.4, 7.4))):  # fmt: skip
+        *_, aim = both.steer(region, _odometry(pose), greedy=True)
+        assert aim[0].tolist() == pytest.approx(list(aim_at), abs=1e-5), pose
