@@ -206,6 +206,13 @@ class OptionsConfig(_Section):
     entry point, then the planner's path) is more than this many metres longer than the
     planner's from the entry (``without_detours`` in ``symrl.learner.options``). The goal and
     the planner's turns stay. None: every sub-goal stays (the paper has none)."""
+    region_limit: StrictInt | None = Field(None, ge=1)
+    """A region in which the robot has spent more actions of a trial than its share of the
+    planner's path plus this many (its visits added up: a robot that shuttles across a region
+    line counts in both; off the path the share is 0) goes on by its planner option (``path``
+    or ``out``) for the rest of the trial. The chosen option keeps the trial's credit, so a
+    choice that leads into a dead end is still learned as one, without the rest of the trial's
+    budget. None: no limit (the paper has none)."""
     subgoal_approach: float | None = Field(None, gt=0)
     """Side-on passages get an approach option: for a region on the planner's path, a passage
     ahead of it that the straight line from the path's entry into the region meets more than

@@ -74,6 +74,7 @@ class SubgoalOptions(BufferViews):
         config: object,
         seeds: list[int],
         table: SubgoalTable | None = None,
+        step: float = 0.2,
     ) -> None:
         super().__init__()
         self.config = config
@@ -103,14 +104,35 @@ class SubgoalOptions(BufferViews):
         # each controller's own stream (not the exploration noise's): set k of a batch draws
         # the same numbers as the same seed alone
         self.generators = [torch.Generator().manual_seed(int(s) + 7919) for s in seeds]
+        # the region limit: each region's actions (its share of the planner's path, ``step``
+        # metres an action, plus the slack) and planner option (-1: none), and per robot and
+        # region the actions of the trial in it and whether it has fallen back to that option
+        # (reset with every trial, so nothing of it outlives one: not in the state dict)
+        slack = getattr(config, "region_limit", None)
+        self._limit: np.ndarray | None = None
+        if slack is not None:
+            share = _route_in_regions(world)  # a point every 0.1 m or closer
+            self._limit = np.array([int(slack) + math.ceil(0.1 * len(share.get(name, ())) / step)
+                                    for name in self.region_names])  # fmt: skip
+        usable = self.table.valid.numpy()
+        self._planner_option = np.array([next(
+            (j for j, label in enumerate(row) if label in ("path", "out") and usable[i, j]), -1)
+            for i, row in enumerate(self.labels)], dtype=np.int64)  # fmt: skip
+        self._region_steps = np.zeros((batch, r), dtype=np.int64)
+        self._fallen_back = np.zeros((batch, r), dtype=bool)
+        if self._limit is not None:
+            # learned: the options that needed the planner's one to finish their region; they
+            # are not chosen again (the credit of the rescued trial would hide the dead end)
+            self.register_buffer("stalled", torch.zeros(batch, r, k, dtype=torch.bool))
 
     # -- acting (called by the policy) ----------------------------------------------------
     def steer(
         self, region: torch.Tensor, odometry: torch.Tensor, greedy: bool
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """The signed angle (left positive) from each odometry heading to the point the reflex
-        should aim at in ``region``; also the option in force (B,), whether it was chosen at
-        this step (the region's first entry in the trial) (B,) bool, and the point (B, 2)."""
+        should aim at in ``region``; also the option in force (B,) (the chosen one, or past the
+        visit limit the region's planner option), whether it was chosen at this step (the
+        region's first entry in the trial) (B,) bool, and the point (B, 2)."""
         # numpy on the buffers' memory (a handful of rows: a fraction of the torch dispatches);
         # the norm and atan2 stay torch's, the rest is exact arithmetic in the same order
         a = self.arrays  # the buffers' numpy views
@@ -127,6 +149,16 @@ class SubgoalOptions(BufferViews):
         stage, visit = a["stage"], a["visit"]
         stage[region_np != visit] = _FIRST_STAGE
         visit[:] = region_np
+        if self._limit is not None:  # a region past its limit goes on by the planner's option
+            steps, fallen = self._region_steps, self._fallen_back
+            steps[rows, region_np] += 1
+            planner = self._planner_option[region_np]
+            late = ((steps[rows, region_np] > self._limit[region_np]) & ~fallen[rows, region_np]
+                    & (planner >= 0) & (chosen != planner))  # fmt: skip
+            if late.any():
+                fallen[rows[late], region_np[late]] = True
+                stage[late] = _FIRST_STAGE
+            chosen = np.where(fallen[rows, region_np], planner, chosen)
         pose = odometry.numpy().astype(np.float64)
         xy = pose[:, :2]
         points = a["points"]
@@ -167,6 +199,11 @@ class SubgoalOptions(BufferViews):
         cfg = self.config
         a = self.arrays
         valid = a["valid"][region].tolist()
+        if self._limit is not None:  # a stalled option is as if not offered
+            valid = [ok and not stalled for ok, stalled in
+                     zip(valid, a["stalled"][b, region].tolist(), strict=True)]  # fmt: skip
+            if not any(valid):
+                valid = a["valid"][region].tolist()
         options = [o for o, ok in enumerate(valid) if ok]
         after = int(cfg.greedy_after)  # type: ignore[attr-defined]
         greedy_only = greedy or bool(after and int(a["trials"][b]) >= after)
@@ -192,6 +229,7 @@ class SubgoalOptions(BufferViews):
         a["choice"][r] = -1
         a["stage"][r] = _FIRST_STAGE
         a["visit"][r] = -1
+        self._region_steps[r], self._fallen_back[r] = 0, False
 
     # -- learning (called by the update) --------------------------------------------------
     @no_grad
@@ -213,6 +251,9 @@ class SubgoalOptions(BufferViews):
             q[b, r, k] = np.where(first, ret, np.maximum(q[b, r, k], ret))
         else:
             q[b, r, k] += (ret - q[b, r, k]) / n[b, r, k]
+        if self._limit is not None:  # the chosen options their regions had to fall back from
+            fallen = self._fallen_back[b, r]
+            a["stalled"][b[fallen], r[fallen], k[fallen]] = True
         a["epsilon"][rows_np] *= float(self.config.epsilon_decay)  # type: ignore[attr-defined]
         a["trials"][rows_np] += 1
 

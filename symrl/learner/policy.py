@@ -59,7 +59,7 @@ _GREEDY = (ExplorationType.DETERMINISTIC, ExplorationType.MODE, ExplorationType.
 _PI = math.pi
 _PER_ROBOT = {
     "temperature", "best_total", "trials_done", "options.q", "options.n", "options.epsilon",
-    "options.trials", "options.choice", "options.stage", "options.visit",
+    "options.trials", "options.choice", "options.stage", "options.visit", "options.stalled",
 }  # fmt: skip
 """State-dict entries with one row per robot (besides every ``experts.*`` buffer)."""
 _BLOCK = 1024  # random draws per robot per refill: one call per robot instead of one per step
@@ -144,7 +144,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             names=self.expert_names,
         )  # fmt: skip
         self.options = (
-            SubgoalOptions(self.world, batch, config.options, self.seeds, subgoals)
+            SubgoalOptions(self.world, batch, config.options, self.seeds, subgoals,
+                           step=config.env.robot.step)
             if config.options.enabled
             else None
         )

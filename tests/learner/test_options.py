@@ -563,3 +563,35 @@ def test_a_region_whose_path_rounds_two_corners_steers_at_the_first_then_the_las
                          ((9.3, 6.8, 1.5), (9.4, 7.4))):  # fmt: skip
         *_, aim = both.steer(region, _odometry(pose), greedy=True)
         assert aim[0].tolist() == pytest.approx(list(aim_at), abs=1e-5), pose
+
+
+def test_a_region_past_its_limit_goes_on_by_the_planner_option_and_stalls_the_choice():
+    world = load_map(LONG_WALL)
+    config = load_config("paper", ["options.region_limit=3"]).options
+    opt = SubgoalOptions(world, 1, config, [0])
+    south = opt.region_names.index("south")
+    labels = opt.labels[south]
+    goal, path = labels.index("goal"), labels.index("path")
+    limit = int(opt._limit[south])  # its share of the planner's path (actions) plus 3
+    assert limit > 3
+    opt.choice[0, south] = goal
+    region, pose = torch.tensor([south]), _odometry((5.5, 0.8, math.pi / 2))
+    for _ in range(limit):
+        _, option, _, aim = opt.steer(region, pose, greedy=True)
+        assert int(option[0]) == goal and aim[0].tolist() == pytest.approx([5.0, 3.9])
+    _, option, _, aim = opt.steer(region, pose, greedy=True)  # one action past the limit
+    assert int(option[0]) == path
+    assert aim[0].tolist() == pytest.approx(list(opt.table.point(south, path)), abs=1e-6)
+    # the trial's credit goes to the choice, which is then not chosen again
+    opt.learn(torch.tensor([0]), torch.full((1, len(opt.region_names)), -50.0, dtype=torch.float64))
+    assert int(opt.n[0, south, goal]) == 1 and bool(opt.stalled[0, south, goal])
+    opt.begin_trial(torch.tensor([0]))
+    assert not opt._fallen_back.any() and not opt._region_steps.any()
+    opt.q[0, south, goal] = 100.0  # even as the best value
+    for _ in range(40):  # untried first, then epsilon-greedy: never the stalled option
+        assert opt._choose(0, south, greedy=False) != goal
+        opt.n[0, south] += 1
+    # without a limit nothing stalls and the state dict is that of the paper's options
+    plain = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=null"]).options,
+                           [0])  # fmt: skip
+    assert "stalled" not in plain.state_dict()
