@@ -25,6 +25,7 @@ import torch
 from symrl.buffers import BufferViews
 from symrl.grad import no_grad
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
+from symrl.world.geometry import Walls
 from symrl.world.worldmap import WorldMap
 
 __all__ = [
@@ -120,6 +121,11 @@ class SubgoalOptions(BufferViews):
             for i, row in enumerate(self.labels)], dtype=np.int64)  # fmt: skip
         self._region_steps = np.zeros((batch, r), dtype=np.int64)
         self._fallen_back = np.zeros((batch, r), dtype=bool)
+        # a region without a planner option goes on by the planner's path from where the robot
+        # is: the turn it steers at (NaN: none) and the region it was planned in
+        self._detour = np.full((batch, 2), np.nan)
+        self._detour_region = np.full(batch, -1, dtype=np.int64)
+        self._world = world
         if self._limit is not None:
             # learned: the options that needed the planner's one to finish their region; they
             # are not chosen again (the credit of the rescued trial would hide the dead end)
@@ -149,18 +155,26 @@ class SubgoalOptions(BufferViews):
         stage, visit = a["stage"], a["visit"]
         stage[region_np != visit] = _FIRST_STAGE
         visit[:] = region_np
-        if self._limit is not None:  # a region past its limit goes on by the planner's option
+        pose = odometry.numpy().astype(np.float64)
+        xy = pose[:, :2]
+        lost = None
+        if self._limit is not None:  # a region past its limit goes on by the planner
             steps, fallen = self._region_steps, self._fallen_back
             steps[rows, region_np] += 1
             planner = self._planner_option[region_np]
-            late = ((steps[rows, region_np] > self._limit[region_np]) & ~fallen[rows, region_np]
-                    & (planner >= 0) & (chosen != planner))  # fmt: skip
+            over = steps[rows, region_np] > self._limit[region_np]
+            late = over & ~fallen[rows, region_np] & (chosen != planner)
             if late.any():
                 fallen[rows[late], region_np[late]] = True
                 stage[late] = _FIRST_STAGE
-            chosen = np.where(fallen[rows, region_np], planner, chosen)
-        pose = odometry.numpy().astype(np.float64)
-        xy = pose[:, :2]
+            chosen = np.where(fallen[rows, region_np] & (planner >= 0), planner, chosen)
+            lost = over & (planner < 0)  # no planner option: its path from here, turn by turn
+            self._detour[self._detour_region != region_np] = np.nan
+            for b in np.flatnonzero(lost).tolist():
+                turn = self._detour[b]
+                if np.isnan(turn[0]) or math.dist(turn, xy[b]) < self.config.reach:  # type: ignore[attr-defined]
+                    self._detour[b] = self._replan(xy[b])
+                    self._detour_region[b] = region_np[b]
         points = a["points"]
         index = region_np * points.shape[1] + chosen
         point = points.reshape(-1, 2)[index]
@@ -187,11 +201,34 @@ class SubgoalOptions(BufferViews):
         aim = np.where(at_goal[:, None], self._goal, point)
         if self._then is not None:
             aim = np.where((stage == _THEN_STAGE)[:, None], then, aim)
+        if lost is not None and lost.any():
+            aim = np.where(lost[:, None], self._detour, aim)
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
         return (torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered),
                 torch.from_numpy(aim))
+
+    def _replan(self, xy: np.ndarray) -> np.ndarray:
+        """The first turn of the planner's shortest path from ``xy`` more than ``reach`` away,
+        pushed out to 0.45 m from its wall (the goal if the way is straight or unknown)."""
+        from symrl.studies.planner import shortest_path
+
+        reach = float(self.config.reach)  # type: ignore[attr-defined]
+        start = (float(xy[0]), float(xy[1]))
+        for clearance in (None, 0.27):  # pressed against a wall: nearer than the default
+            try:
+                turns = shortest_path(self._world, start=start, clearance=clearance).waypoints
+                break
+            except ValueError:
+                continue
+        else:
+            return self._goal.copy()
+        walls = Walls(self._world.segments)
+        for turn in turns[1:-1]:
+            if math.dist(turn, start) > reach:
+                return np.array(_pushed(walls, np.asarray(turn, dtype=np.float64), 0.45))
+        return self._goal.copy()
 
     def _choose(self, b: int, region: int, greedy: bool) -> int:
         """Controller ``b``'s option for ``region`` at its first entry in a trial (on Python
@@ -230,6 +267,7 @@ class SubgoalOptions(BufferViews):
         a["stage"][r] = _FIRST_STAGE
         a["visit"][r] = -1
         self._region_steps[r], self._fallen_back[r] = 0, False
+        self._detour[r], self._detour_region[r] = np.nan, -1
 
     # -- learning (called by the update) --------------------------------------------------
     @no_grad
@@ -365,7 +403,6 @@ def with_planner_waypoints(
     path from its centre (the centroid of its largest piece, or the piece's most open point
     if the centroid is too near a wall), labelled ``out``."""
     from symrl.studies.planner import shortest_path  # the planner is a study tool: import late
-    from symrl.world.geometry import Walls
 
     plan = shortest_path(world)
     walls = Walls(world.segments)
@@ -379,11 +416,8 @@ def with_planner_waypoints(
     def toward(p: np.ndarray, q: np.ndarray) -> np.ndarray:
         return p + 1e-3 * (q - p) / max(float(np.hypot(*(q - p))), 1e-9)
 
-    def pushed(p: np.ndarray) -> tuple[float, float]:  # out to ``clearance`` from its wall
-        ex, ey, gap = walls.closest(float(p[0]), float(p[1]))  # wall points relative to p
-        j = int(np.argmin(ex * ex + ey * ey))
-        out = p - np.array((ex[j], ey[j])) / max(gap, 1e-9) * (clearance - gap)
-        return (float(out[0]), float(out[1]))
+    def pushed(p: np.ndarray) -> tuple[float, float]:
+        return _pushed(walls, p, clearance)
 
     for i in range(1, len(way) - 1):  # the tangent points; the last one is in the goal disc
         p = way[i]
@@ -457,6 +491,14 @@ def with_planner_waypoints(
     # the world with an obstacle or another start (re-planned: "the planner's turn" again)
     keep = table.then is not None or bool(two_corners)
     return SubgoalTable(table.region_names, points, valid, labels, then if keep else None)
+
+
+def _pushed(walls: Walls, p: np.ndarray, clearance: float) -> tuple[float, float]:
+    """``p`` moved straight away from its nearest wall to ``clearance`` from it."""
+    ex, ey, gap = walls.closest(float(p[0]), float(p[1]))  # wall points relative to p
+    j = int(np.argmin(ex * ex + ey * ey))
+    out = p - np.array((ex[j], ey[j])) / max(gap, 1e-9) * (clearance - gap)
+    return (float(out[0]), float(out[1]))
 
 
 def _next_turns(
@@ -594,7 +636,6 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
     The goal (the paper's reflex) and the planner's own turns (``path``) are always kept, and
     so is every option of a region the path does not enter."""
     from symrl.studies.planner import shortest_path
-    from symrl.world.geometry import Walls
 
     walls = Walls(world.segments)
 

@@ -595,3 +595,25 @@ def test_a_region_past_its_limit_goes_on_by_the_planner_option_and_stalls_the_ch
     plain = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=null"]).options,
                            [0])  # fmt: skip
     assert "stalled" not in plain.state_dict()
+
+
+def test_a_region_without_a_planner_option_goes_on_by_the_planner_from_where_the_robot_is():
+    from symrl.knowledge.subgoals import _clearance
+
+    world = load_map(LONG_WALL)
+    opt = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=2"]).options, [0])
+    west = opt.region_names.index("west_gap")
+    assert int(opt._planner_option[west]) == -1 and int(opt._limit[west]) == 2  # off the path
+    opt.choice[0, west] = opt.labels[west].index("goal")
+    region, pose = torch.tensor([west]), _odometry((1.2, 2.2, 0.0))
+    for _ in range(2):
+        *_, aim = opt.steer(region, pose, greedy=True)
+        assert aim[0].tolist() == pytest.approx([5.0, 3.9])  # the goal: under the long wall
+    *_, aim = opt.steer(region, pose, greedy=True)
+    # past the limit: the planner's first turn from here, round the wall's west end (2, 2.5),
+    # pushed 0.45 m out
+    x, y = aim[0].tolist()
+    assert math.dist((x, y), (2.0, 2.5)) == pytest.approx(0.45, abs=1e-6)
+    assert _clearance(world, (x, y)) == pytest.approx(0.45, abs=1e-6)
+    opt.learn(torch.tensor([0]), torch.zeros((1, len(opt.region_names)), dtype=torch.float64))
+    assert bool(opt.stalled[0, west, opt.labels[west].index("goal")])
