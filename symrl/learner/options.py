@@ -109,7 +109,7 @@ class SubgoalOptions(BufferViews):
         # metres an action, plus the slack) and planner option (-1: none), and per robot and
         # region the actions of the trial in it and whether it has fallen back to that option
         # (reset with every trial, so nothing of it outlives one: not in the state dict)
-        slack = getattr(config, "region_limit", None)
+        slack = config.region_limit  # type: ignore[attr-defined]
         self._limit: np.ndarray | None = None
         if slack is not None:
             share = _route_in_regions(world)  # a point every 0.1 m or closer
@@ -126,6 +126,7 @@ class SubgoalOptions(BufferViews):
         self._detour = np.full((batch, 2), np.nan)
         self._detour_region = np.full(batch, -1, dtype=np.int64)
         self._world = world
+        self._walls = Walls(world.segments) if slack is not None else None
         if self._limit is not None:
             # learned: the options that needed the planner's one to finish their region; they
             # are not chosen again (the credit of the rescued trial would hide the dead end)
@@ -137,7 +138,7 @@ class SubgoalOptions(BufferViews):
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """The signed angle (left positive) from each odometry heading to the point the reflex
         should aim at in ``region``; also the option in force (B,) (the chosen one, or past the
-        visit limit the region's planner option), whether it was chosen at this step (the
+        region limit the region's planner option), whether it was chosen at this step (the
         region's first entry in the trial) (B,) bool, and the point (B, 2)."""
         # numpy on the buffers' memory (a handful of rows: a fraction of the torch dispatches);
         # the norm and atan2 stay torch's, the rest is exact arithmetic in the same order
@@ -224,10 +225,10 @@ class SubgoalOptions(BufferViews):
                 continue
         else:
             return self._goal.copy()
-        walls = Walls(self._world.segments)
+        assert self._walls is not None  # made with the region limit, the only caller
         for turn in turns[1:-1]:
             if math.dist(turn, start) > reach:
-                return np.array(_pushed(walls, np.asarray(turn, dtype=np.float64), 0.45))
+                return np.array(_pushed(self._walls, np.asarray(turn, dtype=np.float64), 0.45))
         return self._goal.copy()
 
     def _choose(self, b: int, region: int, greedy: bool) -> int:
@@ -469,8 +470,7 @@ def with_planner_waypoints(
     # region (a corner whose arc a region line cuts is the previous region's)
     entry: dict[str, np.ndarray] = {}
     if first_turn:
-        for q in np.asarray(plan.points, dtype=np.float64):
-            entry.setdefault(of(float(q[0]), float(q[1])), q)
+        entry = {name: q[0] for name, q in _route_in_regions(world, plan.points).items()}
     two_corners = {region: xy for region, xy in first.items() if first_turn
                    and region in inside and math.dist(xy, inside[region]) > 1.0
                    and math.dist(xy, entry.get(region, xy)) > 1.0}  # fmt: skip
@@ -538,13 +538,16 @@ def _next_turns(
     return out
 
 
-def _route_in_regions(world: WorldMap) -> dict[str, list[np.ndarray]]:
-    """The planner's shortest path (start to goal) in each region it passes through, a point
-    every 0.1 m or closer, in order (a region's first point is where the path enters it)."""
+def _route_in_regions(
+    world: WorldMap, points: np.ndarray | None = None
+) -> dict[str, list[np.ndarray]]:
+    """The planner's shortest path (start to goal; ``points``: its dense points if the caller
+    has planned it) in each region it passes through, a point every 0.1 m or closer, in order
+    (a region's first point is where the path enters it)."""
     from symrl.studies.planner import shortest_path
 
     along: dict[str, list[np.ndarray]] = {}
-    pts = np.asarray(shortest_path(world).points, dtype=np.float64)
+    pts = np.asarray(shortest_path(world).points if points is None else points, dtype=np.float64)
     for a, b in zip(pts[:-1], pts[1:], strict=True):
         n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / 0.1)))
         for t in np.arange(n) / n:
