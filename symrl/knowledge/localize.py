@@ -99,6 +99,8 @@ class MapLocalizer:
         self._per_wall = tuple(np.append(v, v[0]) for v in (
             walls.dx, walls.dy, -walls.dy, self.wall_length, walls.ax, walls.ay, walls.inv_len2,
         ))  # fmt: skip
+        # per odometry pose of a first step (the start poses): its _geometry's rows
+        self._start_geometry: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
     def __call__(
         self,
@@ -115,15 +117,38 @@ class MapLocalizer:
         measured = np.asarray(sonar, dtype=np.float64) * self.robot.sonar_range
         # a reading at the range cap says only "nothing nearer": no information on the pose
         usable = measured < self.robot.sonar_range * 0.999
-        pose = prior_pose.copy() if start is None else np.array(start, dtype=np.float64)
+        if start is None:
+            pose = prior_pose.copy()
+            geometry: tuple[np.ndarray, ...] | None = self._geometry_at_odometry(pose)
+        else:
+            pose = np.array(start, dtype=np.float64)
+            geometry = None
         for _ in range(self.iterations if iterations is None else iterations):
-            pose = self._step(pose, prior_pose, measured, usable)
+            pose = self._step(pose, prior_pose, measured, usable, geometry)
+            geometry = None
         return pose
 
-    def _step(
-        self, pose: np.ndarray, prior_pose: np.ndarray, measured: np.ndarray, usable: np.ndarray
-    ) -> np.ndarray:
-        """One Gauss-Newton step of the estimate at ``pose``."""
+    def _geometry_at_odometry(self, pose: np.ndarray) -> tuple[np.ndarray, ...]:
+        """:meth:`_geometry` at odometry poses ``(k, 3)``. A first step starts from the odometry
+        pose, which at a trial's first observation is the start pose: each pose's rows are
+        remembered (bounded: start poses, not random ones) and a trial's first step skips
+        the ray cast, most of a step."""
+        keys = [row.tobytes() for row in pose]
+        rows = [self._start_geometry.get(key) for key in keys]
+        if all(row is not None for row in rows):
+            fixed = np.stack([row[0] for row in rows])  # type: ignore[index]
+            block = np.stack([row[1] for row in rows])  # type: ignore[index]
+            return (fixed, *np.moveaxis(block, 1, 0))
+        geometry = self._geometry(pose)
+        if len(self._start_geometry) < 1024:
+            for i, key in enumerate(keys):
+                self._start_geometry[key] = (geometry[0][i], np.stack([g[i] for g in geometry[1:]]))
+        return geometry
+
+    def _geometry(self, pose: np.ndarray) -> tuple[np.ndarray, ...]:
+        """What a step needs of the map at ``pose`` (B, 3), each ``(B, n)``: which readings the
+        map can explain (a wall hit inside its ends, not grazing), u x d, the numerators of the
+        range's derivative (x, y, heading) and the predicted readings."""
         angles = pose[:, 2:3] + self.offsets
         u = np.empty((2, *angles.shape))  # the rays' directions, for the cast and here
         ux, uy = np.cos(angles, out=u[0]), np.sin(angles, out=u[1])
@@ -140,14 +165,30 @@ class MapLocalizer:
         # derivative jumps, and a step on it bounces back and forth across the corner
         along = ((pose[:, 0:1] + t * ux - ax) * dx + (pose[:, 1:2] + t * uy - ay) * dy) * inv_len2
         inside = np.minimum(along, 1.0 - along) * length >= self.edge
-        ok = usable & (wall >= 0) & (incidence >= self.min_incidence) & inside
+        fixed = (wall >= 0) & (incidence >= self.min_incidence) & inside
+        predicted = np.minimum(t - self.robot.radius, self.robot.sonar_range)
+        return fixed, cross, neg_dy, dx, t * (ux * dx + uy * dy), predicted
+
+    def _step(
+        self,
+        pose: np.ndarray,
+        prior_pose: np.ndarray,
+        measured: np.ndarray,
+        usable: np.ndarray,
+        geometry: tuple[np.ndarray, ...] | None = None,
+    ) -> np.ndarray:
+        """One Gauss-Newton step of the estimate at ``pose`` (``geometry``: :meth:`_geometry`
+        there, if known)."""
+        fixed, cross, neg_dy, dx, dt_dphi, predicted = (
+            self._geometry(pose) if geometry is None else geometry
+        )
+        ok = usable & fixed
         safe = np.where(ok, cross, 1.0)
         # the three columns divided into place (np.stack of three quotients copies them again)
-        jac = np.empty((*t.shape, 3))
+        jac = np.empty((*cross.shape, 3))
         np.divide(neg_dy, safe, out=jac[..., 0])
         np.divide(dx, safe, out=jac[..., 1])
-        np.divide(t * (ux * dx + uy * dy), safe, out=jac[..., 2])
-        predicted = np.minimum(t - self.robot.radius, self.robot.sonar_range)
+        np.divide(dt_dphi, safe, out=jac[..., 2])
         residual = np.where(ok, predicted - measured, 0.0)
         # Huber: huber / |r| beyond huber, else 1 (the minimum is 1 exactly up to huber)
         weight = np.minimum(self.huber / np.maximum(np.abs(residual), 1e-12), 1.0)
@@ -216,14 +257,15 @@ class PoseTracker:
             pose = odometry[new].astype(np.float64)
             scan = sonar[new]
             cold = ~warm[new]
-            # one step for all of them (a warm robot from its last correction, a cold one from
-            # its odometry pose), then the cold ones' remaining steps: each row is computed on
-            # its own, so this is what separate calls give, with one batched step fewer
-            start = np.where(cold[:, None], pose, self.correction[new] + pose)
-            estimate = self.localizer(pose, scan, start, 1)
-            more = self.localizer.iterations - 1
-            if more > 0 and cold.any():
-                estimate[cold] = self.localizer(pose[cold], scan[cold], estimate[cold], more)
+            # a warm robot takes one step from its last correction, a cold one the localiser's
+            # steps from its odometry pose (each row is computed on its own)
+            estimate = np.empty((len(new), 3))
+            if not cold.all():
+                w = ~cold
+                start = self.correction[new[w]] + pose[w]
+                estimate[w] = self.localizer(pose[w], scan[w], start, 1)
+            if cold.any():
+                estimate[cold] = self.localizer(pose[cold], scan[cold])
             self._remember(new, obs[new], estimate)
             out[new] = estimate
         return out
