@@ -487,9 +487,15 @@ class FuzzyReflex(nn.Module):
         """:meth:`forward` of float64 sonars ``(B, n)`` (finite) at goal angles already
         wrapped (:meth:`wrap`), numpy in and out; each row's output depends on that row
         alone."""
+        return self.from_memberships(self._memberships(s, self._numpy_arrays()), wrapped)
+
+    def from_memberships(self, mu: np.ndarray, wrapped: np.ndarray) -> np.ndarray:
+        """:meth:`wrapped_batch` from the sonars' NEAR memberships ``(B, S)``
+        (:meth:`memberships`): the output reads the sonars only through them, so a caller
+        that knows them (inputs that differ in one sector) skips the sonars' gather."""
         a = self._numpy_arrays()
         cfg = self.config
-        batch = s.shape[0]
+        batch = mu.shape[0]
         t = wrapped / cfg.goal_span
         # (LEFT, FORWARD, RIGHT) columns clipped to [0, 1] (min/max: np.clip's dispatch costs
         # about twice as much; the same numbers)
@@ -498,7 +504,6 @@ class FuzzyReflex(nn.Module):
         follow[:, 1] = 1.0 - np.abs(t)
         follow[:, 2] = -t
         follow = np.minimum(np.maximum(follow, 0.0), 1.0) * cfg.d_g
-        mu = self._memberships(s, a)
         if a["uses_side"]:  # the turning side, as _side
             diff = mu @ a["side_diff"]
             keys = np.sign(diff) * (np.abs(diff) > cfg.side_margin)

@@ -127,35 +127,39 @@ def reflex_partials(
     A ray's step changes the output only where it changes a sector's NEAR membership: far
     from the walls NEAR is 0 on both sides, the output is the unperturbed one bit for bit and
     the difference 0. So the reflex runs on the unperturbed rows, the beta steps and only those
-    ray steps that change a membership (most of the rows are not: about a third of the rows)."""
+    ray steps that change a membership (about a third of the rows), from the memberships (the
+    reflex reads the sonars only through them)."""
     t, n = sonar.shape
     steps = np.arange(t)
     # the reflex reads each sector's nearest ray: only that ray has a slope
     rays, disjoint = _sector_rays(tuple(tuple(r) for r in reflex.config.sectors.values()))
-    k = 1 + len(rays)
-    nearest = rays[np.arange(len(rays)), sonar[:, rays].argmin(axis=2)]  # (T, S)
-    s = np.broadcast_to(sonar, (2 * k + 1, t, n)).copy()
-    b = np.broadcast_to(beta, (2 * k + 1, t)).copy()
+    n_s = len(rays)
+    k = 1 + n_s
+    nearest = rays[np.arange(n_s), sonar[:, rays].argmin(axis=2)]  # (T, S)
+    # the reflex's own test (it is run below without forward); a step of eps keeps a finite
+    # input finite
+    check_finite(sonar, beta)
+    b = np.repeat(beta[None], 2 * k + 1, axis=0)
     b[1] += eps
     b[2] -= eps
-    sector = np.arange(len(rays))[:, None]
-    s[3::2][sector, steps, nearest.T] += eps
-    s[4::2][sector, steps, nearest.T] -= eps
-    flat_s = s.reshape(-1, n)
-    check_finite(flat_s, b)  # the reflex's own test (it is run below without forward)
     # the angles wrapped as the reflex wraps the whole batch: their last bit depends on their
     # place in it, so a ray step's row keeps its own
-    wrapped = reflex.wrap(torch.from_numpy(b.reshape(-1))).reshape(2 * k + 1, t)
-    # the rows whose memberships or wrapped angle differ from their step's unperturbed ones,
-    # and the first three
-    mu = reflex.memberships(flat_s).reshape(2 * k + 1, t, -1)
-    changed = (np.any(mu[3:] != mu[0], axis=2) | (wrapped[3:] != wrapped[0])).reshape(-1)
+    wrapped = reflex.wrap(torch.from_numpy(b.reshape(-1)))
+    # the memberships of the unperturbed sonars and of each sector's ray steps (up, down)
+    s = np.repeat(sonar[None], 2 * n_s + 1, axis=0)
+    sector = np.arange(n_s)[:, None]
+    s[1::2][sector, steps, nearest.T] += eps
+    s[2::2][sector, steps, nearest.T] -= eps
+    mu = reflex.memberships(s.reshape(-1, n)).reshape(2 * n_s + 1, t, n_s)
+    # the ray steps whose memberships or wrapped angle differ from their step's unperturbed ones
+    changed = np.any(mu[1:] != mu[0], axis=2) | (wrapped[3 * t :].reshape(-1, t) != wrapped[:t])
+    changed = changed.reshape(-1)
     rows = np.concatenate((np.arange(3 * t), 3 * t + np.flatnonzero(changed)))
-    flat_wrapped = wrapped.reshape(-1)
-    some = reflex.wrapped_batch(flat_s[rows], flat_wrapped[rows])
-    out = np.tile(some[:t], 2 * k + 1)
-    out[rows] = some
-    out = out.reshape(2 * k + 1, t)
+    some = reflex.from_memberships(
+        np.concatenate((mu[0], mu[0], mu[0], mu[1:].reshape(-1, n_s)[changed])), wrapped[rows]
+    )
+    out = np.repeat(some[None, :t], 2 * k + 1, axis=0)
+    out.reshape(-1)[rows] = some
     up, down = out[1::2] - out[0], out[0] - out[2::2]
     jumps = np.maximum(np.abs(up), np.abs(down)) > jump
     slope = np.where(jumps, 0.0, (up + down) / (2 * eps))  # (k, T)
