@@ -136,9 +136,9 @@ class MapLocalizer:
         keys = [row.tobytes() for row in pose]
         rows = [self._start_geometry.get(key) for key in keys]
         if all(row is not None for row in rows):
-            fixed = np.stack([row[0] for row in rows])  # type: ignore[index]
-            block = np.stack([row[1] for row in rows])  # type: ignore[index]
-            return (fixed, *np.moveaxis(block, 1, 0))
+            fixed = np.array([row[0] for row in rows])  # type: ignore[index]
+            block = np.array([row[1] for row in rows])  # type: ignore[index]
+            return (fixed, *block.transpose(1, 0, 2))
         geometry = self._geometry(pose)
         if len(self._start_geometry) < 1024:
             for i, key in enumerate(keys):
