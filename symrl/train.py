@@ -121,10 +121,14 @@ class TrialRecorder:
     def finish(self, b: int) -> dict[str, Any]:
         """Robot ``b``'s trial record (its path and ghosts included); resets its accumulators."""
         lo, hi = self._start[b] - self._offset, len(self._poses)
-        # one array of the steps, then robot b's column (not a Python loop over the steps)
-        path = np.vstack([self._first[b][None], np.array(self._poses[lo:hi])[:, b]])
-        ids = np.array(self._winners[lo:hi])[:, b]
+        # the steps' arrays joined in one call, then robot b's rows (not a Python loop over the
+        # steps)
+        path = np.concatenate(
+            (self._first[b : b + 1], np.concatenate(self._poses[lo:hi])[b :: self.batch])
+        )
+        ids = np.concatenate(self._winners[lo:hi])[b :: self.batch]
         change = np.flatnonzero(np.concatenate(([True], ids[1:] != ids[:-1])))
+        rounded = path.round(4)
         record: dict[str, Any] = {
             "steps": int(self.steps[b]),
             "total_reinforcement": float(self.total[b]),
@@ -132,9 +136,9 @@ class TrialRecorder:
             "shielded": int(self.shielded[b]),
             "mean_abs_td_error": float(self.td_error[b] / max(self.steps[b], 1)),
             # np.linalg.norm(axis=1)'s own formula, without its argument handling
-            "path_length": float(np.sqrt(np.add.reduce(np.square(np.diff(path, axis=0)), 1)).sum()),
-            "path": path.round(4).tolist(),
-            "ghosts": path[change].round(4).tolist(),  # where the acting neuron changed
+            "path_length": float(np.sqrt(np.add.reduce(np.square(path[1:] - path[:-1]), 1)).sum()),
+            "path": rounded.tolist(),
+            "ghosts": rounded[change].tolist(),  # where the acting neuron changed
         }
         self.steps[b] = 0
         self.total[b] = self.collisions[b] = self.shielded[b] = self.td_error[b] = 0
@@ -315,7 +319,10 @@ def train_batch(
             ended = np.flatnonzero(done)
             rows, ended_list = torch.from_numpy(ended), ended.tolist()
             records = [recorder.finish(b) for b in ended_list]
-            totals = torch.tensor([r["total_reinforcement"] for r in records])
+            # float32 as torch.tensor of the floats makes it, for a fraction of its cost
+            totals = torch.from_numpy(
+                np.array([r["total_reinforcement"] for r in records], dtype=np.float32)
+            )
             reached_np = recorder.reached.numpy()[ended]
             explored = policy.temperature.numpy()[ended].tolist()  # before end_trial cools it
             out = loss.end_trial(rows, totals, torch.from_numpy(reached_np))
