@@ -280,8 +280,8 @@ class SubgoalOptions(BufferViews):
         rows_np, returns_np = rows.numpy(), returns.numpy()
         choice = a["choice"][rows_np]
         entered = choice >= 0
-        b = np.broadcast_to(rows_np[:, None], choice.shape)[entered]
-        r = np.broadcast_to(np.arange(choice.shape[1]), choice.shape)[entered]
+        i, r = np.nonzero(entered)  # row-major, as a mask of the broadcast indices
+        b = rows_np[i]
         k, ret = choice[entered], returns_np[entered]
         n, q = a["n"], a["q"]
         n[b, r, k] += 1  # (b, r) pairs are distinct: one option per region and trial
