@@ -137,6 +137,37 @@ class _Checker:
         self._segments: dict[tuple[float, ...], bool] = {}
         self._arcs: dict[tuple[float, ...], bool] = {}
         self._rims: dict[tuple[float, float, float], list[np.ndarray]] = {}
+        self._nodes: dict[tuple[int, float], tuple[np.ndarray, object] | None] = {}
+        self._tangents: dict[tuple[float, float, int], list[float]] = {}
+        self._pairs: list[tuple[int, int, list[tuple[float, float]]]] | None = None
+
+    def tangent_node(self, ci: int, a: float) -> tuple[np.ndarray, object] | None:
+        """The point at angle ``a`` on vertex ``ci``'s circle and its graph key, or None if it
+        is not free; remembered (a re-plan from a new start meets the same circle-to-circle
+        tangent points: their positions and checks were two thirds of a plan)."""
+        entry = self._nodes.get((ci, a), False)
+        if entry is False:
+            p = _on_circle(self.walls.vertices[ci], self.r, a)
+            ok = self.point_ok(p, tol=1e-7)
+            entry = (p, ("C", ci, round(math.remainder(a, 2 * math.pi), 12))) if ok else None
+            self._nodes[(ci, a)] = entry
+        return entry
+
+    def point_tangents(self, p: np.ndarray, ci: int) -> list[float]:
+        """:func:`_point_tangents` from ``p`` to vertex ``ci``'s circle, remembered."""
+        key = (float(p[0]), float(p[1]), ci)
+        angles = self._tangents.get(key)
+        if angles is None:
+            angles = self._tangents[key] = _point_tangents(p, self.walls.vertices[ci], self.r)
+        return angles
+
+    def bitangent_pairs(self) -> list[tuple[int, int, list[tuple[float, float]]]]:
+        """:func:`_bitangents` of every pair of vertex circles (they do not depend on the start)."""
+        if self._pairs is None:
+            c = self.walls.vertices
+            self._pairs = [(i, j, _bitangents(c[i], c[j], self.r))
+                           for i in range(len(c)) for j in range(i + 1, len(c))]  # fmt: skip
+        return self._pairs
 
     def points_ok(self, pts: np.ndarray, tol: float = _EPS) -> np.ndarray:
         """:meth:`point_ok` of many points ``(n, 2)`` at once."""
@@ -259,10 +290,10 @@ def shortest_path(
     edges_geom: dict = {}
 
     def add_tangent_node(ci: int, a: float) -> object | None:
-        p = _on_circle(centres[ci], r, a)
-        if not chk.point_ok(p, tol=1e-7):
+        node = chk.tangent_node(ci, a)
+        if node is None:
             return None
-        key = ("C", ci, round(math.remainder(a, 2 * math.pi), 12))
+        p, key = node
         if key not in pos:
             pos[key] = p
             arcs_on[ci].append((math.remainder(a, 2 * math.pi), key))
@@ -303,7 +334,7 @@ def shortest_path(
             k = add_tangent_node(ci, a)
             if k is not None:
                 add_segment("S", k)
-        for a in _point_tangents(g, c, r):
+        for a in chk.point_tangents(g, ci):
             k = add_tangent_node(ci, a)
             if k is not None:
                 add_leg_to_centre(k)
@@ -313,16 +344,15 @@ def shortest_path(
                 a = math.atan2(tp[1] - c[1], tp[0] - c[0])
                 arcs_on[ci].append((a, t))
                 continue
-            for a in _point_tangents(tp, c, r):
+            for a in chk.point_tangents(tp, ci):
                 k = add_tangent_node(ci, a)
                 if k is not None:
                     add_segment(k, t)
-    for i in range(len(centres)):
-        for j in range(i + 1, len(centres)):
-            for a1, a2 in _bitangents(centres[i], centres[j], r):
-                k1, k2 = add_tangent_node(i, a1), add_tangent_node(j, a2)
-                if k1 is not None and k2 is not None:
-                    add_segment(k1, k2)
+    for i, j, pairs in chk.bitangent_pairs():
+        for a1, a2 in pairs:
+            k1, k2 = add_tangent_node(i, a1), add_tangent_node(j, a2)
+            if k1 is not None and k2 is not None:
+                add_segment(k1, k2)
     # arcs between neighbouring nodes on each circle
     for ci, nodes in arcs_on.items():
         nodes.sort(key=lambda t: t[0])
@@ -367,7 +397,8 @@ def _dense(route: list, pos: dict, geom: dict, centres: np.ndarray, r: float) ->
         if g[0] == "arc":
             _, ci, a0, a1 = g
             ang = np.linspace(a0, a1, max(2, int(math.ceil(r * (a1 - a0) / 0.005)) + 1))
-            if np.allclose(_on_circle(centres[ci], r, a0), pos[v], atol=1e-6):
+            start, end = _on_circle(centres[ci], r, a0).tolist(), pos[v].tolist()
+            if all(abs(x - y) <= 1e-6 + 1e-5 * abs(y) for x, y in zip(start, end, strict=True)):
                 ang = ang[::-1]
             pts.extend(centres[ci] + r * np.stack([np.cos(ang), np.sin(ang)], axis=1)[1:])
         else:
