@@ -145,12 +145,12 @@ class _Checker:
         """The point at angle ``a`` on vertex ``ci``'s circle and its graph key, or None if it
         is not free; remembered (a re-plan from a new start meets the same circle-to-circle
         tangent points: their positions and checks were two thirds of a plan)."""
-        entry = self._nodes.get((ci, a), False)
-        if entry is False:
-            p = _on_circle(self.walls.vertices[ci], self.r, a)
-            ok = self.point_ok(p, tol=1e-7)
-            entry = (p, ("C", ci, round(math.remainder(a, 2 * math.pi), 12))) if ok else None
-            self._nodes[(ci, a)] = entry
+        if (ci, a) in self._nodes:
+            return self._nodes[(ci, a)]
+        p = _on_circle(self.walls.vertices[ci], self.r, a)
+        ok = self.point_ok(p, tol=1e-7)
+        entry = (p, ("C", ci, round(math.remainder(a, 2 * math.pi), 12))) if ok else None
+        self._nodes[(ci, a)] = entry
         return entry
 
     def point_tangents(self, p: np.ndarray, ci: int) -> list[float]:
