@@ -208,8 +208,9 @@ class OptionsConfig(_Section):
     the planner's turns stay. None: every sub-goal stays (the paper has none)."""
     region_limit: StrictInt | None = Field(None, ge=1)
     """A region in which the robot has spent more actions of a trial than its share of the
-    planner's path plus this many (its visits added up: a robot that shuttles across a region
-    line counts in both; off the path the share is 0) goes on by its planner option (``path``
+    planner's path (the path's length in the region over 0.2 m an action) plus this many (its
+    visits added up: a robot that shuttles across a region line counts in both; off the path
+    the share is 0) goes on by its planner option (``path``
     or ``out``) for the rest of the trial. The chosen option keeps the trial's credit, so a
     choice that leads into a dead end is still learned as one, without the rest of the trial's
     budget. None: no limit (the paper has none)."""

@@ -113,8 +113,8 @@ class SubgoalOptions(BufferViews):
         slack = config.region_limit  # type: ignore[attr-defined]
         self._limit: np.ndarray | None = None
         if slack is not None:
-            share = _route_in_regions(world)  # a point every 0.1 m or closer
-            self._limit = np.array([int(slack) + math.ceil(0.1 * len(share.get(name, ())) / step)
+            share = _route_lengths(world)
+            self._limit = np.array([int(slack) + math.ceil(share.get(name, 0.0) / step)
                                     for name in self.region_names])  # fmt: skip
         usable = self.table.valid.numpy()
         self._planner_option = np.array([next(
@@ -571,6 +571,38 @@ def _route_in_regions(
             q = a + t * (b - a)
             along.setdefault(world.regions.region_of(float(q[0]), float(q[1])), []).append(q)
     return along
+
+
+_LENGTHS: dict[int, tuple[weakref.ref, dict[str, float]]] = {}
+"""The start-to-goal route's length in each region of the maps seen in this process (as
+``_ROUTES``)."""
+
+
+def _route_lengths(world: WorldMap) -> dict[str, float]:
+    """The planner's shortest path (start to goal): its length in metres in each region it
+    passes through, the length of each of its pieces (1 cm or shorter) to the region of the
+    piece's middle. Arc length, not a count of the path's points: on the planner's arcs
+    around corners the points lie millimetres apart."""
+    from symrl.studies.planner import shortest_path
+
+    known = _LENGTHS.get(id(world))
+    if known is not None and known[0]() is world:
+        return known[1]
+    pts = np.asarray(shortest_path(world).points, dtype=np.float64)
+    a, b = pts[:-1], pts[1:]
+    n = np.maximum(1, np.ceil(np.hypot(*(b - a).T) / 0.01)).astype(np.int64)
+    leg = np.repeat(np.arange(len(a)), n)
+    t = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n) + 0.5) / n[leg]
+    mid = a[leg] + t[:, None] * (b - a)[leg]
+    piece = np.hypot(*(b - a).T)[leg] / n[leg]
+    lengths: dict[str, float] = {}
+    for region, d in zip(world.regions.regions_of(mid[:, 0], mid[:, 1]), piece.tolist(),
+                         strict=True):  # fmt: skip
+        lengths[region] = lengths.get(region, 0.0) + d
+    if len(_LENGTHS) >= 16:
+        _LENGTHS.clear()
+    _LENGTHS[id(world)] = (weakref.ref(world), lengths)
+    return lengths
 
 
 def with_approaches(

@@ -10,7 +10,7 @@ import torch
 
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import OptionsConfig, load_config
-from symrl.learner.options import SubgoalOptions
+from symrl.learner.options import SubgoalOptions, _route_lengths
 from symrl.world.worldmap import load_map
 
 WORLD = load_map("hailu2001")  # goal (4, -2)
@@ -595,6 +595,22 @@ def test_a_region_past_its_limit_goes_on_by_the_planner_option_and_stalls_the_ch
     plain = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=null"]).options,
                            [0])  # fmt: skip
     assert "stalled" not in plain.state_dict()
+
+
+def test_a_regions_limit_is_its_length_of_the_planners_path_not_a_count_of_its_points():
+    from symrl.studies.planner import shortest_path
+
+    world = load_map("l_corridor")  # the path rounds the inner corner in a few cm of arc
+    opt = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=5"]).options, [0])
+    plan = shortest_path(world)
+    lengths = _route_lengths(world)
+    assert sum(lengths.values()) == pytest.approx(plan.length, rel=1e-5)  # chords of its arcs
+    # the corner region: a point every few millimetres on the arc, but under 0.6 m of path
+    corner = opt.region_names.index("corner")
+    assert lengths["corner"] < 0.6
+    assert int(opt._limit[corner]) == 5 + math.ceil(lengths["corner"] / 0.2) <= 8
+    for i, name in enumerate(opt.region_names):
+        assert int(opt._limit[i]) == 5 + math.ceil(lengths.get(name, 0.0) / 0.2)
 
 
 def test_a_region_without_a_planner_option_goes_on_by_the_planner_from_where_the_robot_is():
