@@ -37,7 +37,8 @@ def drift(name: str, drives: int, seed: int) -> dict[str, np.ndarray]:
     r = physics.reset(np.arange(drives), start, rngs)
     lc = config.localize
     tracker = PoseTracker(MapLocalizer(physics.walls, robot, lc.iterations, lc.prior_xy,
-                                       lc.prior_heading), drives)  # fmt: skip
+                                       lc.prior_heading, max_move=lc.max_move),
+                          drives)  # fmt: skip
     reflex, shield = FuzzyReflex(config.reflex), IRShield(ShieldConfig(), robot)
     true, odometry, belief, alive = [], [], [], []
     driving = np.ones(drives, dtype=bool)

@@ -48,7 +48,8 @@ class MapLocalizer:
     ``prior_heading`` (rad) the spread of the odometry's error, ``huber`` (m) the residual
     beyond which a reading counts less, ``min_incidence`` the smallest |cos| between a ray
     and the wall's normal that is used, ``edge`` (m) how near a wall's end a ray may hit and
-    still be used.
+    still be used, ``max_move`` (m; None: no bound) the largest position change of one step
+    (the step is scaled down to it, heading included).
     """
 
     def __init__(
@@ -61,6 +62,7 @@ class MapLocalizer:
         huber: float = 0.05,
         min_incidence: float = 0.2,
         edge: float = 0.05,
+        max_move: float | None = 0.1,
     ) -> None:
         if iterations < 1:
             raise ValueError(f"MapLocalizer: iterations must be >= 1, got {iterations}")
@@ -69,6 +71,8 @@ class MapLocalizer:
                 "MapLocalizer: prior_xy, prior_heading and huber must be > 0, got "
                 f"{prior_xy}, {prior_heading}, {huber}"
             )
+        if max_move is not None and not max_move > 0:
+            raise ValueError(f"MapLocalizer: max_move must be > 0 or None, got {max_move}")
         if not edge >= 0:
             raise ValueError(f"MapLocalizer: edge must be >= 0, got {edge}")
         self.walls = walls
@@ -77,6 +81,7 @@ class MapLocalizer:
         self.huber = float(huber)
         self.min_incidence = float(min_incidence)
         self.edge = float(edge)
+        self.max_move = None if max_move is None else float(max_move)
         n = robot.n_sensors
         axes = np.arange(n) * (2.0 * math.pi / n)
         # a beam cone's reading is its nearest sub-ray (as in the physics): the model casts
@@ -198,6 +203,10 @@ class MapLocalizer:
         offset[:, 2] = wrap_angle(offset[:, 2])
         gradient = (jw_t @ residual[..., None])[..., 0] + offset @ self.prior
         move = np.linalg.solve(jw_t @ jac + self.prior, -gradient[..., None])[..., 0]
+        if self.max_move is not None:  # a trust region: the whole step scaled down to it
+            shift = np.hypot(move[:, 0], move[:, 1])
+            if (shift > self.max_move).any():
+                move *= np.minimum(1.0, self.max_move / np.maximum(shift, 1e-12))[:, None]
         out = pose + move
         out[:, 2] = wrap_angle(out[:, 2])
         return out

@@ -248,6 +248,12 @@ class LocalizeSection(_Section):
     """Spread of the odometry's position error (m): how far a scan may move the pose."""
     prior_heading: float = Field(0.2, gt=0)
     """Spread of the odometry's heading error (rad)."""
+    max_move: float = Field(0.1, gt=0)
+    """The largest position change (m) of one Gauss-Newton step (a trust region: a larger step
+    is scaled down to it, heading included). The drift moves the pose by millimetres per
+    action; a scan whose readings the map explains weakly along a corridor's axis (a 45-degree
+    corridor, `office`'s long corridor) otherwise lets one mispredicted ray throw the estimate
+    metres along it."""
 
 
 class ShieldSection(_Section):

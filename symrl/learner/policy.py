@@ -129,7 +129,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         lc = config.localize
         self.localizer = (
             PoseTracker(MapLocalizer(Walls(self.world.segments), robot, lc.iterations,
-                                     lc.prior_xy, lc.prior_heading), batch)
+                                     lc.prior_xy, lc.prior_heading, max_move=lc.max_move),
+                        batch)
             if lc.enabled
             else None
         )  # fmt: skip

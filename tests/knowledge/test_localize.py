@@ -149,6 +149,23 @@ def test_a_scan_with_one_stray_reading_still_gives_the_pose():
     assert math.dist(out[0, :2], true[0, :2]) < 0.03
 
 
+def test_one_step_moves_the_pose_at_most_max_move_toward_the_scans_pose():
+    """A trust region: an estimate 0.4 m off is pulled back by 0.1 m a step, along the full
+    step's direction, and gets there in a few steps."""
+    true = np.array([[1.5, -0.8, 1.0]])
+    readings = scan(WALLS, true)
+    odometry = true + np.array([[0.4, -0.2, 0.05]])
+    free = MapLocalizer(WALLS, ROBOT, iterations=1, prior_xy=5.0, max_move=None)(odometry,
+                                                                                 readings)
+    bounded = MapLocalizer(WALLS, ROBOT, iterations=1, prior_xy=5.0)(odometry, readings)
+    assert math.dist(free[0, :2], odometry[0, :2]) > 0.2
+    step, full = bounded[0] - odometry[0], free[0] - odometry[0]
+    assert math.hypot(*step[:2]) == pytest.approx(0.1, abs=1e-9)
+    assert step == pytest.approx(full * 0.1 / math.hypot(*full[:2]), abs=1e-9)  # same direction
+    many = MapLocalizer(WALLS, ROBOT, iterations=8, prior_xy=5.0)(odometry, readings)
+    assert math.dist(many[0, :2], true[0, :2]) < 0.01
+
+
 @pytest.mark.parametrize(
     "kwargs, field",
     [
@@ -156,6 +173,7 @@ def test_a_scan_with_one_stray_reading_still_gives_the_pose():
         ({"prior_xy": 0.0}, "prior_xy"),
         ({"huber": -1.0}, "huber"),
         ({"edge": -0.1}, "edge"),
+        ({"max_move": 0.0}, "max_move"),
     ],
 )
 def test_bad_settings_are_named(kwargs, field):
