@@ -169,8 +169,11 @@ class SubgoalOptions(BufferViews):
             if late.any():
                 fallen[rows[late], region_np[late]] = True
                 stage[late] = _FIRST_STAGE
+            # no planner option, or the planner option itself chosen and still in the region
+            # past its limit (looping round an obstacle it met on the wrong side): the
+            # planner's path from here, turn by turn
+            lost = over & ((planner < 0) | (chosen == planner))
             chosen = np.where(fallen[rows, region_np] & (planner >= 0), planner, chosen)
-            lost = over & (planner < 0)  # no planner option: its path from here, turn by turn
             self._detour[self._detour_region != region_np] = np.nan
             for b in np.flatnonzero(lost).tolist():
                 turn = self._detour[b]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import torch
 
@@ -633,3 +634,24 @@ def test_a_region_without_a_planner_option_goes_on_by_the_planner_from_where_the
     assert _clearance(world, (x, y)) == pytest.approx(0.45, abs=1e-6)
     opt.learn(torch.tensor([0]), torch.zeros((1, len(opt.region_names)), dtype=torch.float64))
     assert bool(opt.stalled[0, west, opt.labels[west].index("goal")])
+
+
+def test_a_region_past_its_limit_on_its_planner_option_goes_on_by_the_planner_from_where_it_is():
+    """The fallback would be the option already in force (a robot circling an obstacle it met
+    on the far side): the planner's path is planned again from the robot's position."""
+    world = load_map(LONG_WALL)
+    opt = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=2"]).options, [0])
+    south = opt.region_names.index("south")
+    path = int(opt._planner_option[south])
+    limit = int(opt._limit[south])
+    opt.choice[0, south] = path
+    region, pose = torch.tensor([south]), _odometry((3.0, 1.0, 0.0))  # west of the path's turn
+    point = list(opt.table.point(south, path))
+    for _ in range(limit):
+        _, option, _, aim = opt.steer(region, pose, greedy=True)
+        assert int(option[0]) == path and aim[0].tolist() == pytest.approx(point, abs=1e-6)
+    _, option, _, aim = opt.steer(region, pose, greedy=True)  # one action past the limit
+    again = opt._replan(np.array([3.0, 1.0]))  # round the wall's west end from here
+    assert math.dist(again, point) > 1.0
+    assert int(option[0]) == path and aim[0].tolist() == pytest.approx(again.tolist(), abs=1e-9)
+    assert not bool(opt.stalled[0, south, path])  # the planner's option is never stalled

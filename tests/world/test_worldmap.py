@@ -305,3 +305,16 @@ def test_regions_of_many_points_equals_region_of_each(name):
     assert world.regions.regions_of(x, y) == expected
     one_by_one = [world.regions.region_of(float(x[i]), float(y[i])) for i in range(50)]
     assert one_by_one == expected[:50]
+
+
+BENCHMARK_WORLDS = sorted((Path(__file__).parents[2] / "benchmarks" / "worlds").rglob("*.yaml"))
+
+
+@pytest.mark.parametrize("path", BENCHMARK_WORLDS, ids=lambda p: p.stem)
+def test_every_benchmark_world_loads_says_what_it_tests_and_its_goal_can_be_reached(path):
+    from symrl.studies.planner import shortest_path
+
+    assert path.read_text().startswith("# "), "a header comment: what the world tests"
+    world = load_map(path)
+    plan = shortest_path(world)
+    assert plan.length > 0 and math.dist(plan.points[-1], (world.goal.x, world.goal.y)) <= 0.5
