@@ -18,7 +18,10 @@ reading, s the reading's noise, P the prior's spread. Its derivative is exact: a
 (x, y) at angle phi hits a wall with direction d at distance t = (w x d) / (u x d), so
 dt/dx = -d_y / (u x d), dt/dy = d_x / (u x d), dt/dphi = t (u . d) / (u x d). Readings at the
 sonar's range, rays grazing a wall and readings far from the prediction (a corner the ray
-clips, a wall the pose's error puts another in front of) get no or less weight (Huber).
+clips, a wall the pose's error puts another in front of) get no or less weight (Huber). A step
+moves the position by at most ``max_move`` (a trust region): where the walls pin the pose only
+across a corridor (one at 45 degrees, a long one), one ray mispredicted near a wall's end would
+otherwise throw the estimate metres along it.
 
 It is a function of one observation: no state, nothing to reset, and a mirrored world gives
 the mirrored pose. The reward is the env's and stays on the odometry (the paper's f2), so the
