@@ -19,6 +19,7 @@ import dataclasses
 import math
 import weakref
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -542,10 +543,33 @@ def _next_turns(
     return out
 
 
-_ROUTES: dict[int, tuple[weakref.ref, dict[str, list[np.ndarray]]]] = {}
-"""The start-to-goal route of the maps seen in this process, by region (by the map object's id;
-the weak reference tells a reused id from the same map): a study's final per-set policies ask
-for it once each (6 ms a policy on the paper's map)."""
+class _Route(NamedTuple):
+    """The planner's start-to-goal path of one map, by region: its points and its length in
+    metres."""
+
+    along: dict[str, list[np.ndarray]]
+    lengths: dict[str, float]
+
+
+_ROUTES: dict[int, tuple[weakref.ref, _Route]] = {}
+"""The start-to-goal route of the maps seen in this process (by the map object's id; the weak
+reference tells a reused id from the same map): a study's final per-set policies ask for it
+once each (6 ms a policy on the paper's map)."""
+
+
+def _route(world: WorldMap) -> _Route:
+    """The start-to-goal route of ``world``, planned once and shared: callers only read it."""
+    from symrl.studies.planner import shortest_path
+
+    known = _ROUTES.get(id(world))
+    if known is not None and known[0]() is world:
+        return known[1]
+    if len(_ROUTES) >= 16:
+        _ROUTES.clear()
+    points = shortest_path(world).points
+    route = _Route(_along(world, points), _lengths(world, points))
+    _ROUTES[id(world)] = (weakref.ref(world), route)
+    return route
 
 
 def _route_in_regions(
@@ -555,18 +579,18 @@ def _route_in_regions(
     has planned it) in each region it passes through, a point every 0.1 m or closer, in order
     (a region's first point is where the path enters it). Without ``points`` the answer is
     remembered and shared: callers only read it."""
-    from symrl.studies.planner import shortest_path
+    return _route(world).along if points is None else _along(world, points)
 
-    if points is None:  # the start-to-goal path: the same for every policy made on this map
-        known = _ROUTES.get(id(world))
-        if known is not None and known[0]() is world:
-            return known[1]
-        if len(_ROUTES) >= 16:
-            _ROUTES.clear()
-        along = _route_in_regions(world, shortest_path(world).points)
-        _ROUTES[id(world)] = (weakref.ref(world), along)
-        return along
-    along = {}
+
+def _route_lengths(world: WorldMap) -> dict[str, float]:
+    """The planner's shortest path (start to goal): its length in metres in each region it
+    passes through (remembered and shared: callers only read it)."""
+    return _route(world).lengths
+
+
+def _along(world: WorldMap, points: np.ndarray) -> dict[str, list[np.ndarray]]:
+    """:func:`_route_in_regions` of the path through ``points``."""
+    along: dict[str, list[np.ndarray]] = {}
     pts = np.asarray(points, dtype=np.float64)
     for a, b in zip(pts[:-1], pts[1:], strict=True):
         n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / 0.1)))
@@ -576,22 +600,11 @@ def _route_in_regions(
     return along
 
 
-_LENGTHS: dict[int, tuple[weakref.ref, dict[str, float]]] = {}
-"""The start-to-goal route's length in each region of the maps seen in this process (as
-``_ROUTES``)."""
-
-
-def _route_lengths(world: WorldMap) -> dict[str, float]:
-    """The planner's shortest path (start to goal): its length in metres in each region it
-    passes through, the length of each of its pieces (1 cm or shorter) to the region of the
-    piece's middle. Arc length, not a count of the path's points: on the planner's arcs
-    around corners the points lie millimetres apart."""
-    from symrl.studies.planner import shortest_path
-
-    known = _LENGTHS.get(id(world))
-    if known is not None and known[0]() is world:
-        return known[1]
-    pts = np.asarray(shortest_path(world).points, dtype=np.float64)
+def _lengths(world: WorldMap, points: np.ndarray) -> dict[str, float]:
+    """The length of the path through ``points`` in each region: each piece of it (1 cm or
+    shorter) counted in the region of its middle. Arc length, not a count of the points: on
+    the planner's arcs around corners the points lie millimetres apart."""
+    pts = np.asarray(points, dtype=np.float64)
     a, b = pts[:-1], pts[1:]
     n = np.maximum(1, np.ceil(np.hypot(*(b - a).T) / 0.01)).astype(np.int64)
     leg = np.repeat(np.arange(len(a)), n)
@@ -602,9 +615,6 @@ def _route_lengths(world: WorldMap) -> dict[str, float]:
     for region, d in zip(world.regions.regions_of(mid[:, 0], mid[:, 1]), piece.tolist(),
                          strict=True):  # fmt: skip
         lengths[region] = lengths.get(region, 0.0) + d
-    if len(_LENGTHS) >= 16:
-        _LENGTHS.clear()
-    _LENGTHS[id(world)] = (weakref.ref(world), lengths)
     return lengths
 
 
