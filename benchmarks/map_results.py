@@ -7,10 +7,11 @@ seeds 100-109). Prints the Markdown table: last-5-trial means over sets (± sd),
 failed trials from trial 5 on and actions divided by the optimum.
 
     python benchmarks/map_results.py [--sets 10] [--trials 20] [--seed 100] [--maps a,b]
-        [--variants reflex,hand,auto]
+        [--variants reflex,hand,auto] [KEY=VALUE ...]
 
 ``--maps`` takes built-in names or paths of map files (e.g. the tuning worlds in
-``benchmarks/worlds/``); ``--variants`` picks the rows per world.
+``benchmarks/worlds/``); ``--variants`` picks the rows per world; ``KEY=VALUE`` overrides
+apply to every run (``options.start_turn_deg=null``: ``paper`` without its start turn).
 """
 
 from __future__ import annotations
@@ -84,6 +85,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=100)
     ap.add_argument("--maps", default=",".join(MAPS), help="built-in names or map file paths")
     ap.add_argument("--variants", default=",".join(VARIANTS), help="of reflex, hand, auto")
+    ap.add_argument("overrides", nargs="*", metavar="KEY=VALUE",
+                    help="config overrides for every run (as after a recipe: options.reach=0.3)")
     args = ap.parse_args()
     maps = [m.strip() for m in args.maps.split(",") if m.strip()]
     unknown = sorted(m for m in maps if m not in builtin_maps() and not Path(m).is_file())
@@ -107,7 +110,8 @@ def main() -> None:
                 label, recipe = VARIANTS[variant]
                 world = str(auto_copy(name, Path(tmp))) if variant == "auto" else name
                 t0 = time.perf_counter()
-                sets = run_sets(recipe, args.sets, args.trials, args.seed, [f"env.map={world}"],
+                overrides = [f"env.map={world}", *args.overrides]
+                sets = run_sets(recipe, args.sets, args.trials, args.seed, overrides,
                                 progress=False)  # fmt: skip
                 rows = [r for s in sets for r in s.rows]
                 lines.append(row(title, label, rows, opt, time.perf_counter() - t0))

@@ -225,6 +225,10 @@ class OptionsConfig(_Section):
     (the paper has none)."""
     subgoal_approach_deg: float = Field(60.0, ge=0, le=180)
     """How far off a passage's normal (degrees) the way to it must run for an approach option."""
+    start_turn_deg: float | None = Field(None, ge=0, le=180)
+    """A trial's first action turns straight at its aim (up to 180 degrees, in place of the
+    reflex) when the aim is more than this many degrees off the heading; null: the reflex
+    turns, by at most its output peaks per action."""
     goal_lead_deg: float = Field(0.0, ge=0, le=180)
     """While a visit's sub-goal lies within this angle (degrees) of the goal's bearing, seen from
     the robot, the reflex steers at the goal itself; from the first step the sub-goal lies

@@ -88,6 +88,11 @@ class SubgoalOptions(BufferViews):
         self.goal = (float(world.goal.x), float(world.goal.y))
         self._goal = np.array(self.goal, dtype=np.float64)
         self._lead = math.radians(float(config.goal_lead_deg))  # type: ignore[attr-defined]
+        turn = config.start_turn_deg  # type: ignore[attr-defined]
+        self._start_turn = None if turn is None else math.radians(float(turn))
+        # per robot, set by each steer: its trial's first step, with the aim more than
+        # start_turn_deg off the heading (the policy turns it straight at the aim)
+        self.start_turn = np.zeros(batch, dtype=bool)
         self.register_buffer("points", self.table.points.to(torch.float64), persistent=False)
         # the point each option goes on to once its own is reached (NaN: the goal); None when
         # no valid option has one (the stages are then those of the paper's options)
@@ -141,7 +146,8 @@ class SubgoalOptions(BufferViews):
         """The signed angle (left positive) from each odometry heading to the point the reflex
         should aim at in ``region``; also the option in force (B,) (the chosen one, or past the
         region limit the region's planner option), whether it was chosen at this step (the
-        region's first entry in the trial) (B,) bool, and the point (B, 2)."""
+        region's first entry in the trial) (B,) bool, and the point (B, 2). ``start_turn``
+        says which robots take the start turn at this step."""
         # numpy on the buffers' memory (a handful of rows: a fraction of the torch dispatches);
         # the norm and atan2 stay torch's, the rest is exact arithmetic in the same order
         a = self.arrays  # the buffers' numpy views
@@ -157,6 +163,7 @@ class SubgoalOptions(BufferViews):
         # a new visit of a region starts at its first stage again
         stage, visit = a["stage"], a["visit"]
         stage[region_np != visit] = _FIRST_STAGE
+        starting = visit < 0
         visit[:] = region_np
         pose = odometry.numpy().astype(np.float64)
         xy = pose[:, :2]
@@ -212,6 +219,8 @@ class SubgoalOptions(BufferViews):
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
+        if self._start_turn is not None:
+            self.start_turn = starting & (np.abs(angle) > self._start_turn)
         return (torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered),
                 torch.from_numpy(aim))
 

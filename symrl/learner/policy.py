@@ -312,6 +312,12 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         if xc.reflex or not xc.learning:
             # float32 widened exactly, in numpy (a torch cast is a dispatch more)
             reflex_action = self.reflex(torch.from_numpy(sonar.numpy().astype(np.float64)), target)
+            if self.options is not None and self.options.start_turn.any():
+                # a trial's first action with the aim behind: straight at it, in one action
+                turn = self.options.start_turn
+                reflex_action = torch.from_numpy(
+                    np.where(turn, target.numpy(), reflex_action.numpy())
+                )
         else:
             reflex_action = zero
         xi = sigma = zero
