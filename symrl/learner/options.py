@@ -357,6 +357,7 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
     table = _TABLES.get(key)
     if table is None:
         table = build_subgoals(world, subgoal_config(config))
+        detour = config.subgoal_detour  # type: ignore[attr-defined]
         if config.subgoal_planner:  # type: ignore[attr-defined]
             table = with_planner_waypoints(
                 world,
@@ -365,6 +366,8 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
                 way_out=config.subgoal_way_out,  # type: ignore[attr-defined]
                 subgoals=subgoal_config(config),
                 first_turn=config.subgoal_planner_first,  # type: ignore[attr-defined]
+                # what a region offers ahead: the options the detour test below leaves it
+                usable=None if detour is None else without_detours(world, table, float(detour)),
             )
         approach = config.subgoal_approach  # type: ignore[attr-defined]
         if approach is not None:
@@ -373,7 +376,6 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
                 float(config.subgoal_approach_deg),  # type: ignore[attr-defined]
                 max(config.subgoal_min_clearance, 0.0),  # type: ignore[attr-defined]
             )  # fmt: skip
-        detour = config.subgoal_detour  # type: ignore[attr-defined]
         if detour is not None:
             table = without_detours(world, table, float(detour))
         if len(_TABLES) >= 16:
@@ -389,6 +391,7 @@ def with_planner_waypoints(
     way_out: bool = False,
     subgoals: SubgoalConfig | None = None,
     first_turn: bool = False,
+    usable: SubgoalTable | None = None,
 ) -> SubgoalTable:
     """``table`` plus, per region, one more option: the last turn of the planner's shortest path
     (start to goal) inside the region, pushed out to ``clearance`` from the nearest wall. It is
@@ -405,7 +408,9 @@ def with_planner_waypoints(
     leaves by is open floor, or none) gets the path's next turn, the one after it. A region line
     through a thin wall's end puts that end's turn just past the line: steering at the goal from
     there drives into the wall's far side (``subgoals``: the table's settings, to tell which of
-    its passages lie ahead).
+    its passages lie ahead; ``usable``: ``table`` with the options a region cannot use switched
+    off, :func:`without_detours`: a region whose points ahead are all detours offers nothing
+    ahead either).
 
     With ``first_turn``, a region in which the path rounds two corners or more (an obstacle on
     open floor, then the region's exit) gets, as its ``path`` option, the first turn with the
@@ -445,7 +450,7 @@ def with_planner_waypoints(
         if same:
             first.setdefault(region, pushed(p))
     last = crossing | inside
-    last |= _next_turns(world, table, way, last, pushed, subgoals or SubgoalConfig())
+    last |= _next_turns(world, usable or table, way, last, pushed, subgoals or SubgoalConfig())
 
     outs: dict[str, tuple[float, float]] = {}
     if way_out:
@@ -546,7 +551,8 @@ def _next_turns(
     for region, xy in crossed.items():
         i = table.region_names.index(region)
         ahead = {names[k] for k in ahead_of[region]}
-        options = table.labels[i][: int(table.valid[i].sum())]
+        options = [label for label, ok in zip(table.labels[i], table.valid[i].tolist(),
+                                              strict=False) if ok]  # fmt: skip
         if not any(label.split("@")[0] in ahead for label in options):
             out[region] = xy
     return out

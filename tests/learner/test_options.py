@@ -438,6 +438,23 @@ def test_a_region_the_path_crosses_straight_with_nothing_ahead_gets_the_next_tur
     assert offered["room_east"][-1] == "path"  # its own last turn, as before
 
 
+def test_a_region_whose_points_ahead_are_all_detours_gets_the_next_turn():
+    # the box-and-nook room below with its regions found from the walls: a grid of six
+    world = load_map({**BOX_AND_NOOK, "regions": "auto"})
+    region = world.regions.region_of(1.0, 1.0)  # the start's, south-west of the box
+    with_detour = _offered(world, "options.subgoal_detour=1.0")[region]
+    # its region-line points lie on the long way round the box's north side, all detours:
+    # what is left ahead is the next turn of the path, round the box's south-east corner
+    assert with_detour == ["goal", "path"]
+    config = load_config("paper").options
+    opt = SubgoalOptions(world, 1, config, [0])
+    r = opt.region_names.index(region)
+    x, y = opt.table.point(r, opt.labels[r].index("path"))
+    assert x > 6.0 and y < 3.0 and math.dist((x, y), (6.0, 3.0)) == pytest.approx(0.45, abs=1e-6)
+    # without the detour test those points count as ahead, and no next turn is added
+    assert "path" not in _offered(world)[region]
+
+
 def test_regions_with_a_passage_ahead_get_no_next_turn():
     # hailu2001: the path runs straight through the room, whose door points lie ahead
     names = _offered(WORLD)
