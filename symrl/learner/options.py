@@ -122,6 +122,7 @@ class SubgoalOptions(BufferViews):
             share = _route_lengths(world)
             self._limit = np.array([int(slack) + math.ceil(share.get(name, 0.0) / step)
                                     for name in self.region_names])  # fmt: skip
+            self._slack = int(slack)
         usable = self.table.valid.numpy()
         self._planner_option = np.array([next(
             (j for j, label in enumerate(row) if label in ("path", "out") and usable[i, j]), -1)
@@ -178,9 +179,12 @@ class SubgoalOptions(BufferViews):
                 fallen[rows[late], region_np[late]] = True
                 stage[late] = _FIRST_STAGE
             # no planner option, or the planner option itself chosen and still in the region
-            # past its limit (looping round an obstacle it met on the wrong side): the
-            # planner's path from here, turn by turn
-            lost = over & ((planner < 0) | (chosen == planner))
+            # past its limit (looping round an obstacle it met on the wrong side), or fallen
+            # back to it and still in the region the slack later (its point reached, the goal's
+            # bearing leads back in: a bay beside the turn): the planner's path from here,
+            # turn by turn
+            lost = over & ((planner < 0) | (chosen == planner)
+                           | (steps[rows, region_np] > self._limit[region_np] + self._slack))
             chosen = np.where(fallen[rows, region_np] & (planner >= 0), planner, chosen)
             self._detour[self._detour_region != region_np] = np.nan
             for b in np.flatnonzero(lost).tolist():

@@ -672,3 +672,27 @@ def test_a_region_past_its_limit_on_its_planner_option_goes_on_by_the_planner_fr
     assert math.dist(again, point) > 1.0
     assert int(option[0]) == path and aim[0].tolist() == pytest.approx(again.tolist(), abs=1e-9)
     assert not bool(opt.stalled[0, south, path])  # the planner's option is never stalled
+
+
+def test_a_region_fallen_back_to_its_planner_option_and_still_in_it_the_slack_later_replans():
+    """The planner option's point reached, the goal's bearing from there can lead back into the
+    region (long_wall: from the turn below the east lip, the goal lies over the bay): the slack
+    after the fallback, the planner's path from where the robot is."""
+    world = load_map(LONG_WALL)
+    opt = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=3"]).options, [0])
+    south = opt.region_names.index("south")
+    goal, path = opt.labels[south].index("goal"), int(opt._planner_option[south])
+    limit = int(opt._limit[south])
+    opt.choice[0, south] = goal
+    region = torch.tensor([south])
+    x, y = opt.table.point(south, path)
+    pose = _odometry((x, y, math.pi / 2))  # at the planner option's point: it aims at the goal
+    for _ in range(limit):
+        opt.steer(region, pose, greedy=True)
+    for _ in range(3):  # fallen back: the planner option, its point reached, then the goal
+        _, option, _, aim = opt.steer(region, pose, greedy=True)
+        assert int(option[0]) == path and aim[0].tolist() == pytest.approx([5.0, 3.9])
+    _, option, _, aim = opt.steer(region, pose, greedy=True)  # the slack (3) after the limit
+    again = opt._replan(np.array([x, y]))
+    assert int(option[0]) == path and aim[0].tolist() == pytest.approx(again.tolist(), abs=1e-9)
+    assert math.dist(again, (5.0, 3.9)) > 1.0  # the wall's east end, not the goal
