@@ -213,9 +213,9 @@ class OptionsConfig(_Section):
     the share is 0) goes on by its planner option (``path`` or ``out``) for the rest of the
     trial; a region without one, or already on it, or still in it this many actions later (the
     planner option's point reached, the goal's bearing from there leads back into the region),
-    goes on by the planner's path from where the robot is, turn by turn. The chosen option keeps the trial's credit, so a choice that leads
-    into a dead end is still learned as one, without the rest of the trial's budget. None: no
-    limit (the paper has none)."""
+    goes on by the planner's path from where the robot is, turn by turn. The chosen option
+    keeps the trial's credit, so a choice that leads into a dead end is still learned as one,
+    without the rest of the trial's budget. None: no limit (the paper has none)."""
     subgoal_approach: float | None = Field(None, gt=0)
     """Side-on passages get an approach option: for a region on the planner's path, a passage
     ahead of it that the straight line from the path's entry into the region meets more than
