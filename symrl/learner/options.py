@@ -362,6 +362,7 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
     if table is None:
         table = build_subgoals(world, subgoal_config(config))
         detour = config.subgoal_detour  # type: ignore[attr-defined]
+        lengths: dict[tuple[float, float], float] = {}  # the detour test's planner lengths
         if config.subgoal_planner:  # type: ignore[attr-defined]
             table = with_planner_waypoints(
                 world,
@@ -371,7 +372,8 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
                 subgoals=subgoal_config(config),
                 first_turn=config.subgoal_planner_first,  # type: ignore[attr-defined]
                 # what a region offers ahead: the options the detour test below leaves it
-                usable=None if detour is None else without_detours(world, table, float(detour)),
+                usable=None if detour is None
+                else without_detours(world, table, float(detour), lengths),
             )
         approach = config.subgoal_approach  # type: ignore[attr-defined]
         if approach is not None:
@@ -381,7 +383,7 @@ def subgoal_table(world: WorldMap, config: object) -> SubgoalTable:
                 max(config.subgoal_min_clearance, 0.0),  # type: ignore[attr-defined]
             )  # fmt: skip
         if detour is not None:
-            table = without_detours(world, table, float(detour))
+            table = without_detours(world, table, float(detour), lengths)
         if len(_TABLES) >= 16:
             _TABLES.clear()
         _TABLES[key] = table
@@ -454,7 +456,8 @@ def with_planner_waypoints(
         if same:
             first.setdefault(region, pushed(p))
     last = crossing | inside
-    last |= _next_turns(world, usable or table, way, last, pushed, subgoals or SubgoalConfig())
+    ahead = usable if usable is not None else table
+    last |= _next_turns(world, ahead, way, last, pushed, subgoals or SubgoalConfig())
 
     outs: dict[str, tuple[float, float]] = {}
     if way_out:
@@ -705,7 +708,12 @@ def with_approaches(
     return SubgoalTable(table.region_names, points, valid, labels, then)
 
 
-def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> SubgoalTable:
+def without_detours(
+    world: WorldMap,
+    table: SubgoalTable,
+    margin: float,
+    lengths: dict[tuple[float, float], float] | None = None,
+) -> SubgoalTable:
     """``table`` with the sub-goals a region's best route cannot use switched off (``valid``
     False; the table keeps its shape). For each region the planner's shortest path (start to
     goal) passes through, with ``e`` the path's first point in the region (the start in the
@@ -718,7 +726,8 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
     wall than the planner's clearance has no length and is judged by the first test only, and
     so are all points of a region whose entry is).
     The goal (the paper's reflex) and the planner's own turns (``path``) are always kept, and
-    so is every option of a region the path does not enter."""
+    so is every option of a region the path does not enter. ``lengths``: the planner's length
+    from each point judged, kept between calls on the same map (a planner call each)."""
     from symrl.studies.planner import shortest_path
 
     walls = Walls(world.segments)
@@ -731,7 +740,7 @@ def without_detours(world: WorldMap, table: SubgoalTable, margin: float) -> Subg
     along = _route_in_regions(world)
     entry = {region: points[0] for region, points in along.items()}
     valid = table.valid.clone()
-    lengths: dict[tuple[float, float], float] = {}
+    lengths = {} if lengths is None else lengths
 
     def to_goal(xy: np.ndarray) -> float:
         key = (round(float(xy[0]), 6), round(float(xy[1]), 6))
