@@ -33,6 +33,7 @@ from pydantic import (
 )
 
 from symrl.knowledge.reflex import ReflexConfig
+from symrl.knowledge.rungs import Rung, rung_at_least
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import YAML_LOADER
 
@@ -287,6 +288,11 @@ class RunConfig(_Section):
 
     recipe: str = "paper_literal"
     """Name of the recipe (used in run folder names)."""
+    knowledge: Rung = "regions"
+    """What the robot is told (``symrl.knowledge.rungs``): ``sensors`` (its reflex, sensors,
+    odometry, start and goal), ``regions`` (+ the region rules: the paper) or ``map`` (+ walls,
+    free-space polygon, planner, map localisation). The agent is built from this alone; a
+    setting that needs a higher rung is an error."""
     env: EnvConfig = Field(default_factory=EnvConfig)
     localize: LocalizeSection = Field(default_factory=LocalizeSection)
     gate: GateConfig = Field(default_factory=GateConfig)
@@ -301,6 +307,16 @@ class RunConfig(_Section):
 
     @model_validator(mode="after")
     def _consistent(self) -> RunConfig:
+        for key, on, needed in (
+            ("gate.partition", self.gate.partition, "regions"),
+            ("options.enabled", self.options.enabled, "map"),
+            ("localize.enabled", self.localize.enabled, "map"),
+        ):
+            if on and not rung_at_least(self.knowledge, needed):
+                raise ValueError(
+                    f"{key}=true needs knowledge={needed} or higher, but the recipe declares "
+                    f"knowledge={self.knowledge}"
+                )
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
         robot = self.env.robot
