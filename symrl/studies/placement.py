@@ -159,7 +159,7 @@ def derived_obstacle(
     the first (size, fraction) in order that fits: clear of the start by the body radius +
     ``margin``, clear of the goal disc by the same, inside the free area, off every thin wall,
     and leaving the goal reachable. None if no candidate fits."""
-    from symrl.studies.planner import shortest_path
+    from symrl.knowledge.planner import shortest_path
 
     plan = shortest_path(world)
     line = LineString(np.asarray(plan.points, dtype=float).reshape(-1, 2))

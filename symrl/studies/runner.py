@@ -491,7 +491,7 @@ def start_summary(results: Sequence[SetResult]) -> list[dict[str, Any]]:
 
 @functools.lru_cache(maxsize=8)
 def _optimum(map_name: str) -> tuple[int, float]:
-    from symrl.studies.planner import shortest_path
+    from symrl.knowledge.planner import shortest_path
     from symrl.world import load_map
 
     plan = shortest_path(load_map(map_name))
