@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from symrl.studies.repeatability import OTHER_STARTS
+from symrl.studies.placement import OTHER_STARTS
 from symrl.studies.runner import evaluate_states, resolve_config, run_sets, summarise
 
 __all__ = ["STARTS", "OBSTACLE", "NOISE_LEVELS", "starts_for", "obstacle_for", "transfer",
