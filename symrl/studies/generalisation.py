@@ -206,10 +206,12 @@ def markdown(report: dict[str, Any]) -> str:
     (bx0, by0), (bx1, by1) = box.min(axis=0), box.max(axis=0)
     what = (f"{bx1 - bx0:.2g} m box at ({(bx0 + bx1) / 2:.2f}, {(by0 + by1) / 2:.2f})"
             if abs((bx1 - bx0) - (by1 - by0)) < 1e-6 else "polygon")  # fmt: skip
+    code = report.get("provenance", {})
+    revision = f"{code.get('revision') or '?'}{'+dirty' if code.get('dirty') else ''}"
     lines = [
         f"Map `{report.get('map', 'hailu2001')}`. "
         f"Recipe `{report['recipe']}`, {report['sets']} sets x {report['trials']} trials, seeds "
-        f"{report['seeds'][0]}-{report['seeds'][1]}, code `{report.get('code', '?')}`; greedy "
+        f"{report['seeds'][0]}-{report['seeds'][1]}, code `{revision}`; greedy "
         "runs with noise on. Cells: reached the goal / runs (mean actions when reached).",
         "",
         "| start pose | near the learned route | learned controller | reflex alone |",

@@ -48,6 +48,7 @@ def test_markdown_tables():
     stat = {"mean": 30.0, "std": 1.0}
     report = {
         "recipe": "paper", "sets": 2, "trials": 20, "seeds": [100, 101],
+        "provenance": {"revision": "abc1234", "dirty": True},
         "home_learned": r, "home_reflex_only": r, "obstacle_learned": none,
         "obstacle_reflex_only": r,
         "starts": [{"start": [1.0, -1.8, 0.0], "near_learned_route": True, "learned": none,
@@ -57,6 +58,7 @@ def test_markdown_tables():
                    "collisions_all_trials": stat}],
     }
     md = markdown(report)
+    assert "seeds 100-101, code `abc1234+dirty`" in md
     assert "| (1, -1.8, 0 deg) | yes | 0/2 | 1/2 (40.0) |" in md
     assert "| learned controller | 0/2 | 3.0 |" in md
     assert "| sonar 0.05 m | 2.0 (0) | 90% |" in md
