@@ -101,7 +101,7 @@ def transfer(recipe: str, sets: int, trials: int, seed: int, workers: int | None
     blocked = world.with_obstacle(obstacle_for(world))
     home = world_start(world)
     out: list[dict[str, Any]] = [{"set": k, "seed": seed + k} for k in range(sets)]
-    for name, n in ((recipe, trials), ("reflex_only", 1)):
+    for who, name, n in (("learned", recipe, trials), ("reflex_only", "reflex_only", 1)):
         config = resolve_config(name, [f"run.trials={n}", f"env.map={map}"])
         states = [s.controller for s in run_sets(config, sets, n, seed, workers=workers)]
         pairs = [(k, j) for k in range(sets) for j in range(len(STARTS))]
@@ -113,7 +113,6 @@ def transfer(recipe: str, sets: int, trials: int, seed: int, workers: int | None
         homes = evaluate_states(config, world, states, [home] * sets, seeds)
         # the env holds the new obstacle, the agent only the map it learned in
         walls = evaluate_states(config, world, states, [home] * sets, seeds, env_world=blocked)
-        who = "reflex_only" if name == "reflex_only" else "learned"
         for k in range(sets):
             out[k][who] = {
                 "starts": starts[k * len(STARTS) : (k + 1) * len(STARTS)],

@@ -18,6 +18,7 @@ from symrl.studies.generalisation import (
     STARTS,
     _rate,
     markdown,
+    transfer,
     world_start,
 )
 from symrl.studies.runner import evaluate_states, evaluation_batch
@@ -107,3 +108,10 @@ def test_generalise_runs_from_its_defaults(tmp_path, capsys):
     for name in ("generalise.md", "starts.png", "obstacle.png"):
         assert (out / name).is_file(), name
     assert "| learned controller |" in capsys.readouterr().out
+
+
+def test_the_reflex_alone_can_be_the_recipe_under_test():
+    """``--recipe reflex_only``: the learned column is the recipe's, the other the reflex's."""
+    (row,) = transfer("reflex_only", sets=1, trials=1, seed=3)
+    assert set(row) == {"set", "seed", "learned", "reflex_only"}
+    assert row["learned"]["home"] == row["reflex_only"]["home"]  # nothing to learn in one trial
