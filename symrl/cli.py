@@ -256,7 +256,7 @@ def _ablate(args: argparse.Namespace) -> int:
 
 
 def _plan(args: argparse.Namespace) -> int:
-    from symrl.studies.planner import plan_command
+    from symrl.studies.plan import plan_command
 
     return plan_command(args)
 

@@ -29,6 +29,7 @@ __all__ = [
     "run_jobs",
     "worker_pool",
     "evaluate_states",
+    "evaluation_batch",
     "last_trial_rows",
     "table1",
     "curves",
@@ -77,23 +78,44 @@ def _xy(path: Any) -> list[list[float]]:
     return np.asarray(path, dtype=float).reshape(-1, 2).round(4).tolist()
 
 
+def evaluation_batch(
+    config: RunConfig,
+    world: Any,
+    states: Sequence[dict[str, Any]],
+    starts: Sequence[tuple[float, float, float]],
+    seeds: Sequence[int],
+    env_world: Any = None,
+) -> tuple[Any, Any]:
+    """The policy of controllers ``states`` and the env their robots drive in, from ``starts``.
+
+    The agent (region mapper, sub-goal table, planner, localiser) is built from ``world``, the
+    map it learned in; the env holds ``env_world`` (default ``world``), e.g. the same map with a
+    new obstacle that the agent is not told of."""
+    from symrl.learner.policy import MixtureOfExpertsPolicy
+    from symrl.train import make_env
+
+    policy = MixtureOfExpertsPolicy.from_robot_states(config, world, list(states), list(seeds))
+    env = make_env(config, list(seeds), world=world if env_world is None else env_world,
+                   starts=np.asarray(starts, dtype=np.float64))  # fmt: skip
+    return policy, env
+
+
 def evaluate_states(
     config: RunConfig,
     world: Any,
     states: Sequence[dict[str, Any]],
     starts: Sequence[tuple[float, float, float]],
     seeds: Sequence[int],
+    env_world: Any = None,
 ) -> list[dict[str, Any]]:
     """Greedy trials of controller ``states[i]`` from ``starts[i]`` with noise seed ``seeds[i]``,
-    all in one batch; one compact record (with its path) per run."""
+    all in one batch; one compact record (with its path) per run. The agent knows ``world``,
+    the robots drive in ``env_world`` (default ``world``): :func:`evaluation_batch`."""
     from symrl.evaluate import rollout
-    from symrl.learner.policy import MixtureOfExpertsPolicy
-    from symrl.train import make_env
 
     if not states:
         return []
-    policy = MixtureOfExpertsPolicy.from_robot_states(config, world, list(states), list(seeds))
-    env = make_env(config, list(seeds), world=world, starts=np.asarray(starts, dtype=np.float64))
+    policy, env = evaluation_batch(config, world, states, starts, seeds, env_world)
     try:
         records = rollout(policy, env)
     finally:
@@ -497,7 +519,7 @@ def start_summary(results: Sequence[SetResult]) -> list[dict[str, Any]]:
 
 @functools.lru_cache(maxsize=8)
 def _optimum(map_name: str) -> tuple[int, float]:
-    from symrl.studies.planner import shortest_path
+    from symrl.knowledge.planner import shortest_path
     from symrl.world import load_map
 
     plan = shortest_path(load_map(map_name))
