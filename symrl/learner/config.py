@@ -17,6 +17,7 @@ robot believes) -> ``gate`` (regions) ->
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import functools
 from importlib import resources
@@ -357,6 +358,14 @@ def _recipe_path(recipe: str | Path) -> tuple[str, Path]:
 
 def _read_recipe(text: str, path: Path) -> DictConfig:
     """The recipe file as a mapping (OmegaConf's YAML loader refuses a key given twice)."""
+    stat = path.stat()
+    return _read_recipe_file(text, str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=64)
+def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictConfig:
+    """Kept while the file is unchanged: studies and tests load the same recipes many times,
+    and merging never changes its inputs."""
     try:
         data = OmegaConf.load(path)
     except yaml.MarkedYAMLError as err:
@@ -402,27 +411,48 @@ _ABSENT = object()
 
 
 @functools.cache
-def _defaults() -> DictConfig:
-    return OmegaConf.create(config_to_dict(RunConfig()))
+def _mapping_defaults() -> DictConfig:
+    """The default entries of every mapping field (``reflex.near``, ``reflex.sectors``): pydantic
+    fills in a missing field but not a mapping's missing entries, so the layers are merged over
+    these (the rest of the defaults would only cost OmegaConf's time)."""
+
+    def walk(section: Any) -> dict[str, Any]:
+        names = (
+            [f.name for f in dataclasses.fields(section)]
+            if dataclasses.is_dataclass(section)
+            else list(type(section).model_fields)
+        )
+        out: dict[str, Any] = {}
+        for name in names:
+            value = getattr(section, name)
+            if isinstance(value, BaseModel) or dataclasses.is_dataclass(value):
+                if inner := walk(value):
+                    out[name] = inner
+            elif isinstance(value, dict):
+                out[name] = _plain(value)
+        return out
+
+    return OmegaConf.create(walk(RunConfig()))
 
 
 def _merge(layers: list[tuple[str, Any]]) -> dict[str, Any]:
-    """``layers`` (source, data) merged in order over the defaults: mappings merge entry by
-    entry, anything else replaces (``reflex.near.FL=[0.1, 0.3]`` keeps the other sectors);
-    ``${key}`` interpolations are resolved."""
-    merged: Any = _defaults()
-    for source, data in layers:
-        try:
-            merged = OmegaConf.merge(merged, data)
-        except (OmegaConfBaseException, TypeError, ValueError) as err:
-            clash = _clash(OmegaConf.to_container(merged), _container(data))
-            if clash is None:
-                raise
-            key, value = clash
-            shown = f"{source}: " if source.startswith("recipe ") else ""
-            raise ConfigError(
-                f"{shown}{key}={value!r}: a mapping and a list cannot replace each other"
-            ) from err
+    """``layers`` (source, data) merged in order: mappings merge entry by entry, anything else
+    replaces (``reflex.near.FL=[0.1, 0.3]`` keeps the other sectors); ``${key}`` interpolations
+    are resolved. Keys no layer names take their defaults when pydantic validates."""
+    try:
+        merged = OmegaConf.merge(_mapping_defaults(), *(data for _, data in layers))
+    except (OmegaConfBaseException, TypeError, ValueError):
+        below: Any = OmegaConf.to_container(_mapping_defaults())
+        for source, data in layers:  # which layer puts a list over a mapping or the reverse
+            clash = _clash(below, _container(data))
+            if clash is not None:
+                key, value = clash
+                shown = f"{source}: " if source.startswith("recipe ") else ""
+                raise ConfigError(
+                    f"{shown}{key}={value!r}: a mapping and a list cannot replace each other"
+                ) from None
+            below = OmegaConf.to_container(OmegaConf.merge(below, data))
+        raise
     try:
         out = OmegaConf.to_container(merged, resolve=True)
     except OmegaConfBaseException as err:

@@ -146,7 +146,7 @@ def _error(overrides: list[str], recipe: str = "paper_literal") -> str:
         ("update.beta=.inf", ["update.beta", "inf", "finite"]),
         ("env.robot.radius=-1", ["env.robot", "radius", "-1"]),
         ("update=3", ["update", "3"]),
-        ("update=[1, 2]", ["update=[1, 2]", "a mapping and a list"]),  # cannot merge
+        ("update=[1, 2]", ["update=[1, 2]"]),  # a section is a mapping
         ("reflex.near.FL={a: 1}", ["reflex.near.FL", "'a': 1", "a mapping and a list"]),
         ("updte.gamma=0.9", ["updte.gamma=0.9", "unknown key", "did you mean update.gamma?"]),
         ("update.gama=0.9", ["update.gama=0.9", "unknown key", "did you mean update.gamma?"]),
