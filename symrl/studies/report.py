@@ -71,7 +71,7 @@ def _section_plan(results: Path, figures: Path) -> list[str]:
 
 
 def _section_study(results: Path, figures: Path) -> list[str]:
-    folder = results / "ablate" / "paper"
+    folder = results / "ablate" / "paper_map"
     out = ["## Table 1 and Figs 5-9: the `paper` recipe (`symrl study paper`)", "",
            f"Command: `{COMMANDS['study']}` (the same runs as `symrl study paper --sets 10 "
            "--trials 20 --seed 100`; its folder is `results/ablate/paper`)", ""]
@@ -316,7 +316,7 @@ def _section_baselines(results: Path, figures: Path) -> list[str]:
 
 def _section_generalise(results: Path, figures: Path) -> list[str]:
     out = ["## Generalisation (`symrl generalise`)", ""]
-    for recipe in ("paper", "paper_literal"):
+    for recipe in ("paper_map", "paper_literal"):
         folder = results / f"generalise-{recipe}"
         out += [f"### `{recipe}`", "", f"Command: `{COMMANDS['generalise'].format(recipe=recipe)}`",
                 ""]

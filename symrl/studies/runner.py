@@ -142,7 +142,7 @@ def _run_batch(
         out.append(SetResult(index, res.seed, rows, paths, ghosts,
                              controller=res.policy.state_dict(), timings=res.timings))  # fmt: skip
     if starts:
-        world = results[0].policy.world
+        world = results[0].world
         pairs = [(s, k) for s in out for k in range(len(starts))]
         evs = evaluate_states(
             config, world, [s.controller for s, _ in pairs], [starts[k] for _, k in pairs],

@@ -31,7 +31,7 @@ def test_markdown_tables():
     none = {"reached": 0, "runs": 2, "mean_steps_when_reached": None, "mean_collisions": 3.0}
     stat = {"mean": 30.0, "std": 1.0}
     report = {
-        "recipe": "paper", "sets": 2, "trials": 20, "seeds": [100, 101],
+        "recipe": "paper_map", "sets": 2, "trials": 20, "seeds": [100, 101],
         "home_learned": r, "home_reflex_only": r, "obstacle_learned": none,
         "obstacle_reflex_only": r,
         "starts": [{"start": [1.0, -1.8, 0.0], "near_learned_route": True, "learned": none,
