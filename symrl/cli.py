@@ -116,8 +116,8 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
     from symrl.runs import load_resume, run_one
     from symrl.world.worldmap import load_map
 
-    if args.help_keys:
-        print(describe_keys())
+    if args.help_keys:  # with a RECIPE (and key=value), that recipe's values
+        print(describe_keys(load_config(args.recipe, args.overrides) if args.recipe else None))
         return 0
     _at_least("--trials", args.trials, 1)
     _at_least("--seed", args.seed, 0)
@@ -328,7 +328,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--checkpoint-every", type=int, default=1, metavar="N",
                    help="write the resumable checkpoint every N trials (default 1; always at "
                    "the end and when stopped by Ctrl-C or SIGTERM)")
-    p.add_argument("--help-keys", action="store_true", help="list every config key and exit")
+    p.add_argument("--help-keys", action="store_true",
+                   help="list every config key with its value in RECIPE (default: the library "
+                   "defaults) and its meaning, and exit")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
     p.set_defaults(handler=_train)
 
