@@ -48,7 +48,9 @@ __all__ = [
     "finished_trials",
 ]
 
-CHECKPOINT_FORMAT = 2
+CHECKPOINT_FORMAT = 3
+"""3: the controller's learned counters under ``progress.`` and its option critic under
+``options.critic.`` (format 2 held them at the top and under ``options.``)."""
 _RUN_FILES = ("config.yaml", "trials.csv", "tb", "checkpoint.pt", "trajectory.png", "evaluate.png")
 _BASE_COLUMNS = (
     "trial", "steps", "total_reinforcement", "collisions", "shielded", "reached_goal",
@@ -260,7 +262,7 @@ def load_checkpoint_world(path: str | Path) -> tuple[Any, RunConfig, Any]:
         if not isinstance(value, torch.Tensor):
             raise CheckpointError(f"checkpoint {str(path)!r}: {key} is not a tensor")
         # best_total is -inf until a trial reaches the goal; nothing else may be non-finite
-        ok = torch.isfinite(value) | ((key == "best_total") & (value == -torch.inf))
+        ok = torch.isfinite(value) | ((key == "progress.best_total") & (value == -torch.inf))
         if value.is_floating_point() and not bool(ok.all()):
             raise CheckpointError(f"checkpoint {str(path)!r}: non-finite values in {key}")
     try:

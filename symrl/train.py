@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -292,15 +293,16 @@ def train_batch(
                initial=sum(len(t) for t in trials))  # fmt: skip
     started, cpu_started = time.perf_counter(), time.process_time()
     frames, stopped = 0, False
-    exploring = set_exploration_type(ExplorationType.RANDOM)  # the policy draws its noise
-    exploring.__enter__()
-    # nothing in the loop needs autograd: inference mode skips the version counters and the
-    # autograd dispatch of every op (about a sixth of the learner's per-op cost, measured
-    # with benchmarks/bench_train.py); tensors created here are inference tensors, which
-    # later code only reads or clones
-    no_autograd = torch.inference_mode()
-    no_autograd.__enter__()
-    try:
+    with ExitStack() as contexts:
+        contexts.callback(env.close)
+        contexts.callback(bar.close)
+        # the policy draws its noise
+        contexts.enter_context(set_exploration_type(ExplorationType.RANDOM))
+        # nothing in the loop needs autograd: inference mode skips the version counters and the
+        # autograd dispatch of every op (about a sixth of the learner's per-op cost, measured
+        # with benchmarks/bench_train.py); tensors created here are inference tensors, which
+        # later code only reads or clones
+        contexts.enter_context(torch.inference_mode())
         if resume is None:
             td = env.reset()
         while True:
@@ -325,7 +327,8 @@ def train_batch(
                 np.array([r["total_reinforcement"] for r in records], dtype=np.float32)
             )
             reached_np = recorder.reached.numpy()[ended]
-            explored = policy.temperature.numpy()[ended].tolist()  # before end_trial cools it
+            # the temperature the trials explored with, read before end_trial cools it
+            explored = policy.progress.temperature.numpy()[ended].tolist()
             out = loss.end_trial(rows, totals, torch.from_numpy(reached_np))
             extras = _trial_extras(policy, rows, out, explored)
             for j, b in enumerate(ended_list):
@@ -351,11 +354,6 @@ def train_batch(
             if stop is not None and stop():
                 stopped = True
                 break
-    finally:
-        no_autograd.__exit__(None, None, None)
-        exploring.__exit__(None, None, None)
-        bar.close()
-        env.close()
     elapsed, cpu = time.perf_counter() - started, time.process_time() - cpu_started
     timings = {"seconds": elapsed, "cpu_seconds": cpu, "frames": frames,
                "robots": batch, "steps_per_second": frames / max(elapsed, 1e-9),
@@ -387,9 +385,9 @@ def train(
 # ---------------------------------------------------------------------------------------------
 # Snapshots of a run at a trial boundary (resume)
 
-SNAPSHOT_FORMAT = 1
-_PHYSICS_STATE = ("_x", "_y", "_h", "_xo", "_yo", "_ho", "actions_taken", "sonar", "_ex", "_ey",
-                  "_clear")  # fmt: skip
+SNAPSHOT_FORMAT = 2
+"""2: the policy's learned counters under ``progress.`` and the option critic under
+``options.critic.`` (format 1 held them at the top and under ``options.``)."""
 _ROW_SKIP = ("path", "ghosts")
 
 
@@ -407,14 +405,7 @@ def run_snapshot(env, policy, loss, trials: list[dict[str, Any]], td) -> dict[st
         "trials": rows,
         "policy": _trimmed(policy.state_dict(), int(policy.experts.count.max())),
         "loss": {k: v.clone() for k, v in loss.state_dict().items()},
-        "generators": [g.get_state() for g in policy.generators],
-        "option_generators": (
-            [g.get_state() for g in policy.options.generators]
-            if policy.options is not None else []
-        ),  # fmt: skip
-        "normals": policy._normals.clone(),
-        "uniforms": policy._uniforms.clone(),
-        "drawn": int(policy._drawn),
+        **policy.random_state(),
         **env_state(env),
         "td": td.clone().to_dict(),
     }
@@ -422,23 +413,13 @@ def run_snapshot(env, policy, loss, trials: list[dict[str, Any]], td) -> dict[st
 
 def env_state(env) -> dict[str, Any]:
     """The state of a :class:`~symrl.world.batched_env.BatchedWorldEnv` of B robots between two
-    steps: every robot's world generator, physics state and the outputs of its last reset or
-    step (tensors and plain Python values)."""
-    physics = env.physics
-    return {
-        "env_rngs": [rng.bit_generator.state for rng in env.rngs],
-        "physics": {n: torch.from_numpy(np.array(getattr(physics, n))) for n in _PHYSICS_STATE},
-        "last": {k: torch.from_numpy(np.array(v)) for k, v in (env._last or {}).items()},
-    }
+    steps (:meth:`~symrl.world.batched_env.BatchedWorldEnv.run_state`)."""
+    return env.run_state()
 
 
 def restore_env_state(env, state: dict[str, Any]) -> None:
     """Put ``env`` (fresh, same map, robots and seeds) into the state of :func:`env_state`."""
-    for rng, saved in zip(env.rngs, state["env_rngs"], strict=True):
-        rng.bit_generator.state = saved
-    for name in _PHYSICS_STATE:
-        setattr(env.physics, name, state["physics"][name].numpy().copy())
-    env._last = {k: v.numpy().copy() for k, v in state["last"].items()}
+    env.load_run_state(state)
 
 
 def _trimmed(state: dict[str, torch.Tensor], neurons: int) -> dict[str, torch.Tensor]:
@@ -459,14 +440,7 @@ def restore_snapshot(state: dict[str, Any], env, policy, loss):
 
     policy.load_state_dict(state["policy"])
     loss.load_state_dict(state["loss"])
-    for g, saved in zip(policy.generators, state["generators"], strict=True):
-        g.set_state(saved)
-    if policy.options is not None:
-        for g, saved in zip(policy.options.generators, state["option_generators"], strict=True):
-            g.set_state(saved)
-    policy._normals = state["normals"].clone()
-    policy._uniforms = state["uniforms"].clone()
-    policy._drawn = int(state["drawn"])
+    policy.load_random_state(state)
     restore_env_state(env, state)
     return TensorDict(state["td"], batch_size=env.batch_size).clone()
 

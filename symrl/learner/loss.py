@@ -17,11 +17,18 @@ detached, lr eta) and of -delta * log N(xi; mu, sigma^2) (lr beta * sigma^2);
 ``tests/learner/test_loss.py`` checks them against autograd. Growth replaces rows, which an
 optimizer cannot follow, so they are applied in place under ``no_grad``.
 
-End of a robot's trial (:meth:`end_trial`): after a goal-reaching trial whose total beats every
+End of a robot's trial (:meth:`end_trial`, the update's second public entry point, called by the
+loop for the robots whose trial ended): after a goal-reaching trial whose total beats every
 earlier successful one, each neuron used gets p <- the action it took and mu <- 0; with
 ``trial_gradient.rate`` > 0, each neuron's mu steps along the trial's reward gradient
 (``symrl.learner.trial_gradient``); then T <- max(T_min, cooling * T); with options, the critic
 of each option chosen in the trial steps toward its return-to-go from the region's first entry.
+
+What the update writes across trials lives in modules the policy holds and hands over at
+construction: the experts, ``policy.progress`` (temperature, best total, trials done) and the
+options' ``critic``; the update writes them only through their methods (the experts' storage
+through its public flat views, as an optimiser steps a network's parameters). Its own buffers
+are the option critics' returns of the trials in progress.
 """
 
 from __future__ import annotations
@@ -46,7 +53,9 @@ class TeseoLoss(LossModule):
 
     ``forward(td)`` takes a batch [B] of transitions (one per robot) and returns a TensorDict
     of diagnostics (``td_error``, ``grown``, ``neurons``); :meth:`end_trial` closes the trials
-    of some robots.
+    of some robots and returns a TensorDict of what it did (``replaced``, ``improved``,
+    ``best_total``, one row per robot closed). The keys it reads are renamed with
+    :meth:`set_keys` (TorchRL's ``LossModule`` convention).
     """
 
     @dataclass
@@ -87,6 +96,11 @@ class TeseoLoss(LossModule):
         # policy is saved on its own, and TorchRL's functional parameter copies are not needed:
         # there is no optimizer)
         self.__dict__["policy"] = policy
+        # the modules the policy hands over (saved with it: plain references here too)
+        self.__dict__["experts"] = policy.experts
+        self.__dict__["progress"] = policy.progress
+        self.__dict__["options"] = policy.options
+        self.__dict__["critic"] = policy.options.critic if policy.options is not None else None
         self.config = policy.config
         batch = policy.batch
         regions = len(policy.region_names)
@@ -139,7 +153,7 @@ class TeseoLoss(LossModule):
             zero = torch.zeros(batch, dtype=torch.float64)
             return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
                               neurons=policy.neurons().sum(-1), batch_size=[batch])  # fmt: skip
-        bank = policy.experts
+        bank = self.experts
         expert, winner = read(td, k.expert).numpy(), read(td, k.winner).numpy()
         x, proto = read(td, k.x).numpy(), read(td, k.proto).numpy()
         grown = np.zeros(batch, dtype=np.int64)
@@ -216,38 +230,40 @@ class TeseoLoss(LossModule):
     @no_grad
     def end_trial(
         self, rows: torch.Tensor, totals: torch.Tensor, reached: torch.Tensor
-    ) -> dict[str, torch.Tensor]:
-        """Close the trials of robots ``rows`` (their totals and whether they reached the goal):
-        action replacement after a better success, cooling, the option critics. Returns
-        ``replaced`` (neurons per row), ``improved`` and ``best_total``."""
-        policy, cfg = self.policy, self.config
+    ) -> TensorDictBase:
+        """Close the trials of robots ``rows`` (k,) (their totals (k,) and whether they reached
+        the goal (k,) bool): action replacement after a better success, the trial gradient,
+        cooling, the option critics, the trial count. Returns a TensorDict of batch [k]:
+        ``replaced`` (neurons replaced per row), ``improved`` (a better success) and
+        ``best_total`` (the best success so far)."""
+        cfg, progress = self.config, self.progress
         # numpy on the buffers' memory (a handful of rows), the same operations
         rows_np, n = rows.numpy(), rows.shape[0]
         totals_np = totals.numpy().astype(np.float64)
-        best = policy.best_total.numpy()
         replaced = np.zeros(n, dtype=np.int64)
         improved = np.zeros(n, dtype=bool)
         if cfg.experts.learning:
-            improved = reached.numpy() & (totals_np > best[rows_np])
-            best[rows_np] = np.where(improved, totals_np, best[rows_np])
+            improved = progress.improve(rows_np, totals_np, reached.numpy())
             if cfg.update.replace_actions and improved.any():
                 better = torch.from_numpy(rows_np[improved])
-                replaced[improved] = policy.experts.replace_actions(better).numpy()
-            temperature, update = policy.temperature.numpy(), cfg.update
-            temperature[rows_np] = np.maximum(
-                update.cooling * temperature[rows_np], update.temperature_min
-            )
+                replaced[improved] = self.experts.replace_actions(better).numpy()
+            progress.cool(rows_np, cfg.update.cooling, cfg.update.temperature_min)
             if self.record is not None:
                 self._trial_gradient_step(rows_np)
-            policy.experts.clear_trial(rows)
-        if policy.options is not None:
+            self.experts.clear_trial(rows)
+        if self.critic is not None:
             returns = self.trial_return.numpy()[rows_np, None] - self.entry_return.numpy()[rows_np]
-            policy.options.learn(rows, torch.from_numpy(returns))
+            choice, fallen = self.options.trial_choices(rows_np)
+            self.critic.learn(rows_np, choice, returns, fallen)
             self.entry_return.numpy()[rows_np] = 0.0
         self.trial_return.numpy()[rows_np] = 0.0
-        policy.trials_done.numpy()[rows_np] += 1
-        return {"replaced": torch.from_numpy(replaced), "improved": torch.from_numpy(improved),
-                "best_total": torch.from_numpy(best[rows_np])}  # fmt: skip
+        progress.count(rows_np)
+        best = progress.arrays["best_total"][rows_np].copy()
+        return TensorDict._new_unsafe(
+            {"replaced": torch.from_numpy(replaced), "improved": torch.from_numpy(improved),
+             "best_total": torch.from_numpy(best)},
+            batch_size=torch.Size([n]),
+        )  # fmt: skip
 
     def _trial_gradient_step(self, rows: np.ndarray) -> None:
         """mu_j += clip(rate * sum of dJ/da_t over the steps neuron j acted, +-max_step), kept
@@ -256,7 +272,7 @@ class TeseoLoss(LossModule):
         assert rec is not None
         tg, robot = cfg.trial_gradient, cfg.env.robot
         goal = policy.knowledge.goal
-        flat = policy.experts.flat
+        flat = self.experts.flat
         means = flat.means
         returns = self.trial_return.numpy()
         for b in rows.tolist():

@@ -9,8 +9,10 @@ option is the mean, over the trials that chose it, of the return-to-go from the 
 entry (Monte Carlo, so the concave penalty that lands ~10 actions after the wrong turn is
 credited to the turn). Averaging, not comparing single trials, makes the choice robust to noise.
 
-:class:`SubgoalOptions` holds the critic (``q``, ``n``: parameters the update writes) and the
-per-trial choices (decision state the policy writes when it acts; :meth:`begin_trial` clears it).
+:class:`SubgoalOptions` holds the per-trial choices (decision state it writes when the policy
+acts; :meth:`begin_trial` clears it) and reads its ``critic``
+(:class:`~symrl.learner.option_critic.OptionCritic`: what is learned across trials, which the
+update steps at the end of a trial from :meth:`SubgoalOptions.trial_choices`).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from symrl.grad import no_grad
 from symrl.knowledge.planner import shortest_path
 from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
+from symrl.learner.option_critic import OptionCritic
 from symrl.world.geometry import Walls
 from symrl.world.worldmap import WorldMap
 
@@ -56,18 +59,13 @@ def subgoal_config(options: object) -> SubgoalConfig:
 class SubgoalOptions(BufferViews):
     """The option learner of B controllers over one map's sub-goal table.
 
-    Buffers: ``points`` (R, K, 2) and ``valid`` (R, K) (the table), ``q`` (B, R, K) mean (or best)
-    return-to-go, ``n`` (B, R, K) trials per option, ``epsilon`` (B,), ``trials`` (B,) finished
-    trials, and the per-trial ``choice`` (B, R) (-1: region not entered yet), ``stage`` (B,) and
-    ``visit`` (B,) (the region being visited).
+    Buffers: ``points`` (R, K, 2) and ``valid`` (R, K) (the table), and the per-trial
+    ``choice`` (B, R) (-1: region not entered yet), ``stage`` (B,) and ``visit`` (B,) (the
+    region being visited); ``critic``: the :class:`OptionCritic` it chooses by.
     """
 
     points: torch.Tensor
     valid: torch.Tensor
-    q: torch.Tensor
-    n: torch.Tensor
-    epsilon: torch.Tensor
-    trials: torch.Tensor
     choice: torch.Tensor
     stage: torch.Tensor
     visit: torch.Tensor
@@ -100,9 +98,6 @@ class SubgoalOptions(BufferViews):
         self._lead = math.radians(float(config.goal_lead_deg))  # type: ignore[attr-defined]
         turn = config.start_turn_deg  # type: ignore[attr-defined]
         self._start_turn = None if turn is None else math.radians(float(turn))
-        # per robot, set by each steer: its trial's first step, with the aim more than
-        # start_turn_deg off the heading (the policy turns it straight at the aim)
-        self.start_turn = np.zeros(batch, dtype=bool)
         self.register_buffer("points", self.table.points.to(torch.float64), persistent=False)
         # the point each option goes on to once its own is reached (NaN: the goal); None when
         # no valid option has one (the stages are then those of the paper's options)
@@ -111,11 +106,16 @@ class SubgoalOptions(BufferViews):
         if then is not None and bool((~torch.isnan(then[..., 0]) & self.table.valid).any()):
             self._then = then.to(torch.float64).numpy().copy()
         self.register_buffer("valid", self.table.valid.clone(), persistent=False)
-        self.register_buffer("q", torch.zeros(batch, r, k, dtype=torch.float64))
-        self.register_buffer("n", torch.zeros(batch, r, k, dtype=torch.long))
-        eps = float(config.epsilon)  # type: ignore[attr-defined]
-        self.register_buffer("epsilon", torch.full((batch,), eps, dtype=torch.float64))
-        self.register_buffer("trials", torch.zeros(batch, dtype=torch.long))
+        slack = config.region_limit  # type: ignore[attr-defined]
+        # learned across trials; with the region limit, the options that needed the planner's
+        # one (or with the timeout another) to finish their region are not chosen again (the
+        # credit of the rescued trial would hide the dead end)
+        self.critic = OptionCritic(
+            batch, r, k, float(config.epsilon),  # type: ignore[attr-defined]
+            float(config.epsilon_decay), str(config.critic),  # type: ignore[attr-defined]
+            stalls=slack is not None,
+        )  # fmt: skip
+        self._zero_turn = np.zeros(batch, dtype=bool)
         self.register_buffer("choice", torch.full((batch, r), -1, dtype=torch.long))
         self.register_buffer("stage", torch.zeros(batch, dtype=torch.long))
         self.register_buffer("visit", torch.full((batch,), -1, dtype=torch.long))
@@ -126,7 +126,6 @@ class SubgoalOptions(BufferViews):
         # metres an action, plus the slack) and planner option (-1: none), and per robot and
         # region the actions of the trial in it and whether it has fallen back to that option
         # (reset with every trial, so nothing of it outlives one: not in the state dict)
-        slack = config.region_limit  # type: ignore[attr-defined]
         self._limit: np.ndarray | None = None
         # without the map: a region's option is given up, for the best one left, after this
         # many actions in the region (no planner to fall back to)
@@ -150,20 +149,17 @@ class SubgoalOptions(BufferViews):
         self._walls = (
             Walls(mapped.segments) if mapped is not None and self._limit is not None else None
         )
-        if slack is not None:
-            # learned: the options that needed the planner's one to finish their region; they
-            # are not chosen again (the credit of the rescued trial would hide the dead end)
-            self.register_buffer("stalled", torch.zeros(batch, r, k, dtype=torch.bool))
 
     # -- acting (called by the policy) ----------------------------------------------------
     def steer(
         self, region: torch.Tensor, odometry: torch.Tensor, greedy: bool
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray]:
         """The signed angle (left positive) from each odometry heading to the point the reflex
         should aim at in ``region``; also the option in force (B,) (the chosen one, or past the
         region limit the region's planner option), whether it was chosen at this step (the
-        region's first entry in the trial) (B,) bool, and the point (B, 2). ``start_turn``
-        says which robots take the start turn at this step."""
+        region's first entry in the trial) (B,) bool, the point (B, 2), and which robots take
+        the start turn at this step (B,) bool numpy: a trial's first step with the aim more
+        than ``start_turn_deg`` off the heading (the policy turns them straight at the aim)."""
         # numpy on the buffers' memory (a handful of rows: a fraction of the torch dispatches);
         # the norm and atan2 stay torch's, the rest is exact arithmetic in the same order
         a = self.arrays  # the buffers' numpy views
@@ -188,7 +184,7 @@ class SubgoalOptions(BufferViews):
             steps[rows, region_np] += 1
             for b in np.flatnonzero(steps[rows, region_np] > self._timeout).tolist():
                 here = int(region_np[b])
-                a["stalled"][b, here, chosen[b]] = True
+                self.critic.stall(b, here, int(chosen[b]))
                 choice[b, here] = self._choose(b, here, greedy=True)
                 steps[b, here], stage[b] = 0, _FIRST_STAGE
             chosen = choice[rows, region_np]
@@ -247,10 +243,11 @@ class SubgoalOptions(BufferViews):
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
+        start_turn = self._zero_turn
         if self._start_turn is not None:
-            self.start_turn = starting & (np.abs(angle) > self._start_turn)
+            start_turn = starting & (np.abs(angle) > self._start_turn)
         return (torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered),
-                torch.from_numpy(aim))
+                torch.from_numpy(aim), start_turn)
 
     def _replan(self, xy: np.ndarray) -> np.ndarray:
         """The first turn of the planner's shortest path from ``xy`` more than ``reach`` away,
@@ -277,25 +274,26 @@ class SubgoalOptions(BufferViews):
         """Controller ``b``'s option for ``region`` at its first entry in a trial (on Python
         numbers: a handful of values, read once; the draws are those of the tensor version)."""
         cfg = self.config
-        a = self.arrays
+        a, learned = self.arrays, self.critic.arrays
         valid = a["valid"][region].tolist()
-        if "stalled" in self._buffers:  # a stalled option is as if not offered
+        if self.critic.stalls:  # a stalled option is as if not offered
             valid = [ok and not stalled for ok, stalled in
-                     zip(valid, a["stalled"][b, region].tolist(), strict=True)]  # fmt: skip
+                     zip(valid, learned["stalled"][b, region].tolist(), strict=True)]  # fmt: skip
             if not any(valid):
                 valid = a["valid"][region].tolist()
         options = [o for o, ok in enumerate(valid) if ok]
         after = int(cfg.greedy_after)  # type: ignore[attr-defined]
-        greedy_only = greedy or bool(after and int(a["trials"][b]) >= after)
-        counts = a["n"][b, region].tolist()
+        greedy_only = greedy or bool(after and int(learned["trials"][b]) >= after)
+        counts = learned["n"][b, region].tolist()
         gen = self.generators[b]
         if not greedy_only:
             untried = [o for o in options if counts[o] == 0]
             if cfg.try_untried and untried:  # type: ignore[attr-defined]
                 return untried[0]
-            if torch.rand((), generator=gen, dtype=torch.float64).item() < float(a["epsilon"][b]):
+            epsilon = float(learned["epsilon"][b])
+            if torch.rand((), generator=gen, dtype=torch.float64).item() < epsilon:
                 return options[int(torch.randint(len(options), (), generator=gen))]
-        q = a["q"][b, region].tolist()
+        q = learned["q"][b, region].tolist()
         tried = [q[o] if counts[o] > 0 and valid[o] else -math.inf for o in range(len(q))]
         best = max(tried)
         if best == -math.inf:
@@ -312,35 +310,19 @@ class SubgoalOptions(BufferViews):
         self._region_steps[r], self._fallen_back[r] = 0, False
         self._detour[r], self._detour_region[r] = np.nan, -1
 
-    # -- learning (called by the update) --------------------------------------------------
-    @no_grad
-    def learn(self, rows: torch.Tensor, returns: torch.Tensor) -> None:
-        """Critic step at the end of a trial: ``returns`` (k, R) is the return-to-go from each
-        region's first entry for controllers ``rows``; then epsilon decays."""
-        # numpy on the buffers' memory: a few advanced indexes of a handful of rows
-        a = self.arrays
-        rows_np, returns_np = rows.numpy(), returns.numpy()
-        choice = a["choice"][rows_np]
-        entered = choice >= 0
-        i, r = np.nonzero(entered)  # row-major, as a mask of the broadcast indices
-        b = rows_np[i]
-        k, ret = choice[entered], returns_np[entered]
-        n, q = a["n"], a["q"]
-        n[b, r, k] += 1  # (b, r) pairs are distinct: one option per region and trial
-        if self.config.critic == "best":  # type: ignore[attr-defined]
-            first = n[b, r, k] == 1
-            q[b, r, k] = np.where(first, ret, np.maximum(q[b, r, k], ret))
-        else:
-            q[b, r, k] += (ret - q[b, r, k]) / n[b, r, k]
-        if self._limit is not None:  # the chosen options their regions had to fall back from
-            fallen = self._fallen_back[b, r]
-            a["stalled"][b[fallen], r[fallen], k[fallen]] = True
-        a["epsilon"][rows_np] *= float(self.config.epsilon_decay)  # type: ignore[attr-defined]
-        a["trials"][rows_np] += 1
+    # -- what the update learns from -----------------------------------------------------
+    def trial_choices(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """The trials of controllers ``rows`` as the critic learns from them: the option each
+        region was visited with (k, R) (-1: not entered) and, with the region limit, whether
+        the region fell back to the planner's option (k, R) (None without it). Copies."""
+        choice = self.arrays["choice"][rows].copy()
+        fallen = self._fallen_back[rows].copy() if self._limit is not None else None
+        return choice, fallen
 
     def greedy(self, row: int) -> list[int]:
         """The option each region of controller ``row`` would choose greedily (-1: none tried)."""
-        q = torch.where((self.n[row] > 0) & self.valid, self.q[row], -math.inf)
+        critic = self.critic
+        q = torch.where((critic.n[row] > 0) & self.valid, critic.q[row], -math.inf)
         best = q.argmax(dim=1)
         return [int(o) if math.isfinite(float(q[r, o])) else -1 for r, o in enumerate(best)]
 

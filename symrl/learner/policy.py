@@ -19,9 +19,12 @@ Per step, for every robot of the batch at once (``docs/ALGORITHM.md``):
 6. with the shield, an action whose move would graze a wall becomes the nearest safe angle.
 
 It writes what it decided into the TensorDict (``out_keys``); the update
-(:class:`symrl.learner.loss.TeseoLoss`) reads those keys and the transition, and writes the
-parameters this module holds. With TorchRL's exploration type DETERMINISTIC / MODE / MEAN the
-policy is greedy and draws no noise.
+(:class:`symrl.learner.loss.TeseoLoss`) reads those keys and the transition. What is learned
+lives in modules the policy holds and hands to the update: the experts (whose parameters the
+update steps, as an optimiser steps a network's), ``progress``
+(:class:`~symrl.learner.progress.TrialProgress`: the temperature, the best total, the trials
+done) and the options' ``critic``; each is written only through its own methods. With
+TorchRL's exploration type DETERMINISTIC / MODE / MEAN the policy is greedy and draws no noise.
 
 Each robot b has its own random streams (seeded ``seeds[b]``), so robot b of a batch acts as
 the same seed alone.
@@ -30,7 +33,7 @@ the same seed alone.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import torch
@@ -49,6 +52,7 @@ from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
+from symrl.learner.progress import TrialProgress
 from symrl.tensordicts import read, write
 from symrl.world.geometry import Walls
 from symrl.world.physics import goal_reading
@@ -59,11 +63,9 @@ __all__ = ["Perception", "MixtureOfExpertsPolicy", "OBS_KEYS", "is_greedy"]
 OBS_KEYS = ("sonar", "ir", "odometry", "goal", "state_reward")
 _GREEDY = (ExplorationType.DETERMINISTIC, ExplorationType.MODE, ExplorationType.MEAN)
 _PI = math.pi
-_PER_ROBOT = {
-    "temperature", "best_total", "trials_done", "options.q", "options.n", "options.epsilon",
-    "options.trials", "options.choice", "options.stage", "options.visit", "options.stalled",
-}  # fmt: skip
-"""State-dict entries with one row per robot (besides every ``experts.*`` buffer)."""
+_PER_ROBOT = {"options.choice", "options.stage", "options.visit"}
+_PER_ROBOT_MODULES = ("experts.", "progress.", "options.critic.")
+"""State-dict entries with one row per robot: those named, and every buffer of those modules."""
 _BLOCK = 1024  # random draws per robot per refill: one call per robot instead of one per step
 
 
@@ -107,10 +109,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         "action", "region", "expert", "winner", "novel", "x", "proto", "xi", "sigma", "taken",
         "shielded", "aim", "option", "option_entry", "pose",
     ]  # fmt: skip
-
-    temperature: torch.Tensor
-    best_total: torch.Tensor
-    trials_done: torch.Tensor
 
     def __init__(
         self,
@@ -175,10 +173,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self.start_distance = max(math.hypot(start.x - goal.x, start.y - goal.y), 1e-9)
         n = xc.goal_codes
         self.register_buffer("code_centres", torch.arange(n, dtype=torch.float32) / (n - 1))
-        t0 = config.update.temperature0
-        self.register_buffer("temperature", torch.full((batch,), t0, dtype=torch.float64))
-        self.register_buffer("best_total", torch.full((batch,), -math.inf, dtype=torch.float64))
-        self.register_buffer("trials_done", torch.zeros(batch, dtype=torch.long))
+        self.progress = TrialProgress(batch, config.update.temperature0)
         self.generators = [torch.Generator().manual_seed(int(s)) for s in self.seeds]
         self._normals = torch.empty(batch, 0)
         self._uniforms = torch.empty(batch, 0)
@@ -296,6 +291,32 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         return region, expert, x
 
     # -- random streams -------------------------------------------------------------------
+    def random_state(self) -> dict[str, Any]:
+        """Every random stream of the policy (a run snapshot): each robot's exploration and
+        option generators and the pre-drawn noise blocks not used yet (tensors and plain
+        Python values)."""
+        options = self.options
+        return {
+            "generators": [g.get_state() for g in self.generators],
+            "option_generators": [g.get_state() for g in options.generators]
+            if options is not None else [],
+            "normals": self._normals.clone(),
+            "uniforms": self._uniforms.clone(),
+            "drawn": int(self._drawn),
+        }  # fmt: skip
+
+    def load_random_state(self, state: dict[str, Any]) -> None:
+        """Go on drawing from :meth:`random_state` (a policy of the same config and seeds)."""
+        for g, saved in zip(self.generators, state["generators"], strict=True):
+            g.set_state(saved)
+        if self.options is not None:
+            for g, saved in zip(self.options.generators, state["option_generators"],
+                                strict=True):  # fmt: skip
+                g.set_state(saved)
+        self._normals = state["normals"].clone()
+        self._uniforms = state["uniforms"].clone()
+        self._drawn = int(state["drawn"])
+
     def _draws(self) -> tuple[np.ndarray, np.ndarray]:
         """One standard normal and one uniform per robot from its own generator (numpy views
         of the pre-drawn blocks)."""
@@ -321,18 +342,18 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         region, expert, x, winner, novel = self.perceive_believed(sonar, pose, goal)
         zero = self._zeros
         option, entered, aim = self._no_option, self._no_entry, self._goal_aim
+        start_turn = None
         if self.options is not None:
-            target, option, entered, aim = self.options.steer(region, pose, greedy)
+            target, option, entered, aim, start_turn = self.options.steer(region, pose, greedy)
         else:
             target = goal[:, 1].to(torch.float64)
         if xc.reflex or not xc.learning:
             # float32 widened exactly, in numpy (a torch cast is a dispatch more)
             reflex_action = self.reflex(torch.from_numpy(sonar.numpy().astype(np.float64)), target)
-            if self.options is not None and self.options.start_turn.any():
+            if start_turn is not None and start_turn.any():
                 # a trial's first action with the aim behind: straight at it, in one action
-                turn = self.options.start_turn
                 reflex_action = torch.from_numpy(
-                    np.where(turn, target.numpy(), reflex_action.numpy())
+                    np.where(start_turn, target.numpy(), reflex_action.numpy())
                 )
         else:
             reflex_action = zero
@@ -363,7 +384,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 u_new = read(td, "state_reward").numpy().reshape(-1).astype(np.float64)
                 u = np.where(known, flat.utilities[index], u_new)
                 e = torch.from_numpy(np.minimum(u, 60.0)).exp().numpy()
-                spread = self.temperature.numpy() / (1.0 + e)
+                spread = self.progress.arrays["temperature"] / (1.0 + e)
                 noisy = mu + spread * z
                 sigma = torch.from_numpy(spread)
             xi = torch.from_numpy(noisy)
@@ -410,7 +431,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         (``MixtureOfExpertsPolicy(config, policy.knowledge, [seed])``)."""
         out = {}
         for key, value in self.state_dict().items():
-            per_robot = key.startswith("experts.") or key in _PER_ROBOT
+            per_robot = key.startswith(_PER_ROBOT_MODULES) or key in _PER_ROBOT
             out[key] = (value[b : b + 1] if per_robot else value).clone()
         return out
 
@@ -429,7 +450,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         policy = cls(config, knowledge, seeds, subgoals)
         merged = {}
         for key, value in states[0].items():
-            if key.startswith("experts.") or key in _PER_ROBOT:
+            if key.startswith(_PER_ROBOT_MODULES) or key in _PER_ROBOT:
                 parts = [s[key] for s in states]
                 if value.dim() >= 3:  # (1, E, N, ...): pad the capacity to the largest
                     n = max(p.shape[2] for p in parts)

@@ -108,6 +108,23 @@ class BatchedWorldEnv(EnvBase):
         self.physics.check_poses(starts)
         self._starts = starts
 
+    def run_state(self) -> dict[str, Any]:
+        """Everything between two steps a run snapshot needs (tensors and plain Python values):
+        every robot's world generator, physics state and the outputs of its last reset or step
+        (a partial reset keeps the other robots' rows from them)."""
+        return {
+            "env_rngs": [rng.bit_generator.state for rng in self._rngs],
+            "physics": {k: torch.from_numpy(v) for k, v in self.physics.state().items()},
+            "last": {k: torch.from_numpy(np.array(v)) for k, v in (self._last or {}).items()},
+        }
+
+    def load_run_state(self, state: dict[str, Any]) -> None:
+        """Go on from :meth:`run_state` (a fresh env of the same map, robots and seeds)."""
+        for rng, saved in zip(self._rngs, state["env_rngs"], strict=True):
+            rng.bit_generator.state = saved
+        self.physics.load_state({k: v.numpy() for k, v in state["physics"].items()})
+        self._keep({k: v.numpy().copy() for k, v in state["last"].items()})
+
     def _map_starts(self) -> np.ndarray:
         s = self.world.start
         return np.tile(np.array([s.x, s.y, s.heading]), (self.size, 1))

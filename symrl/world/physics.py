@@ -189,6 +189,18 @@ class RobotBatch:
         # closest wall points (relative) and clearance of each true pose: reused by the next step
         self._ex, self._ey, self._clear = self.walls.closest_many(self._x, self._y)
 
+    _STATE = ("_x", "_y", "_h", "_xo", "_yo", "_ho", "actions_taken", "sonar", "_ex", "_ey",
+              "_clear")  # fmt: skip
+
+    def state(self) -> dict[str, np.ndarray]:
+        """Every robot's physics state between two steps (copies; a run snapshot)."""
+        return {name: np.array(getattr(self, name)) for name in self._STATE}
+
+    def load_state(self, state: dict[str, np.ndarray]) -> None:
+        """Go on from :meth:`state` (same world, robots and size)."""
+        for name in self._STATE:
+            setattr(self, name, np.array(state[name]))
+
     @property
     def true_pose(self) -> np.ndarray:
         """(B, 3) float64: the true poses (x, y, heading), headings in [-pi, pi]."""

@@ -96,17 +96,17 @@ def test_without_the_map_an_option_timed_out_gives_way_to_the_best_one_left():
     opt = SubgoalOptions(told, 1, config, [0], table)
     room = 0
     opt.choice[0, room] = 0  # the goal: the concave trap
-    opt.q[0, room] = torch.tensor([-20.0, -30.0, -7.0], dtype=torch.float64)
-    opt.n[0, room] = torch.tensor([1, 1, 1])
+    opt.critic.q[0, room] = torch.tensor([-20.0, -30.0, -7.0], dtype=torch.float64)
+    opt.critic.n[0, room] = torch.tensor([1, 1, 1])
     region, pose = torch.tensor([room]), _odometry(3.0, -0.8)
     for _ in range(3):
-        _, option, _, _ = opt.steer(region, pose, greedy=False)
+        _, option, _, _, _ = opt.steer(region, pose, greedy=False)
         assert int(option[0]) == 0
-    _, option, _, aim = opt.steer(region, pose, greedy=False)  # one action past the limit
+    _, option, _, aim, _ = opt.steer(region, pose, greedy=False)  # one action past the limit
     assert int(option[0]) == 2 and aim[0].tolist() == pytest.approx([3.9, -0.5], abs=1e-6)
-    assert opt.stalled[0, room].tolist() == [True, False, False]
+    assert opt.critic.stalled[0, room].tolist() == [True, False, False]
     for _ in range(3):  # the new option has the whole budget again
-        _, option, _, _ = opt.steer(region, pose, greedy=False)
+        _, option, _, _, _ = opt.steer(region, pose, greedy=False)
         assert int(option[0]) == 2
 
 

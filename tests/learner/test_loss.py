@@ -10,6 +10,7 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from learner_helpers import POSES, observation, place, policy, transition
+from tensordict import TensorDictBase
 
 from symrl.learner.loss import TeseoLoss
 
@@ -271,7 +272,7 @@ def test_action_replacement_only_after_a_better_successful_trial():
     _step(loss, taken=-0.7)
     out = loss.end_trial(row, torch.tensor([-5.0]), torch.tensor([False]))  # failed: nothing
     assert out["replaced"].tolist() == [0] and not bool(out["improved"][0])
-    assert float(bank.actions[0, e, 0]) == 0.2 and float(p.best_total[0]) == -math.inf
+    assert float(bank.actions[0, e, 0]) == 0.2 and float(p.progress.best_total[0]) == -math.inf
     assert not bank.used.any()  # the trial's bookkeeping is cleared
     _step(loss, taken=-0.7)
     mean_before = float(bank.means[0, e, 0])
@@ -280,13 +281,13 @@ def test_action_replacement_only_after_a_better_successful_trial():
     assert out["replaced"].tolist() == [1] and bool(out["improved"][0])
     assert float(bank.actions[0, e, 0]) == pytest.approx(-0.7) and float(bank.means[0, e, 0]) == 0
     assert float(bank.actions[0, e, 1]) == -0.2  # not used in this trial
-    assert float(p.best_total[0]) == -10.0 and float(out["best_total"][0]) == -10.0
+    assert float(p.progress.best_total[0]) == -10.0 and float(out["best_total"][0]) == -10.0
     _step(loss, taken=0.9)
     bank.means[0, e, 0] = 0.3
     out = loss.end_trial(row, torch.tensor([-12.0]), torch.tensor([True]))  # worse
     assert out["replaced"].tolist() == [0] and not bool(out["improved"][0])
     assert float(bank.actions[0, e, 0]) == pytest.approx(-0.7)
-    assert float(bank.means[0, e, 0]) == 0.3 and float(p.best_total[0]) == -10.0
+    assert float(bank.means[0, e, 0]) == 0.3 and float(p.progress.best_total[0]) == -10.0
     _step(loss, taken=0.9)
     out = loss.end_trial(row, torch.tensor([-8.0]), torch.tensor([True]))  # better again
     assert out["replaced"].tolist() == [1] and float(bank.actions[0, e, 0]) == pytest.approx(0.9)
@@ -298,7 +299,8 @@ def test_no_replacement_when_switched_off_but_the_best_total_is_kept():
     _step(loss, taken=-0.7)
     out = loss.end_trial(torch.tensor([0]), torch.tensor([-10.0]), torch.tensor([True]))
     assert out["replaced"].tolist() == [0] and bool(out["improved"][0])
-    assert float(p.experts.actions[0, _room(p), 0]) == 0.2 and float(p.best_total[0]) == -10.0
+    assert float(p.experts.actions[0, _room(p), 0]) == 0.2
+    assert float(p.progress.best_total[0]) == -10.0
 
 
 def test_end_trial_touches_only_the_robots_given():
@@ -310,11 +312,13 @@ def test_end_trial_touches_only_the_robots_given():
     loss(torch.cat([transition(p, A, B, -0.5, taken=-0.7, row=b) for b in (0, 1)], 0))
     out = loss.end_trial(torch.tensor([1]), torch.tensor([-4.0]), torch.tensor([True]))
     e = _room(p)
+    assert isinstance(out, TensorDictBase) and out.batch_size == torch.Size([1])
     assert out["replaced"].tolist() == [1]
     assert float(p.experts.actions[1, e, 0]) == pytest.approx(-0.7)
     assert float(p.experts.actions[0, e, 0]) == 0.2 and bool(p.experts.used[0, e, 0])
-    assert p.temperature.tolist() == pytest.approx([0.3, 0.3 * 0.85])
-    assert p.best_total.tolist() == [-math.inf, -4.0] and p.trials_done.tolist() == [0, 1]
+    assert p.progress.temperature.tolist() == pytest.approx([0.3, 0.3 * 0.85])
+    assert p.progress.best_total.tolist() == [-math.inf, -4.0]
+    assert p.progress.trials_done.tolist() == [0, 1]
 
 
 def test_cooling_down_to_the_floor():
@@ -324,13 +328,13 @@ def test_cooling_down_to_the_floor():
     temps = []
     for k in range(6):  # failed and successful trials cool alike
         loss.end_trial(torch.tensor([0]), torch.tensor([-50.0]), torch.tensor([k % 2 == 0]))
-        temps.append(float(p.temperature[0]))
+        temps.append(float(p.progress.temperature[0]))
     assert temps == pytest.approx([0.15, 0.075, 0.05, 0.05, 0.05, 0.05])
     paper = policy("paper_map", seeds=(3,))
     loss = TeseoLoss(paper)
     for _ in range(40):
         loss.end_trial(torch.tensor([0]), torch.tensor([-50.0]), torch.tensor([False]))
-    assert float(paper.temperature[0]) == pytest.approx(0.1 * 0.85**40)  # floor 0
+    assert float(paper.progress.temperature[0]) == pytest.approx(0.1 * 0.85**40)  # floor 0
 
 
 def _option_policy(*overrides: str):
@@ -362,10 +366,10 @@ def test_option_critic_steps_toward_the_return_to_go(critic, expected):
             assert bool(td["option_entry"][0]) == (k == 0)
         option = int(td["option"][0])
         loss.end_trial(rows, torch.tensor([sum(rewards)]), torch.tensor([True]))
-        got.append(float(p.options.q[0, room, option]))
+        got.append(float(p.options.critic.q[0, room, option]))
     assert option == 0 and got == pytest.approx(expected)
-    assert int(p.options.n[0, room, 0]) == 3 and int(p.options.n[0, room].sum()) == 3
-    assert float(p.options.epsilon[0]) == 0.0 and int(p.options.trials[0]) == 3
+    assert int(p.options.critic.n[0, room, 0]) == 3 and int(p.options.critic.n[0, room].sum()) == 3
+    assert float(p.options.critic.epsilon[0]) == 0.0 and int(p.options.critic.trials[0]) == 3
 
 
 def test_option_return_to_go_starts_at_each_regions_first_entry():
@@ -377,7 +381,7 @@ def test_option_return_to_go_starts_at_each_regions_first_entry():
     _act(p, loss, door_obs, door_obs, -2.0)
     _act(p, loss, door_obs, door_obs, -0.5)
     loss.end_trial(torch.tensor([0]), torch.tensor([-3.5]), torch.tensor([False]))
-    assert float(p.options.q[0, room, 0]) == pytest.approx(-3.5)
-    assert float(p.options.q[0, door, 0]) == pytest.approx(-2.5)
-    assert int(p.options.n[0].sum()) == 2  # the regions not entered learn nothing
+    assert float(p.options.critic.q[0, room, 0]) == pytest.approx(-3.5)
+    assert float(p.options.critic.q[0, door, 0]) == pytest.approx(-2.5)
+    assert int(p.options.critic.n[0].sum()) == 2  # the regions not entered learn nothing
     assert float(loss.trial_return[0]) == 0.0 and not loss.entry_return.any()

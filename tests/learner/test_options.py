@@ -41,17 +41,39 @@ def _odometry(*poses) -> torch.Tensor:
     return torch.tensor(poses, dtype=torch.float32)
 
 
+def _learn(opt: SubgoalOptions, rows: torch.Tensor, returns: torch.Tensor) -> None:
+    """The update's critic step at the end of the trials of ``rows`` (as ``TeseoLoss``)."""
+    choice, fallen = opt.trial_choices(rows.numpy())
+    opt.critic.learn(rows.numpy(), choice, returns.numpy(), fallen)
+
+
 def _trial(opt: SubgoalOptions, returns: dict[int, float], row: int = 0) -> int:
     """One trial of robot 0 in region 0 then region 1; region 0's return-to-go depends on
     the option chosen there."""
     rows = torch.tensor([row])
     opt.begin_trial(rows)
-    _, option, entered, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=False)
+    _, option, entered, *_ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=False)
     assert bool(entered[0])
     chosen = int(option[0])
     opt.steer(torch.tensor([1]), _odometry((3.8, -0.5, 0.0)), greedy=False)
-    opt.learn(rows, torch.tensor([[returns[chosen], -1.0]], dtype=torch.float64))
+    _learn(opt, rows, torch.tensor([[returns[chosen], -1.0]], dtype=torch.float64))
     return chosen
+
+
+def test_steer_says_which_robots_take_the_start_turn():
+    # robot 0 faces away from s1/the goal (about 170 degrees off), robot 1 faces them
+    opt = _options(batch=2, epsilon=0.0, start_turn_deg=90.0)
+    region = torch.tensor([0, 0])
+    poses = _odometry((0.0, 0.0, 3.0), (0.0, 0.0, 0.0))
+    *_, turn = opt.steer(region, poses, greedy=True)
+    assert turn.tolist() == [True, False]
+    *_, turn = opt.steer(region, poses, greedy=True)  # the trial's second step: no turn
+    assert turn.tolist() == [False, False]
+    opt.begin_trial(torch.tensor([0]))
+    *_, turn = opt.steer(region, poses, greedy=True)
+    assert turn.tolist() == [True, False]
+    *_, turn = _options(epsilon=0.0).steer(torch.tensor([0]), poses[:1], greedy=True)
+    assert turn.tolist() == [False]  # start_turn_deg unset: never
 
 
 def test_untried_options_first_then_greedy_on_the_mean():
@@ -59,10 +81,10 @@ def test_untried_options_first_then_greedy_on_the_mean():
     chosen = [_trial(opt, {0: -10.0, 1: -5.0, 2: -7.0}) for _ in range(5)]
     assert chosen[:3] == [0, 1, 2]  # each untried option once, in table order
     assert chosen[3:] == [1, 1]
-    assert float(opt.q[0, 0, 1]) == pytest.approx(-5.0) and int(opt.n[0, 0, 1]) == 3
-    assert float(opt.q[0, 1, 0]) == pytest.approx(-1.0) and int(opt.n[0, 1, 0]) == 5
+    assert float(opt.critic.q[0, 0, 1]) == pytest.approx(-5.0) and int(opt.critic.n[0, 0, 1]) == 3
+    assert float(opt.critic.q[0, 1, 0]) == pytest.approx(-1.0) and int(opt.critic.n[0, 1, 0]) == 5
     assert opt.greedy(0) == [1, 0]
-    assert int(opt.trials[0]) == 5
+    assert int(opt.critic.trials[0]) == 5
 
 
 @pytest.mark.parametrize("critic, winner", [("mean", 2), ("best", 1)])
@@ -73,21 +95,21 @@ def test_mean_critic_is_robust_to_a_lucky_trial_best_critic_is_not(critic, winne
     for _ in range(6):
         rows = torch.tensor([0])
         opt.begin_trial(rows)
-        _, option, _, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=False)
+        _, option, _, _, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=False)
         ret = -5.0 if int(option[0]) == 2 else next(outcomes)
-        opt.learn(rows, torch.tensor([[ret, 0.0]], dtype=torch.float64))
+        _learn(opt, rows, torch.tensor([[ret, 0.0]], dtype=torch.float64))
     assert opt.greedy(0)[0] == winner
     if critic == "best":
-        assert float(opt.q[0, 0, 1]) == pytest.approx(-2.0)
+        assert float(opt.critic.q[0, 0, 1]) == pytest.approx(-2.0)
 
 
 def test_option_is_kept_for_the_trial_and_reaching_it_aims_at_the_goal():
     opt = _options(epsilon=0.0, reach=0.25)
-    opt.n[0, 0] = 1  # everything tried: s1 best
-    opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+    opt.critic.n[0, 0] = 1  # everything tried: s1 best
+    opt.critic.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
 
     def aim(region: int, x: float, y: float) -> float:
-        angle, option, _, _ = opt.steer(torch.tensor([region]), _odometry((x, y, 0.0)), False)
+        angle, option, _, _, _ = opt.steer(torch.tensor([region]), _odometry((x, y, 0.0)), False)
         assert int(option[0]) == (1 if region == 0 else 0)
         return float(angle[0])
 
@@ -102,11 +124,11 @@ def test_option_is_kept_for_the_trial_and_reaching_it_aims_at_the_goal():
 def test_goal_lead_steers_at_the_goal_while_the_subgoal_is_in_line_then_commits():
     # from (0, 0) the goal (4, -2) bears -26.6 degrees and s1 (3.5, -0.5) -8.1: 18.4 apart
     opt = _options(epsilon=0.0, goal_lead_deg=20.0)
-    opt.n[0, 0] = 1  # everything tried: s1 best
-    opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+    opt.critic.n[0, 0] = 1  # everything tried: s1 best
+    opt.critic.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
 
     def aim(region: int, x: float, y: float) -> tuple[float, ...]:
-        _, _, _, point = opt.steer(torch.tensor([region]), _odometry((x, y, 0.0)), False)
+        _, _, _, point, _ = opt.steer(torch.tensor([region]), _odometry((x, y, 0.0)), False)
         return tuple(point[0].tolist())
 
     assert aim(0, 0.0, 0.0) == GOAL  # s1 within 20 degrees of the goal's bearing: the goal
@@ -121,11 +143,11 @@ def test_goal_lead_steers_at_the_goal_while_the_subgoal_is_in_line_then_commits(
 
 def test_goal_lead_a_subgoal_reached_while_leading_aims_at_the_goal_for_the_visit():
     opt = _options(epsilon=0.0, goal_lead_deg=20.0)
-    opt.n[0, 0] = 1
-    opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
-    _, _, _, point = opt.steer(torch.tensor([0]), _odometry((3.4, -0.5, 0.0)), False)
+    opt.critic.n[0, 0] = 1
+    opt.critic.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+    _, _, _, point, _ = opt.steer(torch.tensor([0]), _odometry((3.4, -0.5, 0.0)), False)
     assert tuple(point[0].tolist()) == GOAL and int(opt.stage[0]) == 2  # within reach
-    _, _, _, point = opt.steer(torch.tensor([0]), _odometry((2.0, -1.5, 0.0)), False)
+    _, _, _, point, _ = opt.steer(torch.tensor([0]), _odometry((2.0, -1.5, 0.0)), False)
     assert tuple(point[0].tolist()) == GOAL  # whatever the angle now
 
 
@@ -139,8 +161,8 @@ def test_goal_lead_is_mirror_symmetric():
     stages = []
     for name, tab, sign in (("hailu2001", table, 1.0), ("hailu2001_mirror", mirrored, -1.0)):
         opt = SubgoalOptions(load_map(name), 1, config, [0], table=tab)
-        opt.n[0, 0] = 1
-        opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+        opt.critic.n[0, 0] = 1
+        opt.critic.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
         row = []
         for x, y in ((0.0, 0.0), (3.0, 0.5), (2.0, -1.5)):
             opt.steer(torch.tensor([0]), _odometry((x, sign * y, 0.0)), False)
@@ -153,28 +175,28 @@ def test_goal_lead_is_mirror_symmetric():
                                             (20.0, GOAL)])  # fmt: skip
 def test_goal_lead_angle_decides_the_first_step(lead, expected):
     opt = _options(epsilon=0.0, goal_lead_deg=lead)
-    opt.n[0, 0] = 1
-    opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
-    _, _, _, point = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
+    opt.critic.n[0, 0] = 1
+    opt.critic.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+    _, _, _, point, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
     assert tuple(point[0].tolist()) == expected
 
 
 def test_angle_is_relative_to_the_heading_and_wrapped():
     opt = _options(epsilon=0.0)
-    angle, _, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, math.pi / 2)), False)
+    angle, _, _, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, math.pi / 2)), False)
     assert abs(float(angle[0])) == pytest.approx(math.pi)  # the goal straight behind
-    angle, _, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, -3.0)), False)
+    angle, _, _, _, _ = opt.steer(torch.tensor([1]), _odometry((4.0, 0.0, -3.0)), False)
     assert -math.pi <= float(angle[0]) <= math.pi
     assert float(angle[0]) == pytest.approx(-math.pi / 2 + 3.0)
 
 
 def test_epsilon_decays_and_greedy_after_stops_exploring():
     opt = _options(epsilon=1.0, epsilon_decay=0.5, greedy_after=3, try_untried=False)
-    opt.n[0, 0] = 1
-    opt.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
+    opt.critic.n[0, 0] = 1
+    opt.critic.q[0, 0] = torch.tensor([-9.0, -1.0, -3.0], dtype=torch.float64)
     for _ in range(3):
         _trial(opt, {0: -9.0, 1: -1.0, 2: -3.0})
-    assert float(opt.epsilon[0]) == pytest.approx(0.125)
+    assert float(opt.critic.epsilon[0]) == pytest.approx(0.125)
     late = [_trial(opt, {0: -9.0, 1: -1.0, 2: -3.0}) for _ in range(10)]
     assert set(late) == {1}
 
@@ -189,7 +211,7 @@ def test_epsilon_explores_and_follows_the_robots_seed():
         for _ in range(30):
             rows = torch.arange(len(seeds))
             opt.begin_trial(rows)
-            _, option, _, _ = opt.steer(torch.zeros(len(seeds), dtype=torch.long),
+            _, option, _, _, _ = opt.steer(torch.zeros(len(seeds), dtype=torch.long),
                                      _odometry(*[(0.0, 0.0, 0.0)] * len(seeds)), False)  # fmt: skip
             out.append(int(option[row]))
         return out
@@ -201,25 +223,25 @@ def test_epsilon_explores_and_follows_the_robots_seed():
 
 def test_greedy_choice_draws_nothing_and_is_the_best_tried():
     opt = _options(epsilon=1.0, try_untried=True)
-    opt.n[0, 0] = torch.tensor([1, 1, 0])
-    opt.q[0, 0] = torch.tensor([-9.0, -3.0, 0.0], dtype=torch.float64)
+    opt.critic.n[0, 0] = torch.tensor([1, 1, 0])
+    opt.critic.q[0, 0] = torch.tensor([-9.0, -3.0, 0.0], dtype=torch.float64)
     state = opt.generators[0].get_state()
-    _, option, _, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
+    _, option, _, _, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
     assert int(option[0]) == 1  # the untried option 2 is not taken greedily
     assert torch.equal(opt.generators[0].get_state(), state)
     opt.begin_trial(torch.tensor([0]))
     fresh = _options(epsilon=0.0)
-    _, option, _, _ = fresh.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
+    _, option, _, _, _ = fresh.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), greedy=True)
     assert int(option[0]) == 0  # nothing tried: the first option
 
 
 def test_learn_only_touches_the_rows_and_regions_chosen():
     opt = _options(batch=2, epsilon=0.0)
     opt.steer(torch.tensor([0, 1]), _odometry((0.0, 0.0, 0.0), (3.8, -0.5, 0.0)), False)
-    opt.learn(torch.tensor([1]), torch.tensor([[-7.0, -2.0]], dtype=torch.float64))
-    assert int(opt.n[0].sum()) == 0 and float(opt.epsilon[0]) == 0.0
-    assert opt.n[1].tolist() == [[0, 0, 0], [1, 0, 0]]
-    assert float(opt.q[1, 1, 0]) == -2.0 and opt.trials.tolist() == [0, 1]
+    _learn(opt, torch.tensor([1]), torch.tensor([[-7.0, -2.0]], dtype=torch.float64))
+    assert int(opt.critic.n[0].sum()) == 0 and float(opt.critic.epsilon[0]) == 0.0
+    assert opt.critic.n[1].tolist() == [[0, 0, 0], [1, 0, 0]]
+    assert float(opt.critic.q[1, 1, 0]) == -2.0 and opt.critic.trials.tolist() == [0, 1]
 
 
 def test_paper_table_shapes_follow_the_switches():
@@ -516,15 +538,15 @@ def test_a_side_on_door_gets_one_approach_option_that_then_steers_through_it():
     # steering: at the approach point, then (reached) at the point past the door, not the goal
     opt.choice[0, hall] = k
     region = torch.tensor([hall])
-    *_, aim = opt.steer(region, _odometry((3.0, 2.0, 0.0)), greedy=True)
+    *_, aim, _ = opt.steer(region, _odometry((3.0, 2.0, 0.0)), greedy=True)
     assert aim[0].tolist() == pytest.approx([6.2, 2.3], abs=1e-6)
-    *_, aim = opt.steer(region, _odometry((6.1, 2.2, 1.5)), greedy=True)  # within reach
+    *_, aim, _ = opt.steer(region, _odometry((6.1, 2.2, 1.5)), greedy=True)  # within reach
     assert aim[0].tolist() == pytest.approx([6.2, 3.4], abs=1e-6)
     # any other option goes on to the goal once reached, as without approaches
     other = opt.labels[hall].index("inner@+0.0/0.4")
     opt.choice[0, hall] = other
     opt.stage[0], opt.visit[0] = 0, -1
-    *_, aim = opt.steer(region, _odometry((6.2, 3.6, 1.5)), greedy=True)
+    *_, aim, _ = opt.steer(region, _odometry((6.2, 3.6, 1.5)), greedy=True)
     assert aim[0].tolist() == pytest.approx([6.0, 5.2], abs=1e-6)
 
 
@@ -590,7 +612,7 @@ def test_a_region_whose_path_rounds_two_corners_steers_at_the_first_then_the_las
     for pose, aim_at in (((2.0, 1.5, 0.0), both.table.point(0, k)), ((6.2, 2.6, 0.8), (x, y)),
                          ((8.0, 5.0, 0.8), (x, y)), ((x, y - 0.1, 1.5), (9.4, 7.4)),
                          ((9.3, 6.8, 1.5), (9.4, 7.4))):  # fmt: skip
-        *_, aim = both.steer(region, _odometry(pose), greedy=True)
+        *_, aim, _ = both.steer(region, _odometry(pose), greedy=True)
         assert aim[0].tolist() == pytest.approx(list(aim_at), abs=1e-5), pose
 
 
@@ -606,23 +628,24 @@ def test_a_region_past_its_limit_goes_on_by_the_planner_option_and_stalls_the_ch
     opt.choice[0, south] = goal
     region, pose = torch.tensor([south]), _odometry((5.5, 0.8, math.pi / 2))
     for _ in range(limit):
-        _, option, _, aim = opt.steer(region, pose, greedy=True)
+        _, option, _, aim, _ = opt.steer(region, pose, greedy=True)
         assert int(option[0]) == goal and aim[0].tolist() == pytest.approx([5.0, 3.9])
-    _, option, _, aim = opt.steer(region, pose, greedy=True)  # one action past the limit
+    _, option, _, aim, _ = opt.steer(region, pose, greedy=True)  # one action past the limit
     assert int(option[0]) == path
     assert aim[0].tolist() == pytest.approx(list(opt.table.point(south, path)), abs=1e-6)
     # the trial's credit goes to the choice, which is then not chosen again
-    opt.learn(torch.tensor([0]), torch.full((1, len(opt.region_names)), -50.0, dtype=torch.float64))
-    assert int(opt.n[0, south, goal]) == 1 and bool(opt.stalled[0, south, goal])
+    returns = torch.full((1, len(opt.region_names)), -50.0, dtype=torch.float64)
+    _learn(opt, torch.tensor([0]), returns)
+    assert int(opt.critic.n[0, south, goal]) == 1 and bool(opt.critic.stalled[0, south, goal])
     opt.begin_trial(torch.tensor([0]))
     assert not opt._fallen_back.any() and not opt._region_steps.any()
-    opt.q[0, south, goal] = 100.0  # even as the best value
+    opt.critic.q[0, south, goal] = 100.0  # even as the best value
     for _ in range(40):  # untried first, then epsilon-greedy: never the stalled option
         assert opt._choose(0, south, greedy=False) != goal
-        opt.n[0, south] += 1
+        opt.critic.n[0, south] += 1
     # without a limit nothing stalls and the state dict is that of the paper's options
     plain = SubgoalOptions(world, 1, paper_map("options.region_limit=null").options, [0])
-    assert "stalled" not in plain.state_dict()
+    assert "critic.stalled" not in plain.state_dict() and not plain.critic.stalls
 
 
 def test_a_regions_limit_is_its_length_of_the_planners_path_not_a_count_of_its_points():
@@ -651,16 +674,16 @@ def test_a_region_without_a_planner_option_goes_on_by_the_planner_from_where_the
     opt.choice[0, west] = opt.labels[west].index("goal")
     region, pose = torch.tensor([west]), _odometry((1.2, 2.2, 0.0))
     for _ in range(2):
-        *_, aim = opt.steer(region, pose, greedy=True)
+        *_, aim, _ = opt.steer(region, pose, greedy=True)
         assert aim[0].tolist() == pytest.approx([5.0, 3.9])  # the goal: under the long wall
-    *_, aim = opt.steer(region, pose, greedy=True)
+    *_, aim, _ = opt.steer(region, pose, greedy=True)
     # past the limit: the planner's first turn from here, round the wall's west end (2, 2.5),
     # pushed 0.45 m out
     x, y = aim[0].tolist()
     assert math.dist((x, y), (2.0, 2.5)) == pytest.approx(0.45, abs=1e-6)
     assert _clearance(world, (x, y)) == pytest.approx(0.45, abs=1e-6)
-    opt.learn(torch.tensor([0]), torch.zeros((1, len(opt.region_names)), dtype=torch.float64))
-    assert bool(opt.stalled[0, west, opt.labels[west].index("goal")])
+    _learn(opt, torch.tensor([0]), torch.zeros((1, len(opt.region_names)), dtype=torch.float64))
+    assert bool(opt.critic.stalled[0, west, opt.labels[west].index("goal")])
 
 
 def test_a_region_past_its_limit_on_its_planner_option_goes_on_by_the_planner_from_where_it_is():
@@ -675,13 +698,13 @@ def test_a_region_past_its_limit_on_its_planner_option_goes_on_by_the_planner_fr
     region, pose = torch.tensor([south]), _odometry((3.0, 1.0, 0.0))  # west of the path's turn
     point = list(opt.table.point(south, path))
     for _ in range(limit):
-        _, option, _, aim = opt.steer(region, pose, greedy=True)
+        _, option, _, aim, _ = opt.steer(region, pose, greedy=True)
         assert int(option[0]) == path and aim[0].tolist() == pytest.approx(point, abs=1e-6)
-    _, option, _, aim = opt.steer(region, pose, greedy=True)  # one action past the limit
+    _, option, _, aim, _ = opt.steer(region, pose, greedy=True)  # one action past the limit
     again = opt._replan(np.array([3.0, 1.0]))  # round the wall's west end from here
     assert math.dist(again, point) > 1.0
     assert int(option[0]) == path and aim[0].tolist() == pytest.approx(again.tolist(), abs=1e-9)
-    assert not bool(opt.stalled[0, south, path])  # the planner's option is never stalled
+    assert not bool(opt.critic.stalled[0, south, path])  # the planner's option is never stalled
 
 
 def test_a_region_fallen_back_to_its_planner_option_and_still_in_it_the_slack_later_replans():
@@ -700,9 +723,9 @@ def test_a_region_fallen_back_to_its_planner_option_and_still_in_it_the_slack_la
     for _ in range(limit):
         opt.steer(region, pose, greedy=True)
     for _ in range(3):  # fallen back: the planner option, its point reached, then the goal
-        _, option, _, aim = opt.steer(region, pose, greedy=True)
+        _, option, _, aim, _ = opt.steer(region, pose, greedy=True)
         assert int(option[0]) == path and aim[0].tolist() == pytest.approx([5.0, 3.9])
-    _, option, _, aim = opt.steer(region, pose, greedy=True)  # the slack (3) after the limit
+    _, option, _, aim, _ = opt.steer(region, pose, greedy=True)  # the slack (3) after the limit
     again = opt._replan(np.array([x, y]))
     assert int(option[0]) == path and aim[0].tolist() == pytest.approx(again.tolist(), abs=1e-9)
     assert math.dist(again, (5.0, 3.9)) > 1.0  # the wall's east end, not the goal

@@ -124,7 +124,7 @@ def test_known_state_acts_with_its_neuron():
 def test_sigma_follows_the_temperature():
     p = policy()
     obs = observation(state_reward=-0.5)
-    p.temperature.fill_(0.0)
+    p.progress.temperature.fill_(0.0)
     td = p(obs.clone())
     assert float(td["sigma"][0]) == 0.0 and float(td["xi"][0]) == 0.0
 
@@ -234,9 +234,9 @@ def test_options_steer_the_reflex_at_the_chosen_subgoal():
     r = p.region_names.index("room")
     labels = p.options.labels[r]
     k = next(i for i, name in enumerate(labels) if name != "goal")
-    p.options.n[0, r] = 1  # everything tried: greedy on q
-    p.options.q[0, r] = -5.0
-    p.options.q[0, r, k] = -1.0
+    p.options.critic.n[0, r] = 1  # everything tried: greedy on q
+    p.options.critic.q[0, r] = -5.0
+    p.options.critic.q[0, r, k] = -1.0
     obs = observation(goal=(4.5, -0.46))
     with set_exploration_type(GREEDY):
         td = p(obs.clone())
@@ -251,14 +251,15 @@ def test_robot_states_round_trip():
     for b, (sonar, n) in enumerate(((0.2, 3), (0.7, 70))):  # robot 1 outgrows the capacity
         for k in range(n):
             place(p, observation(sonar=sonar + 0.003 * k), action=0.01 * k, utility=-k, row=b)
-    p.temperature[1] = 0.05
-    p.best_total[0] = -9.0
-    p.options.q[1, 0, 1] = -4.5
-    p.options.n[1, 0, 1] = 3
+    p.progress.temperature[1] = 0.05
+    p.progress.best_total[0] = -9.0
+    p.options.critic.q[1, 0, 1] = -4.5
+    p.options.critic.n[1, 0, 1] = 3
     single = MixtureOfExpertsPolicy(p.config, p.knowledge, [5])
     single.load_state_dict(p.robot_state(1))
     assert single.neurons().tolist() == [p.neurons()[1].tolist()]
-    assert float(single.temperature[0]) == 0.05 and float(single.options.q[0, 0, 1]) == -4.5
+    assert float(single.progress.temperature[0]) == 0.05
+    assert float(single.options.critic.q[0, 0, 1]) == -4.5
     n = int(p.experts.count[1, 0])
     assert torch.equal(single.experts.centres[0, 0, :n], p.experts.centres[1, 0, :n])
     # several controllers side by side, in any order, with different capacities
@@ -273,7 +274,7 @@ def test_robot_states_round_trip():
         p.config, p.knowledge, [p.robot_state(1), p.robot_state(0)]
     )
     assert swapped.neurons().tolist() == p.neurons().flip(0).tolist()
-    assert swapped.best_total.tolist() == [-math.inf, -9.0]
+    assert swapped.progress.best_total.tolist() == [-math.inf, -9.0]
     # each robot acts as its controller alone
     obs = stack(observation(sonar=0.7), observation(sonar=0.2))
     with set_exploration_type(GREEDY):

@@ -78,8 +78,8 @@ def test_trial_records(alone):
         assert isinstance(t["reached_goal"], bool) and t["collisions"] >= 0
         assert any(key.startswith("option_") for key in t)
     assert result.trials[-1]["neurons"] == int(policy.neurons().sum()) > 0
-    assert policy.batch == 1 and int(policy.trials_done[0]) == 2
-    assert float(policy.temperature[0]) == pytest.approx(0.1 * 0.85**2)
+    assert policy.batch == 1 and int(policy.progress.trials_done[0]) == 2
+    assert float(policy.progress.temperature[0]) == pytest.approx(0.1 * 0.85**2)
 
 
 def test_trial_record_shows_the_temperature_the_trial_explored_with(alone):
@@ -201,7 +201,7 @@ def test_checkpoint_whose_weights_do_not_fit_its_config(checkpoint, tmp_path):
         data["config"]["gate"]["partition"] = False
 
     def missing(data):
-        del data["policy"]["temperature"]
+        del data["policy"]["progress.temperature"]
 
     for change in (codes, partition, missing):
         path = _rewritten(checkpoint, tmp_path, f"{change.__name__}.pt", change)
@@ -216,7 +216,7 @@ def test_checkpoint_with_non_finite_weights(checkpoint, tmp_path):
         data["policy"]["experts.centres"][0, 0, 0, 0] = math.inf
 
     def nan_best(data):
-        data["policy"]["best_total"][0] = math.nan
+        data["policy"]["progress.best_total"][0] = math.nan
 
     for change, key in ((nan, "experts.utilities"), (inf, "experts.centres"),
                         (nan_best, "best_total")):  # fmt: skip
@@ -229,11 +229,11 @@ def test_checkpoint_with_a_bad_config_or_format(checkpoint, tmp_path):
         data["config"]["update"]["gama"] = 0.9
 
     def old_format(data):
-        data["format"] = 1
+        data["format"] = 2
 
     path = _rewritten(checkpoint, tmp_path, "key.pt", unknown_key)
     _assert_one_line_error(path, "update.gama")
-    _assert_one_line_error(_rewritten(checkpoint, tmp_path, "old.pt", old_format), "format 1")
+    _assert_one_line_error(_rewritten(checkpoint, tmp_path, "old.pt", old_format), "format 2")
 
 
 def test_checkpoint_with_malformed_entries(checkpoint, tmp_path):

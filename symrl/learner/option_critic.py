@@ -1,0 +1,83 @@
+"""The critic of the sub-goal options of B controllers: what they learn across trials.
+
+The options (:class:`symrl.learner.options.SubgoalOptions`, part of the policy) read it to choose
+a region's option; the update (:class:`symrl.learner.loss.TeseoLoss`) steps it at the end of a
+trial. It is one module handed to both, and only its own methods write its buffers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from symrl.buffers import BufferViews
+
+__all__ = ["OptionCritic"]
+
+
+class OptionCritic(BufferViews):
+    """Buffers: ``q`` (B, R, K) mean (or best) return-to-go of each region's options, ``n``
+    (B, R, K) trials that chose each, ``epsilon`` (B,) the actor's exploration rate, ``trials``
+    (B,) trials learned from, and with ``stalls`` ``stalled`` (B, R, K): the options that needed
+    another to finish their region (they are not chosen again)."""
+
+    q: torch.Tensor
+    n: torch.Tensor
+    epsilon: torch.Tensor
+    trials: torch.Tensor
+
+    def __init__(
+        self,
+        batch: int,
+        regions: int,
+        options: int,
+        epsilon: float,
+        epsilon_decay: float,
+        critic: str = "mean",
+        stalls: bool = False,
+    ) -> None:
+        super().__init__()
+        self.epsilon_decay = float(epsilon_decay)
+        self.critic = critic
+        self.register_buffer("q", torch.zeros(batch, regions, options, dtype=torch.float64))
+        self.register_buffer("n", torch.zeros(batch, regions, options, dtype=torch.long))
+        self.register_buffer("epsilon", torch.full((batch,), float(epsilon), dtype=torch.float64))
+        self.register_buffer("trials", torch.zeros(batch, dtype=torch.long))
+        if stalls:
+            self.register_buffer("stalled", torch.zeros(batch, regions, options, dtype=torch.bool))
+
+    @property
+    def stalls(self) -> bool:
+        """Whether the critic remembers stalled options."""
+        return "stalled" in self._buffers
+
+    def stall(self, b: int, region: int, option: int) -> None:
+        """Controller ``b``'s ``option`` needed another to finish ``region``."""
+        self.arrays["stalled"][b, region, option] = True
+
+    def learn(
+        self, rows: np.ndarray, choice: np.ndarray, returns: np.ndarray,
+        fallen: np.ndarray | None = None,
+    ) -> None:  # fmt: skip
+        """Critic step at the end of the trials of controllers ``rows``: ``choice`` (k, R) the
+        option each region was visited with (-1: not entered), ``returns`` (k, R) the
+        return-to-go from each region's first entry, ``fallen`` (k, R) the regions whose option
+        gave way to the planner's (those options stall); then epsilon decays."""
+        # numpy on the buffers' memory: a few advanced indexes of a handful of rows
+        a = self.arrays
+        entered = choice >= 0
+        i, r = np.nonzero(entered)  # row-major, as a mask of the broadcast indices
+        b = rows[i]
+        k, ret = choice[entered], returns[entered]
+        n, q = a["n"], a["q"]
+        n[b, r, k] += 1  # (b, r) pairs are distinct: one option per region and trial
+        if self.critic == "best":
+            first = n[b, r, k] == 1
+            q[b, r, k] = np.where(first, ret, np.maximum(q[b, r, k], ret))
+        else:
+            q[b, r, k] += (ret - q[b, r, k]) / n[b, r, k]
+        if fallen is not None:
+            down = fallen[i, r]
+            a["stalled"][b[down], r[down], k[down]] = True
+        a["epsilon"][rows] *= self.epsilon_decay
+        a["trials"][rows] += 1
