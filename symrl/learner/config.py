@@ -26,7 +26,11 @@ from typing import Any, Literal, cast
 
 import yaml
 from omegaconf import DictConfig, ListConfig, OmegaConf
-from omegaconf.errors import OmegaConfBaseException
+from omegaconf.errors import (
+    InterpolationKeyError,
+    InterpolationResolutionError,
+    OmegaConfBaseException,
+)
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -368,8 +372,8 @@ class RunConfig(_Section):
 
 
 # ---------------------------------------------------------------------------------------------
-# Loading: OmegaConf reads the recipe file and the ``key=value`` overrides and merges them over the
-# defaults; pydantic validates the result. What is left here is the one-line error messages.
+# Loading: OmegaConf reads the recipe file and the ``key=value`` overrides and merges them;
+# pydantic fills in the defaults and validates. What is left here is the one-line error messages.
 
 
 def builtin_recipes() -> list[str]:
@@ -410,9 +414,12 @@ def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictCon
         where = f"line {err.problem_mark.line + 1}: " if err.problem_mark else ""
         problem = " ".join(str(err.problem or err).split())
         raise ConfigError(f"recipe {text!r}: not valid YAML ({where}{problem})") from None
-    except (yaml.YAMLError, UnicodeDecodeError, OmegaConfBaseException) as err:
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
         problem = " ".join(str(err).split())
         raise ConfigError(f"recipe {text!r}: not valid YAML ({problem})") from None
+    except OmegaConfBaseException as err:  # e.g. a malformed ${...}
+        key = getattr(err, "full_key", None) or "config"
+        raise ConfigError(f"recipe {text!r}: {key}: {_first_line(err)}") from None
     if not isinstance(data, DictConfig) or not data:
         shown = OmegaConf.to_container(data) if isinstance(data, ListConfig) else data
         raise ConfigError(f"recipe {text!r}: expected a non-empty mapping, got {shown!r}")
@@ -439,9 +446,11 @@ def _overrides(overrides: list[str] | tuple[str, ...]) -> list[tuple[str, str, D
                 raise ConfigError(f"{text}: {key} is already set by {other}; give each key once")
         try:
             out.append((text, key, OmegaConf.from_dotlist([f"{key}={value}"])))
-        except (yaml.YAMLError, OmegaConfBaseException) as err:
+        except yaml.YAMLError as err:
             problem = " ".join((getattr(err, "problem", None) or str(err)).split())
             raise ConfigError(f"{text}: not a valid YAML value ({problem})") from None
+        except OmegaConfBaseException as err:  # e.g. a malformed ${...}
+            raise ConfigError(f"{text}: {_first_line(err)}") from None
     return out
 
 
@@ -477,8 +486,19 @@ def _merge(layers: list[tuple[str, Any]]) -> dict[str, Any]:
     """``layers`` (source, data) merged in order: mappings merge entry by entry, anything else
     replaces (``reflex.near.FL=[0.1, 0.3]`` keeps the other sectors); ``${key}`` interpolations
     are resolved. Keys no layer names take their defaults when pydantic validates."""
+    datas = [data for _, data in layers]
     try:
-        merged = OmegaConf.merge(_mapping_defaults(), *(data for _, data in layers))
+        merged = OmegaConf.merge(_mapping_defaults(), *datas)
+        try:
+            out = OmegaConf.to_container(merged, resolve=True)
+        except InterpolationKeyError:  # it may name a key no layer sets: over every default
+            every = OmegaConf.create(config_to_dict(RunConfig()))
+            merged = OmegaConf.merge(_mapping_defaults(), every, *datas)
+            out = OmegaConf.to_container(merged, resolve=True)
+    except InterpolationResolutionError as err:
+        key = str(getattr(err, "full_key", "") or "")
+        value = _at(OmegaConf.to_container(merged), key)
+        raise ConfigError(f"{key or 'config'}={value!r}: {_first_line(err)}") from None
     except (OmegaConfBaseException, TypeError, ValueError):
         below: Any = OmegaConf.to_container(_mapping_defaults())
         for source, data in layers:  # which layer puts a list over a mapping or the reverse
@@ -491,14 +511,12 @@ def _merge(layers: list[tuple[str, Any]]) -> dict[str, Any]:
                 ) from None
             below = OmegaConf.to_container(OmegaConf.merge(below, data))
         raise
-    try:
-        out = OmegaConf.to_container(merged, resolve=True)
-    except OmegaConfBaseException as err:
-        key = str(getattr(err, "full_key", "") or "")
-        value = _at(OmegaConf.to_container(merged), key)
-        reason = str(err).splitlines()[0] if str(err) else type(err).__name__
-        raise ConfigError(f"{key or 'config'}={value!r}: {reason}") from None
     return cast("dict[str, Any]", out)
+
+
+def _first_line(err: Exception) -> str:
+    """OmegaConf's message without the lines of context it adds (``full_key: ...``)."""
+    return " ".join(str(err).splitlines()[0].split()) if str(err) else type(err).__name__
 
 
 def _container(data: Any) -> Any:

@@ -323,6 +323,13 @@ def test_apply_overrides_equals_loading_with_them():
 def test_overrides_may_refer_to_other_keys():
     c = load_config("paper", ["options.reach=${shield.margin}"])
     assert c.options.reach == c.shield.margin == 0.06
+    # a key the recipe does not set: its default
+    c = load_config(
+        "paper_literal", ["options.reach=${shield.margin}", "update.eta=${update.beta}"]
+    )
+    assert (c.options.reach, c.update.eta) == (0.06, 0.2)
+    assert "options.reach=${nope: " in _error(["options.reach=${nope"])
+    assert "Recursive" in _error(["options.reach=${options.reach}"])
 
 
 def test_help_keys_show_the_recipes_values_and_every_keys_meaning():
@@ -350,7 +357,7 @@ def test_train_help_keys_with_a_recipe(capsys):
 
     assert main(["train", "paper", "--help-keys"]) == 0
     out = capsys.readouterr().out
-    assert "localize.enabled = True  (default False)" in out
-    assert "Discount of the TD error" in out
+    assert out == describe_keys(load_config("paper")) + "\n"
+    assert "update.temperature0 = 0.1  (default 0.3)" in out
     assert main(["train", "paper", "update.gama=1", "--help-keys"]) == 2
     assert "update.gama=1: unknown key" in capsys.readouterr().err
