@@ -22,15 +22,9 @@ import difflib
 import functools
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal, cast
+from typing import TYPE_CHECKING, Any, Literal, cast
 
 import yaml
-from omegaconf import DictConfig, ListConfig, OmegaConf
-from omegaconf.errors import (
-    InterpolationKeyError,
-    InterpolationResolutionError,
-    OmegaConfBaseException,
-)
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -44,6 +38,9 @@ from pydantic import (
 from symrl.knowledge.reflex import ReflexConfig
 from symrl.knowledge.rungs import Rung, rung_at_least
 from symrl.world.robot import RobotConfig
+
+if TYPE_CHECKING:  # OmegaConf is imported where a recipe or an override is read (~40 ms)
+    from omegaconf import DictConfig
 
 __all__ = [
     "ConfigError",
@@ -408,6 +405,9 @@ def _read_recipe(text: str, path: Path) -> DictConfig:
 def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictConfig:
     """Kept while the file is unchanged: studies and tests load the same recipes many times,
     and merging never changes its inputs."""
+    from omegaconf import DictConfig, ListConfig, OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
+
     try:
         data = OmegaConf.load(path)
     except yaml.MarkedYAMLError as err:
@@ -429,6 +429,9 @@ def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictCon
 def _overrides(overrides: list[str] | tuple[str, ...]) -> list[tuple[str, str, DictConfig]]:
     """Each ``key=value`` as (text, dotted key, nested config); the value is read as YAML. A key
     given twice (or inside another given key) and the recipe's name are refused."""
+    from omegaconf import OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
+
     out: list[tuple[str, str, DictConfig]] = []
     for text in overrides:
         if "=" not in text:
@@ -458,34 +461,64 @@ _ABSENT = object()
 
 
 @functools.cache
-def _mapping_defaults() -> DictConfig:
-    """The default entries of every mapping field (``reflex.near``, ``reflex.sectors``): pydantic
-    fills in a missing field but not a mapping's missing entries, so the layers are merged over
-    these (the rest of the defaults would only cost OmegaConf's time)."""
+def _mapping_fields() -> dict[str, dict[str, Any]]:
+    """Every mapping field (``reflex.near``, ``reflex.sectors``) by dotted key, with its default
+    entries: pydantic fills in a missing field but not a mapping's missing entries."""
 
-    def walk(section: Any) -> dict[str, Any]:
+    def walk(prefix: str, section: Any) -> dict[str, dict[str, Any]]:
         names = (
             [f.name for f in dataclasses.fields(section)]
             if dataclasses.is_dataclass(section)
             else list(type(section).model_fields)
         )
-        out: dict[str, Any] = {}
+        out: dict[str, dict[str, Any]] = {}
         for name in names:
             value = getattr(section, name)
             if isinstance(value, BaseModel) or dataclasses.is_dataclass(value):
-                if inner := walk(value):
-                    out[name] = inner
+                out |= walk(f"{prefix}{name}.", value)
             elif isinstance(value, dict):
-                out[name] = _plain(value)
+                out[f"{prefix}{name}"] = _plain(value)
         return out
 
-    return OmegaConf.create(walk(RunConfig()))
+    return walk("", RunConfig())
+
+
+@functools.cache
+def _mapping_defaults() -> DictConfig:
+    """What the layers are merged over: the mapping fields' default entries (the rest of the
+    defaults pydantic fills in; giving them to OmegaConf would only cost its time)."""
+    from omegaconf import OmegaConf
+
+    base = OmegaConf.create()
+    for key, entries in _mapping_fields().items():
+        OmegaConf.update(base, key, entries)
+    return base
+
+
+def _complete(data: dict[str, Any]) -> bool:
+    """Whether merging ``data`` over the defaults changes nothing pydantic would not fill in:
+    each mapping field it gives has every default entry (a checkpoint's config does), and no
+    string of it is an interpolation."""
+    for key, entries in _mapping_fields().items():
+        given = _at(data, key, _ABSENT)
+        if given is not _ABSENT and not (
+            isinstance(given, dict) and entries.keys() <= given.keys()
+        ):
+            return False
+    return "${" not in repr(data)
 
 
 def _merge(layers: list[tuple[str, Any]]) -> dict[str, Any]:
     """``layers`` (source, data) merged in order: mappings merge entry by entry, anything else
     replaces (``reflex.near.FL=[0.1, 0.3]`` keeps the other sectors); ``${key}`` interpolations
     are resolved. Keys no layer names take their defaults when pydantic validates."""
+    from omegaconf import OmegaConf
+    from omegaconf.errors import (
+        InterpolationKeyError,
+        InterpolationResolutionError,
+        OmegaConfBaseException,
+    )
+
     datas = [data for _, data in layers]
     try:
         merged = OmegaConf.merge(_mapping_defaults(), *datas)
@@ -520,6 +553,8 @@ def _first_line(err: Exception) -> str:
 
 
 def _container(data: Any) -> Any:
+    from omegaconf import DictConfig, ListConfig, OmegaConf
+
     return OmegaConf.to_container(data) if isinstance(data, (DictConfig, ListConfig)) else data
 
 
@@ -579,10 +614,13 @@ def _one_line(err: ValidationError) -> tuple[str, str]:
     return key, f"{key}={value!r}: {reason}"
 
 
-def _validate(layers: list[tuple[str, Any]], recipe: str | None) -> RunConfig:
-    """Merge ``layers`` over the defaults and validate; an error names the layer that set the
-    bad key when it is a recipe file (an override's message already shows its key and value)."""
-    merged = _merge(layers)
+def _validate(
+    layers: list[tuple[str, Any]], recipe: str | None, merged: dict[str, Any] | None = None
+) -> RunConfig:
+    """Merge ``layers`` over the defaults (unless ``merged`` is given) and validate; an error
+    names the layer that set the bad key when it is a recipe file (an override's message
+    already shows its key and value)."""
+    merged = _merge(layers) if merged is None else merged
     if recipe is not None:
         merged["recipe"] = recipe
     try:
@@ -601,6 +639,8 @@ def config_from_dict(data: dict[str, Any], recipe: str | None = None) -> RunConf
     """Build a validated RunConfig from a nested dict merged over the defaults."""
     if not isinstance(data, dict):
         raise ConfigError(f"config: expected a mapping of sections, got {data!r}")
+    if _complete(data):  # nothing to merge: pydantic fills in any missing field
+        return _validate([("config", data)], recipe, merged=dict(data))
     return _validate([("config", data)], recipe)
 
 

@@ -220,6 +220,19 @@ def test_round_trip_through_yaml():
     assert config_from_dict(yaml.safe_load(text)) == c
 
 
+def test_config_from_dict_merges_a_partial_dict_over_the_defaults():
+    c = config_from_dict({"reflex": {"near": {"FL": [0.1, 0.3]}}, "run": {"seed": 4}})
+    assert c.reflex.near["FL"] == (0.1, 0.3) and c.reflex.near["F"] == ReflexConfig().near["F"]
+    assert c.run.seed == 4 and c.run.trials == RunConfig().run.trials
+    assert config_from_dict({"options": {"reach": "${shield.margin}"}}).options.reach == 0.06
+    # a checkpoint's config that lacks a later field: its default
+    old = config_to_dict(load_config("paper"))
+    del old["update"]["gamma"], old["trial_gradient"]
+    c = config_from_dict(old)
+    assert c.update.gamma == 0.95 and c.trial_gradient == RunConfig().trial_gradient
+    assert c.update.temperature0 == load_config("paper").update.temperature0
+
+
 def test_config_from_dict_rejects_a_non_mapping():
     with pytest.raises(ConfigError, match="mapping"):
         config_from_dict([1, 2])  # type: ignore[arg-type]
