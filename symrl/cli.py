@@ -256,7 +256,7 @@ def _ablate(args: argparse.Namespace) -> int:
 
 
 def _plan(args: argparse.Namespace) -> int:
-    from symrl.studies.planner import plan_command
+    from symrl.studies.plan import plan_command
 
     return plan_command(args)
 
@@ -370,6 +370,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="RECIPE, then RECIPE with each setting in which it differs from --base "
                         "put back in turn, and with experts.learning=false; writes changes.md "
                         "(paired differences over the sets)")
+    p.add_argument("--ladder", action="store_true",
+                   help="the knowledge ladder: the best recipe of each rung (reflex_only, "
+                   "paper_literal, paper, paper_map) on the same seeds; writes ladder.md")
     p.add_argument("--base", default="paper_literal",
                    help="the recipe --changes-of puts settings back to (default paper_literal)")
     p.add_argument("--map", default="hailu2001",

@@ -26,6 +26,7 @@ import torch
 
 from symrl.buffers import BufferViews
 from symrl.grad import no_grad
+from symrl.knowledge.planner import shortest_path
 from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
 from symrl.world.geometry import Walls
@@ -249,7 +250,6 @@ class SubgoalOptions(BufferViews):
     def _replan(self, xy: np.ndarray) -> np.ndarray:
         """The first turn of the planner's shortest path from ``xy`` more than ``reach`` away,
         pushed out to 0.45 m from its wall (the goal if the way is straight or unknown)."""
-        from symrl.studies.planner import shortest_path
 
         reach = float(self.config.reach)  # type: ignore[attr-defined]
         start = (float(xy[0]), float(xy[1]))
@@ -446,8 +446,6 @@ def with_planner_waypoints(
     drives into its back wall for the rest of the trial), gets the first turn of the planner's
     path from its centre (the centroid of its largest piece, or the piece's most open point
     if the centroid is too near a wall), labelled ``out``."""
-    from symrl.studies.planner import shortest_path  # the planner is a study tool: import late
-
     plan = shortest_path(world)
     walls = Walls(world.segments)
     inside: dict[str, tuple[float, float]] = {}
@@ -599,8 +597,6 @@ once each (6 ms a policy on the paper's map)."""
 
 def _route(world: WorldMap) -> _Route:
     """The start-to-goal route of ``world``, planned once and shared: callers only read it."""
-    from symrl.studies.planner import shortest_path
-
     known = _ROUTES.get(id(world))
     if known is not None and known[0]() is world:
         return known[1]
@@ -746,8 +742,6 @@ def without_detours(
     The goal (the paper's reflex) and the planner's own turns (``path``) are always kept, and
     so is every option of a region the path does not enter. ``lengths``: the planner's length
     from each point judged, kept between calls on the same map (a planner call each)."""
-    from symrl.studies.planner import shortest_path
-
     walls = Walls(world.segments)
 
     def straight(a: np.ndarray, b: np.ndarray) -> bool:  # crosses no wall (1 cm: not a graze)

@@ -20,10 +20,12 @@ COMMANDS = {
     "plan": "symrl plan --out results/plan",
     "study": "symrl ablate --recipes paper --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
-    "generalise": "symrl generalise --recipe {recipe} --sets 10 --trials 20 --seed 100 "
-    "--workers 2 --out results/generalise-{recipe}",
+    "generalise": "symrl generalise --recipe {recipe} --out results/generalise-{recipe}",
 }
 """The commands whose folders this report reads (the baselines': ``BASELINE_VARIANTS``)."""
+
+GENERALISE_RECIPES = ("paper", "reflex_only")
+"""The recipes of the generalisation section: the paper's learner and the reflex it starts from."""
 
 INTERPRETATION = Path(__file__).with_name("results_discussion.md")
 """Hand-written discussion appended to the generated report (what reproduces and what not)."""
@@ -316,7 +318,7 @@ def _section_baselines(results: Path, figures: Path) -> list[str]:
 
 def _section_generalise(results: Path, figures: Path) -> list[str]:
     out = ["## Generalisation (`symrl generalise`)", ""]
-    for recipe in ("paper_map", "paper_literal"):
+    for recipe in GENERALISE_RECIPES:
         folder = results / f"generalise-{recipe}"
         out += [f"### `{recipe}`", "", f"Command: `{COMMANDS['generalise'].format(recipe=recipe)}`",
                 ""]
