@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 from tensordict import TensorDict
 
-from symrl.learner.config import RunConfig, apply_overrides, load_config
+from symrl.learner.config import RunConfig, load_config
 from symrl.learner.policy import MixtureOfExpertsPolicy
 
 N_SENSORS = 24
@@ -22,7 +22,8 @@ POSES = {
 def config(recipe: str = "paper_literal", *overrides: str) -> RunConfig:
     """The recipe with map localisation off unless an override turns it on: the hand-made
     observations here are not scans of the map, so a localiser would move their poses."""
-    return apply_overrides(load_config(recipe, ["localize.enabled=false"]), overrides)
+    named = any(o.startswith("localize.enabled=") for o in overrides)
+    return load_config(recipe, [*([] if named else ["localize.enabled=false"]), *overrides])
 
 
 def policy(recipe: str = "paper_literal", *overrides: str, seeds=(0,)) -> MixtureOfExpertsPolicy:

@@ -368,9 +368,9 @@ def test_help_keys_show_the_recipes_values_and_every_keys_meaning():
 def test_train_help_keys_with_a_recipe(capsys):
     from symrl.cli import main
 
-    assert main(["train", "paper", "--help-keys"]) == 0
+    assert main(["train", "paper_map", "--help-keys"]) == 0
     out = capsys.readouterr().out
-    assert out == describe_keys(load_config("paper")) + "\n"
+    assert out == describe_keys(load_config("paper_map")) + "\n"
     assert "update.temperature0 = 0.1  (default 0.3)" in out
     assert main(["train", "paper", "update.gama=1", "--help-keys"]) == 2
     assert "update.gama=1: unknown key" in capsys.readouterr().err

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from symrl.knowledge.subgoals import SubgoalTable
-from symrl.learner.config import OptionsConfig, apply_overrides, load_config
+from symrl.learner.config import OptionsConfig, load_config
 from symrl.learner.options import SubgoalOptions, _route_lengths
 from symrl.world.worldmap import load_map
 
@@ -295,15 +295,16 @@ LONG_WALL = {
 _NEITHER = ["options.subgoal_detour=null", "options.subgoal_way_out=false"]
 
 
-def _neither(*overrides: str) -> OptionsConfig:
-    """``paper_map``'s options without the detour and way-out rules, then ``overrides``."""
-    return apply_overrides(load_config("paper_map", _NEITHER), overrides).options
+def _neither(*overrides: str) -> list[str]:
+    """``_NEITHER`` less the keys ``overrides`` set, then ``overrides`` (each key once)."""
+    given = {o.split("=")[0] for o in overrides}
+    return [o for o in _NEITHER if o.split("=")[0] not in given] + list(overrides)
 
 
 def _offered(world, *overrides: str) -> dict[str, list[str]]:
     """The labels of the valid options of each region under ``paper`` without the detour and
     way-out rules, then ``overrides``."""
-    config = _neither(*overrides)
+    config = load_config("paper_map", _neither(*overrides)).options
     opt = SubgoalOptions(world, 1, config, [0])
     return {
         name: [label for k, label in enumerate(opt.labels[r]) if bool(opt.valid[r, k])]
@@ -334,7 +335,7 @@ def test_detour_drops_subgoals_off_the_short_way_and_unseen_from_it():
     assert _offered(world, "options.subgoal_detour=0")["east_gap"] == ["goal", "path"]
     # the table keeps its shape (a checkpoint's critic fits either way)
     shapes = {
-        SubgoalOptions(world, 1, _neither(*o), [0]).valid.shape
+        SubgoalOptions(world, 1, load_config("paper_map", _neither(*o)).options, [0]).valid.shape
         for o in ([], ["options.subgoal_detour=1.0"])
     }
     assert len(shapes) == 1
@@ -382,7 +383,7 @@ def test_way_out_gives_a_dead_end_region_the_planner_turn_out_of_it():
     assert _offered(world)["bay"] == ["goal"]  # steering at the goal from the bay: its wall
     out = _offered(world, "options.subgoal_way_out=true")
     assert out["bay"] == ["goal", "out"]
-    config = _neither("options.subgoal_way_out=true")
+    config = load_config("paper_map", _neither("options.subgoal_way_out=true")).options
     opt = SubgoalOptions(world, 1, config, [0])
     bay = opt.region_names.index("bay")
     x, y = opt.table.point(bay, 1)
