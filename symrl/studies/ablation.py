@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel
 
+from symrl.learner.config import load_config
 from symrl.runs import read_trials_csv
 from symrl.studies.repeatability import (
     PAPER_TABLE1,
@@ -316,7 +317,8 @@ def run_ablation(
                           [f"env.map={map}", *variant.overrides], starts, workers)  # fmt: skip
         rows = [r for s in sets_r for r in s.rows]
         table = table1(rows)
-        table.update(optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1])
+        table.update(optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1],
+                     knowledge=load_config(variant.recipe, list(variant.overrides)).knowledge)
         if variant.overrides:
             table["overrides"] = list(variant.overrides)
         if world.name == "hailu2001":  # the paper's numbers are of its world only

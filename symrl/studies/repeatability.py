@@ -56,8 +56,8 @@ def table1_markdown(recipe: str, table: dict[str, Any], opt: dict[str, Any] | No
     if not paper:
         return _table_own_world(recipe, table, opt)
     lines = [
-        f"Table 1 - `{recipe}`: {table['sets']} sets, last trial ({table['trial']}); "
-        "variance = sample variance over sets",
+        f"Table 1 - `{recipe}`{_told(table)}: {table['sets']} sets, last trial "
+        f"({table['trial']}); variance = sample variance over sets",
         "",
         "| quantity | ours mean | ours variance | ours min-max | paper mean | paper variance "
         "| optimum |",
@@ -79,10 +79,16 @@ def table1_markdown(recipe: str, table: dict[str, Any], opt: dict[str, Any] | No
     return "\n".join(lines) + "\n"
 
 
+def _told(table: dict[str, Any]) -> str:
+    """`` (knowledge: RUNG)`` when the table records what the robot was told."""
+    return f" (knowledge: {table['knowledge']})" if "knowledge" in table else ""
+
+
 def _table_own_world(recipe: str, table: dict[str, Any], opt: dict[str, Any] | None) -> str:
     """Table 1 on a map other than the paper's: ours and the map's optimum only."""
     lines = [
-        f"Table 1 - `{recipe}` on `{table.get('map', '?')}`: {table['sets']} sets, last trial "
+        f"Table 1 - `{recipe}`{_told(table)} on `{table.get('map', '?')}`: {table['sets']} sets, "
+        "last trial "
         f"({table['trial']}); variance = sample variance over sets",
         "",
         "| quantity | ours mean | ours variance | ours min-max | optimum |",
@@ -156,6 +162,7 @@ def run_study(
         table["paper"] = PAPER_TABLE1
     table["optimum"] = best
     table["recipe"] = config.recipe
+    table["knowledge"] = config.knowledge
     table["provenance"] = provenance()
     table["seeds"] = [seed, seed + sets - 1]
     table["overrides"] = list(overrides)
