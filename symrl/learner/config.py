@@ -314,6 +314,11 @@ class RunConfig(_Section):
                 f"reflex.sonar_range={self.reflex.sonar_range} must equal "
                 f"env.robot.sonar_range={robot.sonar_range} (the sonars are normalised by it)"
             )
+        if self.shield.margin >= robot.ir_range:
+            raise ValueError(
+                f"shield.margin={self.shield.margin} must be below env.robot.ir_range="
+                f"{robot.ir_range} (the shield sees walls only by their IR reflectance)"
+            )
         if self.experts.max_neurons < self.experts.capacity:
             raise ValueError(
                 f"experts.max_neurons={self.experts.max_neurons} must be >= "
@@ -482,8 +487,9 @@ def apply_overrides(config: RunConfig, overrides: list[str] | tuple[str, ...]) -
     return config_from_dict(data, recipe=config.recipe)
 
 
-def describe_keys() -> str:
-    """Every config key with its default and docstring (for ``symrl train --help-keys``)."""
+def describe_keys(config: RunConfig | None = None) -> str:
+    """Every config key with its value in ``config`` (default: the defaults) and docstring
+    (for ``symrl train [RECIPE] --help-keys``)."""
     import dataclasses
     import inspect
 
@@ -504,7 +510,7 @@ def describe_keys() -> str:
         return out
 
     rows = []
-    defaults = config_to_dict(RunConfig())
+    defaults = config_to_dict(config if config is not None else RunConfig())
     sections: list[tuple[str, type]] = [
         ("env", EnvConfig), ("env.robot", RobotConfig), ("localize", LocalizeSection),
         ("gate", GateConfig),
