@@ -379,9 +379,16 @@ def _naming_map(name: str | None) -> Any:
     return naming()
 
 
+def _sets_and_trials(args: argparse.Namespace) -> None:
+    _at_least("--sets", args.sets, 1)
+    _at_least("--trials", args.trials, 1)
+    _at_least("--seed", args.seed, 0)
+
+
 def _study(args: argparse.Namespace) -> int:
     from symrl.studies.repeatability import study_command
 
+    _sets_and_trials(args)
     _recipe_argument(args.recipe)
     taken = {"run.trials": "--trials (the study's budget)", "run.seed": "--seed (set k: seed + k)"}
     if args.map is not None:
@@ -401,6 +408,7 @@ def _study(args: argparse.Namespace) -> int:
 def _ablate(args: argparse.Namespace) -> int:
     from symrl.studies.ablation import ablate_command
 
+    _sets_and_trials(args)
     for flag, value in (("--recipes", args.recipes),):
         if value is not None and not all(part.strip() for part in value.split(",")):
             raise ValueError(
@@ -436,6 +444,7 @@ def _baseline(args: argparse.Namespace) -> int:
 def _generalise(args: argparse.Namespace) -> int:
     from symrl.studies.generalisation import generalise_command
 
+    _sets_and_trials(args)
     _output_folder("--out", args.out, ("generalise.json",), args.overwrite, "generalise")
     _plannable(args.map)
     return generalise_command(args)
@@ -457,8 +466,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="symrl",
         description="Symbolic structures in numeric reinforcement (Hailu, 2001): "
-        "a robot that learns a short, safe path in a handful of trials.",
+        "a robot that learns a short, safe path in a handful of trials. Outputs: "
+        "`train` writes runs/RECIPE__sSEED__TIME/, every other command results/COMMAND.../ "
+        "(see --out of each).",
     )
+    _one_line_errors(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser("drive", help="let the fuzzy reflex drive one trial and save its path")
@@ -659,6 +671,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="sweep folder")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides for all")
     p.set_defaults(handler=_sweep)
+    for each in sub.choices.values():
+        _one_line_errors(each)
     return parser
 
 
@@ -716,6 +730,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if extra:
         if hasattr(args, "overrides") and all("=" in e and not e.startswith("-") for e in extra):
             args.overrides = [*args.overrides, *extra]
+        elif hasattr(args, "overrides") and not extra[0].startswith("-"):
+            parser.error(
+                f"argument {extra[0]!r}: expected key=value (an override such as "
+                "update.gamma=0.9)"
+            )
         else:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
     if command_line:
