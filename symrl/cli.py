@@ -220,9 +220,8 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
     from symrl.world.worldmap import load_map
 
     _recipe_argument(args.recipe)
-    if args.help_keys:
-        shown = load_config(args.recipe, list(args.overrides or [])) if args.recipe else None
-        print(describe_keys(shown))
+    if args.help_keys:  # with a RECIPE (and key=value), that recipe's values
+        print(describe_keys(load_config(args.recipe, args.overrides) if args.recipe else None))
         return 0
     _at_least("--trials", args.trials, 1)
     _at_least("--seed", args.seed, 0)
@@ -252,9 +251,9 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
                 f"--resume {args.resume!r}: the run has done {done} of {config.run.trials} "
                 "trials; pass a larger --trials to go on"
             )
-        from symrl.runs import load_checkpoint
+        from symrl.runs import load_checkpoint_world
 
-        world = load_checkpoint(os.path.join(args.resume, "checkpoint.pt"))[0].world
+        world = load_checkpoint_world(os.path.join(args.resume, "checkpoint.pt"))[2]
         logdir = args.resume
     else:
         if args.recipe is None:
@@ -316,7 +315,7 @@ def _evaluate(args: argparse.Namespace) -> int:
 
     from symrl.evaluate import evaluate
     from symrl.figures import trajectory_figure
-    from symrl.runs import load_checkpoint
+    from symrl.runs import load_checkpoint_world
 
     _at_least("--seed", args.seed, 0)
     from symrl.runs import CheckpointError
@@ -328,20 +327,19 @@ def _evaluate(args: argparse.Namespace) -> int:
     from symrl.studies.baseline import load_baseline
 
     baseline = load_baseline(args.checkpoint)  # a baseline's checkpoint, else None
+    learned_in = None
     if baseline is None:
-        policy, config = load_checkpoint(args.checkpoint)
+        policy, config, learned_in = load_checkpoint_world(args.checkpoint)
     else:
         policy = baseline
+    world = learned_in if baseline is None else baseline.world
     out = Path(args.out) if args.out else Path(args.checkpoint).parent
     _output_folder("--out", out, ("evaluate.png",), args.overwrite, "evaluate")
-    world = None
     if args.map is not None:
         from symrl.world.worldmap import load_map
 
         world = load_map(args.map)
-        if baseline is None and config.options.enabled:
-            _plannable(world)
-    with _naming_start(args.start), _naming_map(args.map):
+    with _naming_start(args.start):
         if baseline is not None:
             (record,) = baseline.evaluate([args.start], seed=args.seed, world=world)
         else:
@@ -349,10 +347,10 @@ def _evaluate(args: argparse.Namespace) -> int:
                                  world=world)  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
     title = f"greedy: {record['steps']} actions, total {record['total_reinforcement']:.2f}"
-    fig = trajectory_figure(world or policy.world, record, title=title)
+    fig = trajectory_figure(world, record, title=title)
     fig.savefig(out / "evaluate.png", dpi=120)
     plt.close(fig)
-    home = (world or policy.world).start
+    home = world.start
     start = args.start if args.start is not None else (home.x, home.y, home.heading)
     print(
         f"greedy trial from {format_pose(start)}: {record['steps']} actions, "
@@ -362,27 +360,6 @@ def _evaluate(args: argparse.Namespace) -> int:
     )
     print(f"wrote {out / 'evaluate.png'}")
     return 0
-
-
-def _naming_map(name: str | None) -> Any:
-    """A controller refused by the map it is asked to drive in is an error of ``--map``."""
-
-    @contextlib.contextmanager
-    def naming():
-        try:
-            yield
-        except ValueError as err:
-            if name is None or "drives only in a map" not in str(err):
-                raise
-            raise ValueError(f"--map {name!r}: {err}") from None
-
-    return naming()
-
-
-def _sets_and_trials(args: argparse.Namespace) -> None:
-    _at_least("--sets", args.sets, 1)
-    _at_least("--trials", args.trials, 1)
-    _at_least("--seed", args.seed, 0)
 
 
 def _study(args: argparse.Namespace) -> int:
@@ -422,7 +399,7 @@ def _ablate(args: argparse.Namespace) -> int:
 
 
 def _plan(args: argparse.Namespace) -> int:
-    from symrl.studies.planner import plan_command
+    from symrl.studies.plan import plan_command
 
     _output_folder("--out", args.out, ("plan.json", "plan.png"), args.overwrite, "plan")
     _plannable(args.map)
@@ -566,6 +543,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="RECIPE, then RECIPE with each setting in which it differs from --base "
                         "put back in turn, and with experts.learning=false; writes changes.md "
                         "(paired differences over the sets)")
+    p.add_argument("--ladder", action="store_true",
+                   help="the knowledge ladder: the best recipe of each rung (reflex_only, "
+                   "paper_literal, paper, paper_map) on the same seeds; writes ladder.md")
     p.add_argument("--base", default="paper_literal",
                    help="the recipe --changes-of puts settings back to (default paper_literal)")
     p.add_argument("--map", default="hailu2001",
@@ -634,8 +614,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "generalise", help="learned controller from other starts, new obstacle, noise"
     )
-    p.add_argument("--recipe", default="paper",
-                   help="recipe name or YAML file (default paper)")
+    p.add_argument("--recipe", default="paper_map",
+                   help="recipe name or YAML file (default paper_map)")
     p.add_argument("--sets", type=int, default=5, help="sets, each a fresh learner (default 5)")
     p.add_argument("--trials", type=int, default=20, help="trials per set (default 20)")
     p.add_argument("--workers", type=int, default=None,

@@ -15,7 +15,7 @@ import torch
 
 from symrl.learner.config import RunConfig
 
-__all__ = ["rollout", "evaluate", "check_same_regions"]
+__all__ = ["rollout", "evaluate"]
 
 
 @torch.inference_mode()
@@ -45,22 +45,6 @@ def rollout(policy: Any, env: Any) -> list[dict[str, Any]]:
     return records  # type: ignore[return-value]
 
 
-def check_same_regions(policy: Any, other: Any) -> None:
-    """A controller drives in another map only if that map has as many regions (one expert
-    and one row of sub-goal options each) and sub-goal options per region; else a one-line
-    ``ValueError`` naming both."""
-    mine, theirs = policy.state_dict(), other.state_dict()
-    for key, what in (("experts.count", "experts"), ("options.q", "regions x sub-goal options")):
-        if key in mine and tuple(mine[key].shape[1:]) != tuple(theirs[key].shape[1:]):
-            have, need = (" x ".join(map(str, d[key].shape[1:])) for d in (mine, theirs))
-            raise ValueError(
-                f"the controller has {have} {what} (map {policy.world.name!r}: "
-                f"{', '.join(policy.world.regions.names)}), map {other.world.name!r} needs "
-                f"{need} ({', '.join(other.world.regions.names)}); a controller drives only in "
-                "a map with as many regions and sub-goal options"
-            )
-
-
 def evaluate(
     policy: Any,
     config: RunConfig,
@@ -73,20 +57,14 @@ def evaluate(
     start), in ``world`` (default: the one it learned in). Returns one record per start."""
     from symrl.learner.policy import MixtureOfExpertsPolicy
     from symrl.train import make_env
+    from symrl.world.worldmap import load_map
 
     starts = list(starts) if starts else [None]
-    world = world if world is not None else policy.world
-    state = policy.state_dict()
-    subgoals = policy.subgoals
-    if world is not policy.world:
-        fresh = MixtureOfExpertsPolicy(policy.config, world, [seed])
-        check_same_regions(policy, fresh)
-        # the other map's region rules: the mapper is rebuilt from the map it drives in
-        state = {k: (fresh.state_dict()[k] if k.startswith("mapper.") else v)
-                 for k, v in state.items()}  # fmt: skip
-        subgoals = fresh.subgoals
+    world = world if world is not None else load_map(config.env.map)
+    # the copies are told what the policy was told (not the world they are driven in)
     copies = MixtureOfExpertsPolicy.from_robot_states(
-        policy.config, world, [state] * len(starts), [seed] * len(starts), subgoals
+        policy.config, policy.knowledge, [policy.state_dict()] * len(starts),
+        [seed] * len(starts), policy.subgoals,
     )
     cfg = config.model_copy(update={"env": config.env.model_copy(update={"noise": noise})})
     env = make_env(cfg, [seed + k for k in range(len(starts))], world=world)

@@ -30,6 +30,7 @@ import torch
 import yaml
 
 from symrl.learner.config import ConfigError, RunConfig, config_from_dict, config_to_dict
+from symrl.learner.experts import expert_names
 
 __all__ = [
     "RunWriter",
@@ -70,11 +71,6 @@ BASE_COLUMNS: tuple[str, ...] = _BASE_COLUMNS
 
 class CheckpointError(ValueError):
     """A checkpoint file cannot be used; the message names the file and the fault."""
-
-
-def expert_names(config: RunConfig, world: Any) -> tuple[str, ...]:
-    """The experts of a controller: one per map region, or one for all without partition."""
-    return tuple(world.regions.names) if config.gate.partition else ("all",)
 
 
 def trial_columns(config: RunConfig, world: Any) -> list[str]:
@@ -173,7 +169,7 @@ def save_checkpoint(
         "format": CHECKPOINT_FORMAT,
         "provenance": provenance,
         "config": config_to_dict(config),
-        "map": _map_content(world if world is not None else policy.world),
+        "map": _map_content(world),
         "seed": int(seed),
         "policy": resume["policy"] if resume is not None else policy.state_dict(),
     }
@@ -325,6 +321,13 @@ def check_policy_state(state: dict[str, Any], fresh: dict[str, torch.Tensor]) ->
 def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
     """Rebuild ``(policy, config)`` from :func:`save_checkpoint`; every fault of the file is a
     one-line :class:`CheckpointError`."""
+    policy, config, _ = load_checkpoint_world(path)
+    return policy, config
+
+
+def load_checkpoint_world(path: str | Path) -> tuple[Any, RunConfig, Any]:
+    """:func:`load_checkpoint` and the world the robot learned in (the checkpoint's map; the
+    policy holds only what its recipe's ``knowledge`` tells it)."""
     from symrl.learner.policy import MixtureOfExpertsPolicy
     from symrl.world.worldmap import MapError, load_map
 
@@ -370,7 +373,7 @@ def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
         raise CheckpointError(
             f"checkpoint {str(path)!r}: weights do not match its config ({detail})"
         ) from None
-    return policy, config
+    return policy, config, world
 
 
 # ---------------------------------------------------------------------------------------------
@@ -482,7 +485,7 @@ class RunWriter:
         self._csv.close()
         if policy is not None:  # None: the caller writes its own checkpoint (the baselines)
             save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed,
-                            resume=state, provenance=self.provenance)  # fmt: skip
+                            resume=state, provenance=self.provenance, world=self.world)  # fmt: skip
         if self.trials:
             from symrl.figures import trajectory_figure
 

@@ -38,6 +38,7 @@ import numpy as np
 import torch
 
 from symrl.learner.config import RunConfig
+from symrl.learner.experts import expert_names
 from symrl.tensordicts import read
 
 __all__ = [
@@ -56,6 +57,8 @@ class TrainResult:
     trials: list[dict[str, Any]]
     policy: Any
     timings: dict[str, float] = field(default_factory=dict)
+    world: Any = None
+    """The world the robot learned in (the env's; the policy holds only what it was told)."""
 
 
 def make_env(
@@ -223,8 +226,6 @@ def check_memory(config: RunConfig, batch: int, world: Any) -> int:
     """Bytes the expert storage of ``batch`` robots takes at ``experts.capacity``; a
     ValueError (one line, with the estimate) if that is over a quarter of the memory available
     (checkpoints and the end-of-trial updates copy it)."""
-    from symrl.runs import expert_names
-
     xc = config.experts
     dim = config.env.robot.n_sensors + xc.goal_codes
     per_neuron = 4 * dim + 8 * 4 + 1  # centre (f32), action/utility/mean/taken (f64), used
@@ -273,7 +274,7 @@ def train_batch(
         raise ValueError(f"train_batch: snapshots and resume need one robot, got {batch}")
     env = make_env(config, seeds, world=world)
     check_memory(config, batch, env.world)
-    policy = MixtureOfExpertsPolicy(config, env.world, seeds)
+    policy = MixtureOfExpertsPolicy(config, env.world, seeds)  # cut to config.knowledge
     loss = TeseoLoss(policy)
     recorder = TrialRecorder(batch)
     trials: list[list[dict[str, Any]]] = [[] for _ in seeds]
@@ -361,9 +362,9 @@ def train_batch(
                "stopped": int(stopped)}  # fmt: skip
     results = []
     for b, seed in enumerate(seeds):
-        single = MixtureOfExpertsPolicy(config, env.world, [seed], policy.subgoals)
+        single = MixtureOfExpertsPolicy(config, policy.knowledge, [seed], policy.subgoals)
         single.load_state_dict(finals[b] if finals[b] is not None else policy.robot_state(b))
-        results.append(TrainResult(config, seed, trials[b], single, timings))
+        results.append(TrainResult(config, seed, trials[b], single, timings, env.world))
     return results
 
 

@@ -46,6 +46,7 @@ from tensordict.nn import TensorDictModuleBase
 
 from symrl.knowledge.reflex import ReflexConfig
 from symrl.learner.config import RunConfig, config_to_dict, load_config
+from symrl.studies.actor import make_actor
 from symrl.studies.priors import PriorAction, PriorObservation, Priors
 
 __all__ = [
@@ -108,7 +109,7 @@ def run_config(map: str = "hailu2001", seed: int = 100, episodes: int = 20) -> R
     -65.45 with `paper`'s halved sets, SAC residual at 20 trials 43.9 / -23.19 against 48.5 /
     -25.45 (seeds 100-104; RESULTS.md, "Modern baselines")."""
     peaks = list(ReflexConfig().peaks)
-    return load_config("paper", [f"env.map={map}", f"run.seed={seed}", f"run.trials={episodes}",
+    return load_config("paper_map", [f"env.map={map}", f"run.seed={seed}", f"run.trials={episodes}",
                                  f"run.image_every={max(episodes // 4, 1)}",
                                  f"reflex.peaks={peaks}"])  # fmt: skip
 
@@ -128,29 +129,6 @@ def make_env(config: RunConfig, priors: Priors, seeds: Sequence[int], world: Any
     world = world if world is not None else load_map(config.env.map)
     base = make_world(config, list(seeds), world=world)
     return TransformedEnv(base, PriorObservation(priors, config, world))
-
-
-def make_actor(n_obs: int, cells: Sequence[int], activation: str):
-    """TanhNormal actor on [-1, 1] over ``observation``, writing ``control`` and its log-prob."""
-    from tensordict.nn import NormalParamExtractor, TensorDictModule
-    from torch import nn
-    from torchrl.data import Bounded
-    from torchrl.modules import MLP, ProbabilisticActor, TanhNormal
-
-    act = {"relu": nn.ReLU, "tanh": nn.Tanh}[activation]
-    net = nn.Sequential(
-        MLP(in_features=n_obs, out_features=2, num_cells=list(cells), activation_class=act),
-        NormalParamExtractor(),
-    )
-    return ProbabilisticActor(
-        TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"]),
-        in_keys=["loc", "scale"],
-        out_keys=["control"],
-        spec=Bounded(-1.0, 1.0, (1,)),
-        distribution_class=TanhNormal,
-        distribution_kwargs={"low": -1.0, "high": 1.0},
-        return_log_prob=True,
-    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -355,7 +333,7 @@ def load_baseline(path: str | Path) -> BaselineController | None:
     if not isinstance(data, dict) or data.get("kind") != CHECKPOINT_KIND:
         return None
     try:
-        config = config_from_dict(dict(data["config"]), recipe="paper")
+        config = config_from_dict(dict(data["config"]), recipe="paper_map")
         world = load_map(data["map"]) if data.get("map") else load_map(config.env.map)
         priors = Priors(**data["priors"])
         spec = dict(data["actor_spec"])

@@ -20,10 +20,12 @@ COMMANDS = {
     "plan": "symrl plan --out results/plan",
     "study": "symrl ablate --recipes paper --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
-    "generalise": "symrl generalise --recipe {recipe} --sets 10 --trials 20 --seed 100 "
-    "--workers 2 --out results/generalise-{recipe}",
+    "generalise": "symrl generalise --recipe {recipe} --out results/generalise-{recipe}",
 }
 """The commands whose folders this report reads (the baselines': ``BASELINE_VARIANTS``)."""
+
+GENERALISE_RECIPES = ("paper", "reflex_only")
+"""The recipes of the generalisation section: the paper's learner and the reflex it starts from."""
 
 INTERPRETATION = Path(__file__).with_name("results_discussion.md")
 """Hand-written discussion appended to the generated report (what reproduces and what not)."""
@@ -71,7 +73,7 @@ def _section_plan(results: Path, figures: Path) -> list[str]:
 
 
 def _section_study(results: Path, figures: Path) -> list[str]:
-    folder = results / "ablate" / "paper"
+    folder = results / "ablate" / "paper_map"
     out = ["## Table 1 and Figs 5-9: the `paper` recipe (`symrl study paper`)", "",
            f"Command: `{COMMANDS['study']}` (the same runs as `symrl study paper --sets 10 "
            "--trials 20 --seed 100`; its folder is `results/ablate/paper`)", ""]
@@ -316,7 +318,7 @@ def _section_baselines(results: Path, figures: Path) -> list[str]:
 
 def _section_generalise(results: Path, figures: Path) -> list[str]:
     out = ["## Generalisation (`symrl generalise`)", ""]
-    for recipe in ("paper", "paper_literal"):
+    for recipe in GENERALISE_RECIPES:
         folder = results / f"generalise-{recipe}"
         out += [f"### `{recipe}`", "", f"Command: `{COMMANDS['generalise'].format(recipe=recipe)}`",
                 ""]
