@@ -362,6 +362,12 @@ def _evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _sets_and_trials(args: argparse.Namespace) -> None:
+    _at_least("--sets", args.sets, 1)
+    _at_least("--trials", args.trials, 1)
+    _at_least("--seed", args.seed, 0)
+
+
 def _study(args: argparse.Namespace) -> int:
     from symrl.studies.repeatability import study_command
 
