@@ -276,7 +276,8 @@ def check_policy_state(state: dict[str, Any], fresh: dict[str, torch.Tensor]) ->
             return f"policy entry {key} is not a tensor ({type(value).__name__})"
         want = fresh[key]
         if value.dtype != want.dtype:
-            return f"weights do not match its config and map ({key} has dtype {value.dtype}, not {want.dtype})"
+            return (f"weights do not match its config and map ({key} has dtype {value.dtype}, "
+                    f"not {want.dtype})")  # fmt: skip
         # best_total is -inf until a trial reaches the goal; nothing else may be non-finite
         ok = torch.isfinite(value) | ((key == "best_total") & (value == -torch.inf))
         if value.is_floating_point() and not bool(ok.all()):

@@ -25,7 +25,8 @@ def _run(argv, capsys):
 def test_drive(here, capsys):
     out = _run(["drive"], capsys)
     assert "reached goal" in out
-    assert (here / "results/drive/path.png").is_file() and (here / "results/drive/trial.json").is_file()
+    assert (here / "results/drive/path.png").is_file()
+    assert (here / "results/drive/trial.json").is_file()
     assert main(["drive"]) == 2  # not silently over the first
     assert "--overwrite" in capsys.readouterr().err
     _run(["drive", "--overwrite", "--start", "-0.5,0.5,-90"], capsys)
