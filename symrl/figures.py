@@ -150,19 +150,20 @@ def plot_paths(
     (a mapping ``{label: path}`` names them in the legend), ghosts as crosses. Panels without
     any path are left out; a panel count one more than ``columns`` goes in one row, not two
     rows with an empty panel."""
-    panels = [(t, dict(p) if isinstance(p, Mapping) else dict(enumerate(p)), g)
-              for t, p, g in panels]  # fmt: skip
-    panels = [p for p in panels
-              if any(len(np.asarray(xy).reshape(-1, 2)) for xy in p[1].values())]  # fmt: skip
-    n = max(len(panels), 1)
+    named: list[tuple[str, dict[Any, Any], Iterable[Any]]] = [
+        (t, dict(p) if isinstance(p, Mapping) else dict(enumerate(p)), g) for t, p, g in panels
+    ]
+    named = [p for p in named
+             if any(len(np.asarray(xy).reshape(-1, 2)) for xy in p[1].values())]  # fmt: skip
+    n = max(len(named), 1)
     cols = min(columns, n)
     if n % cols and n <= columns + 1:
         cols = n
     rows = -(-n // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.5 * cols, 4.6 * rows), squeeze=False)
-    for ax in axes.flat[len(panels):]:
+    for ax in axes.flat[len(named):]:
         ax.set_visible(False)
-    for ax, (title, paths, ghosts) in zip(axes.flat, panels, strict=False):
+    for ax, (title, paths, ghosts) in zip(axes.flat, named, strict=False):
         draw_map(ax, world)
         for i, (name, xy) in enumerate(paths.items()):
             _draw_xy(ax, xy, color=f"C{(i + 3) % 10}",
