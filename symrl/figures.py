@@ -331,7 +331,8 @@ def plot_learning_curves(
         ax.axvline(20, ls=":", lw=1, color="0.5")
         ax.set(xlabel="trial (log scale; dotted: the paper's 20)", ylabel=name)
     if optimum is not None:
-        axes[0].axhline(optimum, ls="--", lw=1, color="0.4", label=f"optimum ({optimum:g})")
+        axes[0].axhline(optimum, ls="--", lw=1, color="0.4",
+                        label=f"shortest path ({optimum:g} actions)")  # fmt: skip
     axes[2].set_ylim(-0.05, 1.05)
     axes[0].legend(fontsize=7)
     if title:
