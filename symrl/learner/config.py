@@ -360,6 +360,11 @@ class RunConfig(_Section):
                 f"reflex.sonar_range={self.reflex.sonar_range} must equal "
                 f"env.robot.sonar_range={robot.sonar_range} (the sonars are normalised by it)"
             )
+        if self.shield.margin >= robot.ir_range:
+            raise ValueError(
+                f"shield.margin={self.shield.margin} must be below env.robot.ir_range="
+                f"{robot.ir_range} (the shield sees walls only by their IR reflectance)"
+            )
         if self.experts.max_neurons < self.experts.capacity:
             raise ValueError(
                 f"experts.max_neurons={self.experts.max_neurons} must be >= "

@@ -425,5 +425,6 @@ def ablate_command(args: argparse.Namespace) -> int:
     if changes:
         print((Path(args.out) / "changes.md").read_text())
         written = "changes.md, " + written
-    print(f"wrote {args.out}/ ({written}); wall time {summary['_wall_time_s']:.1f} s")
+    wall = time.perf_counter() - getattr(args, "started", time.perf_counter())
+    print(f"wrote {args.out}/ ({written}); wall time {wall:.1f} s")
     return 0
