@@ -135,7 +135,7 @@ def print_table(title: str, best: dict[str, dict[str, float]], sizes: list[int])
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--recipe", default="paper")
+    parser.add_argument("--recipe", default="paper_map")
     parser.add_argument("--sizes", default="1,10,100", help="batch sizes of the training loop")
     parser.add_argument("--steps", type=int, default=600, help="about this many batch steps")
     parser.add_argument("--rounds", type=int, default=2)

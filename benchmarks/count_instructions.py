@@ -68,7 +68,7 @@ def per_batch_step(checkout: Path, recipe: str, size: int, few: int, more: int) 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--recipe", default="paper")
+    parser.add_argument("--recipe", default="paper_map")
     parser.add_argument("--size", type=int, default=10, help="robots in the batch")
     parser.add_argument("--trials", default="4,16", help="the two runs' trials, few,more")
     parser.add_argument("--compare", default=None, metavar="DIR",

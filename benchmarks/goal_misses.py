@@ -26,9 +26,9 @@ PERFECT = "env.robot.perfect_odometry=true"
 
 
 def misses(name: str, sets: int, seed: int, overrides: list[str]) -> Counter:
-    config = resolve_config("paper", [f"env.map={name}", "run.trials=20", *overrides])
+    config = resolve_config("paper_map", [f"env.map={name}", "run.trials=20", *overrides])
     results = train_batch(config, list(range(seed, seed + sets)), progress=False)
-    world = results[0].policy.world
+    world = results[0].world
     goal = np.array([world.goal.x, world.goal.y])
     home = world.regions.region_of(*goal)
     out: Counter = Counter()

@@ -29,7 +29,7 @@ from symrl.world.physics import RobotBatch
 
 def drift(name: str, drives: int, seed: int) -> dict[str, np.ndarray]:
     """True, odometry and believed poses (T + 1, B, 3) and the steps each robot was driving."""
-    config = load_config("paper", [f"env.map={name}"])
+    config = load_config("paper_map", [f"env.map={name}"])
     world, robot = load_map(name), config.env.robot
     physics = RobotBatch(world, robot, drives, noise=True, max_actions=config.env.max_actions)
     rngs = [np.random.default_rng(seed + b) for b in range(drives)]

@@ -40,8 +40,8 @@ once each by then on the paper's world)."""
 
 VARIANTS = {
     "reflex": ("reflex alone", "reflex_only"),
-    "hand": ("`paper`, hand regions", "paper"),
-    "auto": ("`paper`, `regions: auto`", "paper"),
+    "hand": ("`paper`, hand regions", "paper_map"),
+    "auto": ("`paper`, `regions: auto`", "paper_map"),
 }
 
 

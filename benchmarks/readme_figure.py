@@ -19,7 +19,7 @@ def main() -> None:
     args = parser.parse_args()
     reflex = train(load_config("reflex_only", ["run.trials=1", f"run.seed={args.seed}"]),
                    progress=False).trials[0]  # fmt: skip
-    learned = train(load_config("paper", ["run.trials=20", f"run.seed={args.seed}"]),
+    learned = train(load_config("paper_map", ["run.trials=20", f"run.seed={args.seed}"]),
                     progress=False)  # fmt: skip
     last = learned.trials[-1]
     plot_paths(

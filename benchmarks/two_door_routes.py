@@ -45,7 +45,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         auto = str(auto_copy("two_door_room", Path(tmp)))
         for label, world in (("hand regions", "two_door_room"), ("regions: auto", auto)):
-            config = resolve_config("paper", [f"env.map={world}", "run.trials=20"])
+            config = resolve_config("paper_map", [f"env.map={world}", "run.trials=20"])
             results = train_batch(config, list(range(args.seed, args.seed + args.sets)),
                                   progress=False)  # fmt: skip
             steps: dict[str, list[int]] = defaultdict(list)

@@ -145,9 +145,9 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
                 f"--resume {args.resume!r}: the run has done {done} of {config.run.trials} "
                 "trials; pass a larger --trials to go on"
             )
-        from symrl.runs import load_checkpoint
+        from symrl.runs import load_checkpoint_world
 
-        world = load_checkpoint(os.path.join(args.resume, "checkpoint.pt"))[0].world
+        world = load_checkpoint_world(os.path.join(args.resume, "checkpoint.pt"))[2]
         logdir = args.resume
     else:
         if args.recipe is None:
@@ -201,7 +201,7 @@ def _evaluate(args: argparse.Namespace) -> int:
 
     from symrl.evaluate import evaluate
     from symrl.figures import trajectory_figure
-    from symrl.runs import load_checkpoint
+    from symrl.runs import load_checkpoint_world
 
     _at_least("--seed", args.seed, 0)
     if args.out and Path(args.out).exists() and not Path(args.out).is_dir():
@@ -209,11 +209,12 @@ def _evaluate(args: argparse.Namespace) -> int:
     from symrl.studies.baseline import load_baseline
 
     baseline = load_baseline(args.checkpoint)  # a baseline's checkpoint, else None
+    learned_in = None
     if baseline is None:
-        policy, config = load_checkpoint(args.checkpoint)
+        policy, config, learned_in = load_checkpoint_world(args.checkpoint)
     else:
         policy = baseline
-    world = None
+    world = learned_in if baseline is None else baseline.world
     if args.map is not None:
         from symrl.world.worldmap import load_map
 
@@ -227,10 +228,10 @@ def _evaluate(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path(args.checkpoint).parent
     out.mkdir(parents=True, exist_ok=True)
     title = f"greedy: {record['steps']} actions, total {record['total_reinforcement']:.2f}"
-    fig = trajectory_figure(world or policy.world, record, title=title)
+    fig = trajectory_figure(world, record, title=title)
     fig.savefig(out / "evaluate.png", dpi=120)
     plt.close(fig)
-    home = (world or policy.world).start
+    home = world.start
     start = args.start if args.start is not None else (home.x, home.y, home.heading)
     print(
         f"greedy trial from {format_pose(start)}: {record['steps']} actions, "
@@ -427,7 +428,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "generalise", help="learned controller from other starts, new obstacle, noise"
     )
-    p.add_argument("--recipe", default="paper")
+    p.add_argument("--recipe", default="paper_map")
     p.add_argument("--sets", type=int, default=5)
     p.add_argument("--trials", type=int, default=20)
     p.add_argument("--workers", type=int, default=None,

@@ -57,12 +57,14 @@ def evaluate(
     start), in ``world`` (default: the one it learned in). Returns one record per start."""
     from symrl.learner.policy import MixtureOfExpertsPolicy
     from symrl.train import make_env
+    from symrl.world.worldmap import load_map
 
     starts = list(starts) if starts else [None]
-    world = world if world is not None else policy.world
+    world = world if world is not None else load_map(config.env.map)
+    # the copies are told what the policy was told (not the world they are driven in)
     copies = MixtureOfExpertsPolicy.from_robot_states(
-        policy.config, world, [policy.state_dict()] * len(starts), [seed] * len(starts),
-        policy.subgoals if world is policy.world else None,
+        policy.config, policy.knowledge, [policy.state_dict()] * len(starts),
+        [seed] * len(starts), policy.subgoals,
     )
     cfg = config.model_copy(update={"env": config.env.model_copy(update={"noise": noise})})
     env = make_env(cfg, [seed + k for k in range(len(starts))], world=world)

@@ -169,7 +169,7 @@ def save_checkpoint(
         "format": CHECKPOINT_FORMAT,
         "provenance": provenance,
         "config": config_to_dict(config),
-        "map": _map_content(world if world is not None else policy.world),
+        "map": _map_content(world),
         "seed": int(seed),
         "policy": resume["policy"] if resume is not None else policy.state_dict(),
     }
@@ -219,6 +219,13 @@ def read_checkpoint_file(path: Path, name: str) -> Any:
 def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
     """Rebuild ``(policy, config)`` from :func:`save_checkpoint`; every fault of the file is a
     one-line :class:`CheckpointError`."""
+    policy, config, _ = load_checkpoint_world(path)
+    return policy, config
+
+
+def load_checkpoint_world(path: str | Path) -> tuple[Any, RunConfig, Any]:
+    """:func:`load_checkpoint` and the world the robot learned in (the checkpoint's map; the
+    policy holds only what its recipe's ``knowledge`` tells it)."""
     from symrl.learner.policy import MixtureOfExpertsPolicy
     from symrl.world.worldmap import MapError, load_map
 
@@ -264,7 +271,7 @@ def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
         raise CheckpointError(
             f"checkpoint {str(path)!r}: weights do not match its config ({detail})"
         ) from None
-    return policy, config
+    return policy, config, world
 
 
 # ---------------------------------------------------------------------------------------------
@@ -370,7 +377,7 @@ class RunWriter:
         self._csv.close()
         if policy is not None:  # None: the caller writes its own checkpoint (the baselines)
             save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed,
-                            resume=state, provenance=self.provenance)  # fmt: skip
+                            resume=state, provenance=self.provenance, world=self.world)  # fmt: skip
         if self.trials:
             from symrl.figures import trajectory_figure
 

@@ -57,6 +57,8 @@ class TrainResult:
     trials: list[dict[str, Any]]
     policy: Any
     timings: dict[str, float] = field(default_factory=dict)
+    world: Any = None
+    """The world the robot learned in (the env's; the policy holds only what it was told)."""
 
 
 def make_env(
@@ -272,7 +274,7 @@ def train_batch(
         raise ValueError(f"train_batch: snapshots and resume need one robot, got {batch}")
     env = make_env(config, seeds, world=world)
     check_memory(config, batch, env.world)
-    policy = MixtureOfExpertsPolicy(config, env.world, seeds)
+    policy = MixtureOfExpertsPolicy(config, env.world, seeds)  # cut to config.knowledge
     loss = TeseoLoss(policy)
     recorder = TrialRecorder(batch)
     trials: list[list[dict[str, Any]]] = [[] for _ in seeds]
@@ -360,9 +362,9 @@ def train_batch(
                "stopped": int(stopped)}  # fmt: skip
     results = []
     for b, seed in enumerate(seeds):
-        single = MixtureOfExpertsPolicy(config, env.world, [seed], policy.subgoals)
+        single = MixtureOfExpertsPolicy(config, policy.knowledge, [seed], policy.subgoals)
         single.load_state_dict(finals[b] if finals[b] is not None else policy.robot_state(b))
-        results.append(TrainResult(config, seed, trials[b], single, timings))
+        results.append(TrainResult(config, seed, trials[b], single, timings, env.world))
     return results
 
 

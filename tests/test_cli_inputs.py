@@ -10,6 +10,7 @@ from symrl.cli import main
 from symrl.learner.config import load_config
 from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.runs import save_checkpoint
+from symrl.world.worldmap import load_map
 
 
 @pytest.fixture(scope="module")
@@ -75,7 +76,7 @@ def test_bad_input_is_one_line_and_exit_2(argv, message, paths, capsys, monkeypa
 def test_expert_storage_of_many_robots_is_refused_up_front(monkeypatch):
     monkeypatch.setattr(symrl.train, "_available_memory", lambda: 16 << 30)
     config = load_config("paper", [*BIG, "run.trials=1"])
-    assert symrl.train.check_memory(config, 1, MixtureOfExpertsPolicy(config).world) < 4 << 30
+    assert symrl.train.check_memory(config, 1, load_map(config.env.map)) < 4 << 30
     with pytest.raises(ValueError, match=r"10 robot\(s\) would preallocate 6.0 GiB") as err:
         symrl.train.train_batch(config, list(range(10)), progress=False)
     assert "\n" not in str(err.value)

@@ -33,6 +33,7 @@ from pydantic import (
 )
 
 from symrl.knowledge.reflex import ReflexConfig
+from symrl.knowledge.rungs import Rung, rung_at_least
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import YAML_LOADER
 
@@ -168,6 +169,12 @@ class OptionsConfig(_Section):
 
     enabled: StrictBool = False
     """False: the reflex always steers at the goal (the paper)."""
+    source: Literal["map", "rules"] = "map"
+    """Where the sub-goal points come from. ``map`` (needs ``knowledge: map``): the passages
+    the region lines cross in the free-space polygon, and the settings below that use the
+    walls or the planner. ``rules`` (needs ``knowledge: regions``): the region rules alone,
+    per region the goal and a point of each border with a region no farther from the goal's
+    (``symrl.knowledge.borders``); the map-only settings must then be off."""
     epsilon: float = Field(0.3, ge=0, le=1)
     """Probability of a random option at a region's first entry, first trial."""
     epsilon_decay: float = Field(0.8, ge=0, le=1)
@@ -238,6 +245,13 @@ class OptionsConfig(_Section):
     line earns it at little cost to the route. 0: at the sub-goal from the region's entry."""
 
 
+_MAP_ONLY_OPTIONS = (
+    "subgoal_min_clearance", "subgoal_planner", "subgoal_planner_first", "subgoal_way_out",
+    "subgoal_detour", "subgoal_approach",
+)  # fmt: skip
+"""The options settings that read the walls or the planner (``knowledge: map``)."""
+
+
 class LocalizeSection(_Section):
     """Map localisation (``symrl.knowledge.localize``): the pose the robot steers by is the one
     that best explains its sonar scan in the map, near its odometry pose, instead of the
@@ -287,6 +301,11 @@ class RunConfig(_Section):
 
     recipe: str = "paper_literal"
     """Name of the recipe (used in run folder names)."""
+    knowledge: Rung = "regions"
+    """What the robot is told (``symrl.knowledge.rungs``): ``sensors`` (its reflex, sensors,
+    odometry, start and goal), ``regions`` (+ the region rules: the paper) or ``map`` (+ walls,
+    free-space polygon, planner, map localisation). The agent is built from this alone; a
+    setting that needs a higher rung is an error."""
     env: EnvConfig = Field(default_factory=EnvConfig)
     localize: LocalizeSection = Field(default_factory=LocalizeSection)
     gate: GateConfig = Field(default_factory=GateConfig)
@@ -301,6 +320,25 @@ class RunConfig(_Section):
 
     @model_validator(mode="after")
     def _consistent(self) -> RunConfig:
+        o = self.options
+        for key, on, needed in (
+            ("gate.partition", self.gate.partition, "regions"),
+            ("options.enabled", o.enabled, "map" if o.source == "map" else "regions"),
+            ("localize.enabled", self.localize.enabled, "map"),
+        ):
+            if on and not rung_at_least(self.knowledge, needed):
+                raise ValueError(
+                    f"{key}=true needs knowledge={needed} or higher, but the recipe declares "
+                    f"knowledge={self.knowledge}"
+                )
+        if o.enabled and o.source == "rules":
+            for key in _MAP_ONLY_OPTIONS:
+                value = getattr(o, key)
+                if value not in (None, False, 0.0):
+                    raise ValueError(
+                        f"options.{key}={value} uses the walls or the planner: it needs "
+                        "options.source=map"
+                    )
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
         robot = self.env.robot

@@ -255,7 +255,7 @@ class TeseoLoss(LossModule):
         rec, policy, cfg = self.record, self.policy, self.config
         assert rec is not None
         tg, robot = cfg.trial_gradient, cfg.env.robot
-        goal = policy.world.goal
+        goal = policy.knowledge.goal
         flat = policy.experts.flat
         means = flat.means
         returns = self.trial_return.numpy()

@@ -27,6 +27,7 @@ import torch
 from symrl.buffers import BufferViews
 from symrl.grad import no_grad
 from symrl.knowledge.planner import shortest_path
+from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
 from symrl.world.geometry import Walls
 from symrl.world.worldmap import WorldMap
@@ -73,14 +74,19 @@ class SubgoalOptions(BufferViews):
 
     def __init__(
         self,
-        world: WorldMap,
+        world: WorldMap | Knowledge,
         batch: int,
         config: object,
         seeds: list[int],
         table: SubgoalTable | None = None,
         step: float = 0.2,
     ) -> None:
+        """``world``: the map (``options.source: map``), or a robot's ``Knowledge`` below it
+        with its ``table`` from the region rules (no region limit: it needs the planner)."""
         super().__init__()
+        mapless = isinstance(world, Knowledge)
+        if mapless and table is None:
+            raise ValueError("SubgoalOptions: without the map, pass the table of the rules")
         self.config = config
         self.table = table or subgoal_table(world, config)
         r, k = self.table.valid.shape
@@ -119,7 +125,10 @@ class SubgoalOptions(BufferViews):
         # (reset with every trial, so nothing of it outlives one: not in the state dict)
         slack = config.region_limit  # type: ignore[attr-defined]
         self._limit: np.ndarray | None = None
-        if slack is not None:
+        # without the map: a region's option is given up, for the best one left, after this
+        # many actions in the region (no planner to fall back to)
+        self._timeout: int | None = int(slack) if mapless and slack is not None else None
+        if slack is not None and not mapless:
             share = _route_lengths(world)
             self._limit = np.array([int(slack) + math.ceil(share.get(name, 0.0) / step)
                                     for name in self.region_names])  # fmt: skip
@@ -135,8 +144,8 @@ class SubgoalOptions(BufferViews):
         self._detour = np.full((batch, 2), np.nan)
         self._detour_region = np.full(batch, -1, dtype=np.int64)
         self._world = world
-        self._walls = Walls(world.segments) if slack is not None else None
-        if self._limit is not None:
+        self._walls = Walls(world.segments) if self._limit is not None else None
+        if slack is not None:
             # learned: the options that needed the planner's one to finish their region; they
             # are not chosen again (the credit of the rescued trial would hide the dead end)
             self.register_buffer("stalled", torch.zeros(batch, r, k, dtype=torch.bool))
@@ -169,6 +178,15 @@ class SubgoalOptions(BufferViews):
         visit[:] = region_np
         pose = odometry.numpy().astype(np.float64)
         xy = pose[:, :2]
+        if self._timeout is not None:  # without the map: an option timed out gives way
+            steps = self._region_steps
+            steps[rows, region_np] += 1
+            for b in np.flatnonzero(steps[rows, region_np] > self._timeout).tolist():
+                here = int(region_np[b])
+                a["stalled"][b, here, chosen[b]] = True
+                choice[b, here] = self._choose(b, here, greedy=True)
+                steps[b, here], stage[b] = 0, _FIRST_STAGE
+            chosen = choice[rows, region_np]
         lost = None
         if self._limit is not None:  # a region past its limit goes on by the planner
             steps, fallen = self._region_steps, self._fallen_back
@@ -255,7 +273,7 @@ class SubgoalOptions(BufferViews):
         cfg = self.config
         a = self.arrays
         valid = a["valid"][region].tolist()
-        if self._limit is not None:  # a stalled option is as if not offered
+        if "stalled" in self._buffers:  # a stalled option is as if not offered
             valid = [ok and not stalled for ok, stalled in
                      zip(valid, a["stalled"][b, region].tolist(), strict=True)]  # fmt: skip
             if not any(valid):

@@ -39,9 +39,11 @@ from tensordict.nn import TensorDictModuleBase
 from torchrl.envs.utils import ExplorationType, exploration_type
 
 from symrl.grad import no_grad
+from symrl.knowledge.borders import border_subgoals
 from symrl.knowledge.localize import MapLocalizer, PoseTracker
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.regions import RegionMapper
+from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import RunConfig
@@ -113,29 +115,41 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def __init__(
         self,
         config: RunConfig,
-        world: WorldMap | None = None,
+        knowledge: Knowledge | WorldMap | None = None,
         seeds: list[int] | None = None,
         subgoals: SubgoalTable | None = None,
     ) -> None:
-        """``subgoals``: the map's sub-goal table if already built (it is derived from the map
-        and ``config.options`` alone; building it takes tens of milliseconds)."""
+        """``knowledge``: what the robot is told (``symrl.knowledge.rungs``); a ``WorldMap`` (or
+        None: ``config.env.map``) is cut down to the rung ``config.knowledge`` declares, so the
+        agent never holds more. ``subgoals``: the map's sub-goal table if already built (it is
+        derived from the map and ``config.options`` alone; building it takes tens of
+        milliseconds)."""
         super().__init__()
         self.config = config
-        self.world = world if world is not None else load_map(config.env.map)
+        if not isinstance(knowledge, Knowledge):
+            world = knowledge if knowledge is not None else load_map(config.env.map)
+            knowledge = Knowledge.told(world, config.knowledge)
+        elif knowledge.rung != config.knowledge:
+            raise ValueError(
+                f"knowledge={config.knowledge} in the config, but the agent is handed "
+                f"knowledge of rung {knowledge.rung!r}"
+            )
+        self.knowledge = knowledge
         self.seeds = list(seeds) if seeds is not None else [config.run.seed]
         batch = len(self.seeds)
         robot = config.env.robot
         xc = config.experts
         lc = config.localize
         self.localizer = (
-            PoseTracker(MapLocalizer(Walls(self.world.segments), robot, lc.iterations,
-                                     lc.prior_xy, lc.prior_heading, max_move=lc.max_move),
+            PoseTracker(MapLocalizer(Walls(knowledge.geometry("localize").segments), robot,
+                                     lc.iterations, lc.prior_xy, lc.prior_heading,
+                                     max_move=lc.max_move),
                         batch)
             if lc.enabled
             else None
         )  # fmt: skip
         self._beliefs: dict[bytes, tuple[torch.Tensor, torch.Tensor]] = {}
-        self.mapper = RegionMapper.from_map(self.world)
+        self.mapper = RegionMapper(knowledge.regions)
         self.region_names: tuple[str, ...] = tuple(self.mapper.names)
         self.expert_names = self.region_names if config.gate.partition else ("all",)
         self.reflex = FuzzyReflex(config.reflex)
@@ -144,18 +158,20 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             batch, len(self.expert_names), self.input_dim, xc.capacity, xc.max_neurons,
             names=self.expert_names,
         )  # fmt: skip
-        self.options = (
-            SubgoalOptions(self.world, batch, config.options, self.seeds, subgoals,
-                           step=config.env.robot.step)
-            if config.options.enabled
-            else None
-        )
+        self.options = None
+        if config.options.enabled and config.options.source == "rules":
+            table = subgoals or border_subgoals(knowledge.regions, knowledge.goal)
+            self.options = SubgoalOptions(knowledge, batch, config.options, self.seeds, table,
+                                          step=robot.step)  # fmt: skip
+        elif config.options.enabled:
+            self.options = SubgoalOptions(knowledge.geometry("options"), batch, config.options,
+                                          self.seeds, subgoals, step=robot.step)  # fmt: skip
         self.shield = (
             IRShield(ShieldConfig(margin=config.shield.margin), robot)
             if config.shield.enabled
             else None
         )
-        start, goal = self.world.start, self.world.goal
+        start, goal = knowledge.start, knowledge.goal
         self.start_distance = max(math.hypot(start.x - goal.x, start.y - goal.y), 1e-9)
         n = xc.goal_codes
         self.register_buffer("code_centres", torch.arange(n, dtype=torch.float32) / (n - 1))
@@ -200,7 +216,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         if known is not None:
             return known
         pose = self.localizer(odometry.numpy(), sonar.numpy())
-        g = self.world.goal
+        g = self.knowledge.goal
         seen = goal_reading(g.x, g.y, pose[:, 0], pose[:, 1], pose[:, 2])
         out = torch.from_numpy(pose.astype(np.float32)), torch.from_numpy(seen)
         if len(self._beliefs) >= 2:
@@ -391,7 +407,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     # -- per-robot state ------------------------------------------------------------------
     def robot_state(self, b: int) -> dict[str, torch.Tensor]:
         """Robot ``b``'s controller: a cloned state dict that loads into a policy of one robot
-        (``MixtureOfExpertsPolicy(config, world, [seed])``)."""
+        (``MixtureOfExpertsPolicy(config, policy.knowledge, [seed])``)."""
         out = {}
         for key, value in self.state_dict().items():
             per_robot = key.startswith("experts.") or key in _PER_ROBOT
@@ -402,7 +418,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def from_robot_states(
         cls,
         config: RunConfig,
-        world: WorldMap,
+        knowledge: Knowledge | WorldMap,
         states: list[dict[str, torch.Tensor]],
         seeds: list[int] | None = None,
         subgoals: SubgoalTable | None = None,
@@ -410,7 +426,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         """One policy whose robot b is the controller ``states[b]`` (from :meth:`robot_state`
         or a one-robot policy's state dict): evaluate several controllers side by side."""
         seeds = list(seeds) if seeds is not None else [0] * len(states)
-        policy = cls(config, world, seeds, subgoals)
+        policy = cls(config, knowledge, seeds, subgoals)
         merged = {}
         for key, value in states[0].items():
             if key.startswith("experts.") or key in _PER_ROBOT:

@@ -57,7 +57,9 @@ __all__ = [
     "ablate_command",
 ]
 
-RECIPES = ("paper", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only")
+RECIPES = (
+    "paper", "paper_map", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only",
+)
 
 # what a change ablation leaves alone: the recipe's name, and the budget, seed and logging
 _NOT_CHANGES = ("recipe", "run.")

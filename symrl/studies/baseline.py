@@ -109,7 +109,7 @@ def run_config(map: str = "hailu2001", seed: int = 100, episodes: int = 20) -> R
     -65.45 with `paper`'s halved sets, SAC residual at 20 trials 43.9 / -23.19 against 48.5 /
     -25.45 (seeds 100-104; RESULTS.md, "Modern baselines")."""
     peaks = list(ReflexConfig().peaks)
-    return load_config("paper", [f"env.map={map}", f"run.seed={seed}", f"run.trials={episodes}",
+    return load_config("paper_map", [f"env.map={map}", f"run.seed={seed}", f"run.trials={episodes}",
                                  f"run.image_every={max(episodes // 4, 1)}",
                                  f"reflex.peaks={peaks}"])  # fmt: skip
 
@@ -333,7 +333,7 @@ def load_baseline(path: str | Path) -> BaselineController | None:
     if not isinstance(data, dict) or data.get("kind") != CHECKPOINT_KIND:
         return None
     try:
-        config = config_from_dict(dict(data["config"]), recipe="paper")
+        config = config_from_dict(dict(data["config"]), recipe="paper_map")
         world = load_map(data["map"]) if data.get("map") else load_map(config.env.map)
         priors = Priors(**data["priors"])
         spec = dict(data["actor_spec"])

@@ -140,7 +140,7 @@ def _rate(evs: Sequence[dict[str, Any]]) -> dict[str, Any]:
 
 
 def run_generalisation(
-    recipe: str = "paper",
+    recipe: str = "paper_map",
     sets: int = 5,
     trials: int = 20,
     seed: int = 100,

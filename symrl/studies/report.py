@@ -24,8 +24,9 @@ COMMANDS = {
 }
 """The commands whose folders this report reads (the baselines': ``BASELINE_VARIANTS``)."""
 
-GENERALISE_RECIPES = ("paper", "reflex_only")
-"""The recipes of the generalisation section: the paper's learner and the reflex it starts from."""
+GENERALISE_RECIPES = ("reflex_only", "paper", "paper_map")
+"""The recipes of the generalisation section, one per rung of knowledge: the reflex alone
+(sensors), the paper's learner (regions), the learner told the whole map (map)."""
 
 INTERPRETATION = Path(__file__).with_name("results_discussion.md")
 """Hand-written discussion appended to the generated report (what reproduces and what not)."""
@@ -73,7 +74,7 @@ def _section_plan(results: Path, figures: Path) -> list[str]:
 
 
 def _section_study(results: Path, figures: Path) -> list[str]:
-    folder = results / "ablate" / "paper"
+    folder = results / "ablate" / "paper_map"
     out = ["## Table 1 and Figs 5-9: the `paper` recipe (`symrl study paper`)", "",
            f"Command: `{COMMANDS['study']}` (the same runs as `symrl study paper --sets 10 "
            "--trials 20 --seed 100`; its folder is `results/ablate/paper`)", ""]

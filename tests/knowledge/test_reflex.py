@@ -193,7 +193,7 @@ def test_real_concave_corner_of_the_map(reflex):
 MIRROR = [(-k) % 24 for k in range(24)]  # ray k (heading + 15k deg) <-> ray -k
 
 
-@pytest.mark.parametrize("config", ["literal", "paper"])
+@pytest.mark.parametrize("config", ["literal", "paper_map"])
 @settings(max_examples=300, deadline=None)
 @given(
     s=st.lists(st.floats(0.0, 0.3) | st.just(1.0), min_size=24, max_size=24),
@@ -217,7 +217,7 @@ def test_mirrored_input_gives_exactly_the_negated_output(config, s, goal):
 def _mirror_reflex(config: str) -> FuzzyReflex:
     from symrl.learner.config import load_config
 
-    return FuzzyReflex(load_config("paper").reflex if config == "paper" else None)
+    return FuzzyReflex(load_config("paper_map").reflex if config == "paper_map" else None)
 
 
 @settings(max_examples=200, deadline=None)

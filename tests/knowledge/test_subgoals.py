@@ -176,7 +176,7 @@ DEFAULT_TABLE = {
         (SubgoalConfig(past=True, beyond=(0.4,), min_clearance=0.45), PAPER_TABLE),
         (SubgoalConfig(), DEFAULT_TABLE),
     ],
-    ids=["paper", "default"],
+    ids=["paper_map", "default"],
 )
 def test_paper_map_tables_are_pinned(world, config, expected):
     table = build_subgoals(world, config)

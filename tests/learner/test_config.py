@@ -20,7 +20,7 @@ from symrl.learner.config import (
 )
 from symrl.world.robot import RobotConfig
 
-RECIPES = ["paper", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only"]
+RECIPES = ["paper_map", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only"]
 
 
 @pytest.mark.parametrize("name", RECIPES)
@@ -45,7 +45,7 @@ def test_paper_literal_is_the_defaults():
 
 
 def test_paper_sets_its_switches_and_keeps_the_budget():
-    paper, literal = load_config("paper"), load_config("paper_literal")
+    paper, literal = load_config("paper_map"), load_config("paper_literal")
     assert paper.env == literal.env and paper.run == literal.run
     assert paper.gate.partition and paper.experts.reflex and paper.experts.learning
     assert paper.experts.residual
@@ -67,7 +67,7 @@ def test_paper_reflex_ignores_a_wall_alongside_that_the_literal_reflex_swerves_f
     sonar = torch.ones(24, dtype=torch.float64)
     sonar[[20, 21, 22]] = 0.4 / 5.0  # a wall 0.4 m away, front-right
     literal = FuzzyReflex(ReflexConfig()).angle(sonar, 0.0)
-    paper = FuzzyReflex(load_config("paper").reflex)
+    paper = FuzzyReflex(load_config("paper_map").reflex)
     assert literal > math.radians(10)  # FR near -> LEFT: a turn away from a harmless wall
     assert paper.angle(sonar, 0.0) == pytest.approx(0.0)  # the goal straight ahead wins
     sonar[[20, 21, 22]] = 0.15 / 5.0  # closer than 0.30 m: the paper reflex avoids it too
@@ -92,7 +92,7 @@ def test_overrides_are_typed_and_merge():
     assert c.run.trials == 3 and c.options.critic == "best"
     assert isinstance(c.env.robot, RobotConfig) and c.env.robot.radius == 0.3
     assert c.env.robot.step == RobotConfig().step  # the other robot fields are kept
-    assert isinstance(load_config("paper", ["update.gamma=1"]).update.gamma, float)
+    assert isinstance(load_config("paper_map", ["update.gamma=1"]).update.gamma, float)
 
 
 def test_reflex_mappings_merge_entry_by_entry():
@@ -104,7 +104,7 @@ def test_reflex_mappings_merge_entry_by_entry():
     }
     assert c.reflex.d_g == 0.25
     # over a recipe that sets FL and FR itself, FR is kept
-    paper = load_config("paper", ["reflex.near.FL=[0.1, 0.35]"])
+    paper = load_config("paper_map", ["reflex.near.FL=[0.1, 0.35]"])
     assert paper.reflex.near["FR"] == (0.10, 0.30) and paper.reflex.near["FL"] == (0.1, 0.35)
 
 
@@ -154,7 +154,7 @@ def test_cross_field_rules():
     message = _error(["experts.residual=true", "experts.reflex=false"])
     assert "experts.residual" in message and "experts.reflex" in message
     # the paper recipe has residual experts: turning the reflex off alone is refused too
-    assert "experts.residual" in _error(["experts.reflex=false"], recipe="paper")
+    assert "experts.residual" in _error(["experts.reflex=false"], recipe="paper_map")
     message = _error(["experts.capacity=10", "experts.max_neurons=5"])
     assert "experts.max_neurons=5" in message and "experts.capacity=10" in message
 
@@ -201,7 +201,7 @@ def test_round_trip_through_a_dict(name):
 
 
 def test_round_trip_through_yaml():
-    c = load_config("paper", ["env.robot.radius=0.3"])
+    c = load_config("paper_map", ["env.robot.radius=0.3"])
     text = yaml.safe_dump(config_to_dict(c))  # tuples must have become lists
     assert config_from_dict(yaml.safe_load(text)) == c
 

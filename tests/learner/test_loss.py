@@ -326,7 +326,7 @@ def test_cooling_down_to_the_floor():
         loss.end_trial(torch.tensor([0]), torch.tensor([-50.0]), torch.tensor([k % 2 == 0]))
         temps.append(float(p.temperature[0]))
     assert temps == pytest.approx([0.15, 0.075, 0.05, 0.05, 0.05, 0.05])
-    paper = policy("paper", seeds=(3,))
+    paper = policy("paper_map", seeds=(3,))
     loss = TeseoLoss(paper)
     for _ in range(40):
         loss.end_trial(torch.tensor([0]), torch.tensor([-50.0]), torch.tensor([False]))
@@ -336,7 +336,7 @@ def test_cooling_down_to_the_floor():
 def _option_policy(*overrides: str):
     """Options on, greedy choices (untried ones are not tried first): the first option of a
     region until another one has a better critic."""
-    return policy("paper", "options.try_untried=false", "options.epsilon=0", *overrides)
+    return policy("paper_map", "options.try_untried=false", "options.epsilon=0", *overrides)
 
 
 def _act(p, loss, obs, nxt, reward):

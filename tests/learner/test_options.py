@@ -18,6 +18,11 @@ WORLD = load_map("hailu2001")  # goal (4, -2)
 GOAL = (4.0, -2.0)
 
 
+def paper_map(*overrides: str):
+    """The map-rung recipe's config with ``overrides``."""
+    return load_config("paper_map", list(overrides))
+
+
 def _table() -> SubgoalTable:
     """Two regions: region 0 has the goal and two sub-goals, region 1 only the goal."""
     points = torch.tensor(
@@ -222,7 +227,7 @@ def test_paper_table_shapes_follow_the_switches():
 
     def labels(*overrides: str) -> list[list[str]]:
         """The labels of each region's valid options."""
-        o = MixtureOfExpertsPolicy(load_config("paper", list(overrides))).options
+        o = MixtureOfExpertsPolicy(load_config("paper_map", list(overrides))).options
         return [[label for k, label in enumerate(row) if bool(o.valid[r, k])]
                 for r, row in enumerate(o.labels)]  # fmt: skip
 
@@ -248,7 +253,7 @@ def test_planner_waypoint_rounds_the_partition_that_no_region_line_marks():
     from symrl.knowledge.subgoals import _clearance
 
     world = load_map("two_doors")
-    config = load_config("paper", ["options.subgoal_planner=true"]).options
+    config = load_config("paper_map", ["options.subgoal_planner=true"]).options
     opt = SubgoalOptions(world, 1, config, [0])
     corridor = opt.region_names.index("corridor")
     path = opt.labels[corridor].index("path")
@@ -257,7 +262,7 @@ def test_planner_waypoint_rounds_the_partition_that_no_region_line_marks():
     assert _clearance(world, (x, y)) == pytest.approx(0.45, abs=1e-6)
     assert bool(opt.valid[corridor, path])
     plain = SubgoalOptions(
-        world, 1, load_config("paper", ["options.subgoal_planner=false"]).options, [0]
+        world, 1, load_config("paper_map", ["options.subgoal_planner=false"]).options, [0]
     )
     assert "path" not in plain.labels[corridor]
 
@@ -293,7 +298,7 @@ _NEITHER = ["options.subgoal_detour=null", "options.subgoal_way_out=false"]
 def _offered(world, *overrides: str) -> dict[str, list[str]]:
     """The labels of the valid options of each region under ``paper`` without the detour and
     way-out rules, then ``overrides``."""
-    config = load_config("paper", _NEITHER + list(overrides)).options
+    config = load_config("paper_map", _NEITHER + list(overrides)).options
     opt = SubgoalOptions(world, 1, config, [0])
     return {
         name: [label for k, label in enumerate(opt.labels[r]) if bool(opt.valid[r, k])]
@@ -324,7 +329,7 @@ def test_detour_drops_subgoals_off_the_short_way_and_unseen_from_it():
     assert _offered(world, "options.subgoal_detour=0")["east_gap"] == ["goal", "path"]
     # the table keeps its shape (a checkpoint's critic fits either way)
     shapes = {
-        SubgoalOptions(world, 1, load_config("paper", _NEITHER + o).options, [0]).valid.shape
+        SubgoalOptions(world, 1, load_config("paper_map", _NEITHER + o).options, [0]).valid.shape
         for o in ([], ["options.subgoal_detour=1.0"])
     }
     assert len(shapes) == 1
@@ -372,7 +377,7 @@ def test_way_out_gives_a_dead_end_region_the_planner_turn_out_of_it():
     assert _offered(world)["bay"] == ["goal"]  # steering at the goal from the bay: its wall
     out = _offered(world, "options.subgoal_way_out=true")
     assert out["bay"] == ["goal", "out"]
-    config = load_config("paper", _NEITHER + ["options.subgoal_way_out=true"]).options
+    config = load_config("paper_map", _NEITHER + ["options.subgoal_way_out=true"]).options
     opt = SubgoalOptions(world, 1, config, [0])
     bay = opt.region_names.index("bay")
     x, y = opt.table.point(bay, 1)
@@ -387,9 +392,9 @@ def test_way_out_gives_a_dead_end_region_the_planner_turn_out_of_it():
 def test_detour_and_way_out_leave_the_paper_world_unchanged():
     # hailu2001: every sub-goal is straight ahead of its region's entry and on a short way,
     # and every region has sub-goals, so the table (and the learning) are those of paper
-    base = SubgoalOptions(WORLD, 1, load_config("paper", _NEITHER).options, [0])
+    base = SubgoalOptions(WORLD, 1, load_config("paper_map", _NEITHER).options, [0])
     both = SubgoalOptions(WORLD, 1, load_config(
-        "paper", ["options.subgoal_detour=1.0", "options.subgoal_way_out=true"]).options, [0])
+        "paper_map", ["options.subgoal_detour=1.0", "options.subgoal_way_out=true"]).options, [0])
     assert torch.equal(base.valid, both.valid) and torch.equal(base.points, both.points)
     assert base.labels == both.labels
 
@@ -426,7 +431,7 @@ def test_a_region_the_path_crosses_straight_with_nothing_ahead_gets_the_next_tur
     # room_west's way out is 3 m of open floor (no passage point): before the rule it offered
     # the goal (behind the wall) and the points just past the corridor's mouth only
     assert offered["room_west"] == ["goal", "mouth@+0.0/0.4", "mouth@+0.8/0.4", "path"]
-    config = load_config("paper", _NEITHER).options
+    config = load_config("paper_map", _NEITHER).options
     opt = SubgoalOptions(world, 1, config, [0])
     west = opt.region_names.index("room_west")
     x, y = opt.table.point(west, opt.labels[west].index("path"))
@@ -446,7 +451,7 @@ def test_a_region_whose_points_ahead_are_all_detours_gets_the_next_turn():
     # its region-line points lie on the long way round the box's north side, all detours:
     # what is left ahead is the next turn of the path, round the box's south-east corner
     assert with_detour == ["goal", "path"]
-    config = load_config("paper").options
+    config = load_config("paper_map").options
     opt = SubgoalOptions(world, 1, config, [0])
     r = opt.region_names.index(region)
     x, y = opt.table.point(r, opt.labels[r].index("path"))
@@ -484,7 +489,7 @@ SIDE_ROOM = {
 
 
 def _approach_options(world, *overrides: str) -> SubgoalOptions:
-    config = load_config("paper", ["options.subgoal_approach=0.7", *overrides]).options
+    config = load_config("paper_map", ["options.subgoal_approach=0.7", *overrides]).options
     return SubgoalOptions(world, 1, config, [0])
 
 
@@ -520,7 +525,7 @@ def test_a_side_on_door_gets_one_approach_option_that_then_steers_through_it():
 def test_approach_options_leave_a_head_on_world_unchanged_and_the_shape_fixed():
     # hailu2001: the way meets the door 8 and 30 degrees off its normal: no valid approach, so
     # the valid options (and the learning) are those without the rule
-    base = SubgoalOptions(WORLD, 1, load_config("paper", ["options.subgoal_approach=null"])
+    base = SubgoalOptions(WORLD, 1, load_config("paper_map", ["options.subgoal_approach=null"])
                           .options, [0])  # fmt: skip
     both = _approach_options(WORLD)
     for opt in (base, both):
@@ -561,7 +566,7 @@ def test_a_region_whose_path_rounds_two_corners_steers_at_the_first_then_the_las
     world = load_map(BOX_AND_NOOK)
 
     def path_option(first: bool) -> tuple[SubgoalOptions, int]:
-        config = load_config("paper", [f"options.subgoal_planner_first={str(first).lower()}"])
+        config = load_config("paper_map", [f"options.subgoal_planner_first={str(first).lower()}"])
         opt = SubgoalOptions(world, 1, config.options, [0])
         return opt, opt.labels[0].index("path")
 
@@ -585,7 +590,7 @@ def test_a_region_whose_path_rounds_two_corners_steers_at_the_first_then_the_las
 
 def test_a_region_past_its_limit_goes_on_by_the_planner_option_and_stalls_the_choice():
     world = load_map(LONG_WALL)
-    config = load_config("paper", ["options.region_limit=3"]).options
+    config = load_config("paper_map", ["options.region_limit=3"]).options
     opt = SubgoalOptions(world, 1, config, [0])
     south = opt.region_names.index("south")
     labels = opt.labels[south]
@@ -610,8 +615,7 @@ def test_a_region_past_its_limit_goes_on_by_the_planner_option_and_stalls_the_ch
         assert opt._choose(0, south, greedy=False) != goal
         opt.n[0, south] += 1
     # without a limit nothing stalls and the state dict is that of the paper's options
-    plain = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=null"]).options,
-                           [0])  # fmt: skip
+    plain = SubgoalOptions(world, 1, paper_map("options.region_limit=null").options, [0])
     assert "stalled" not in plain.state_dict()
 
 
@@ -619,7 +623,7 @@ def test_a_regions_limit_is_its_length_of_the_planners_path_not_a_count_of_its_p
     from symrl.knowledge.planner import shortest_path
 
     world = load_map("l_corridor")  # the path rounds the inner corner in a few cm of arc
-    opt = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=5"]).options, [0])
+    opt = SubgoalOptions(world, 1, paper_map("options.region_limit=5").options, [0])
     plan = shortest_path(world)
     lengths = _route_lengths(world)
     assert sum(lengths.values()) == pytest.approx(plan.length, rel=1e-5)  # chords of its arcs
@@ -635,7 +639,7 @@ def test_a_region_without_a_planner_option_goes_on_by_the_planner_from_where_the
     from symrl.knowledge.subgoals import _clearance
 
     world = load_map(LONG_WALL)
-    opt = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=2"]).options, [0])
+    opt = SubgoalOptions(world, 1, paper_map("options.region_limit=2").options, [0])
     west = opt.region_names.index("west_gap")
     assert int(opt._planner_option[west]) == -1 and int(opt._limit[west]) == 2  # off the path
     opt.choice[0, west] = opt.labels[west].index("goal")
@@ -657,7 +661,7 @@ def test_a_region_past_its_limit_on_its_planner_option_goes_on_by_the_planner_fr
     """The fallback would be the option already in force (a robot circling an obstacle it met
     on the far side): the planner's path is planned again from the robot's position."""
     world = load_map(LONG_WALL)
-    opt = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=2"]).options, [0])
+    opt = SubgoalOptions(world, 1, paper_map("options.region_limit=2").options, [0])
     south = opt.region_names.index("south")
     path = int(opt._planner_option[south])
     limit = int(opt._limit[south])
@@ -679,7 +683,7 @@ def test_a_region_fallen_back_to_its_planner_option_and_still_in_it_the_slack_la
     region (long_wall: from the turn below the east lip, the goal lies over the bay): the slack
     after the fallback, the planner's path from where the robot is."""
     world = load_map(LONG_WALL)
-    opt = SubgoalOptions(world, 1, load_config("paper", ["options.region_limit=3"]).options, [0])
+    opt = SubgoalOptions(world, 1, paper_map("options.region_limit=3").options, [0])
     south = opt.region_names.index("south")
     goal, path = opt.labels[south].index("goal"), int(opt._planner_option[south])
     limit = int(opt._limit[south])

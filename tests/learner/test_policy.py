@@ -43,13 +43,13 @@ def test_region_gate_picks_the_expert():
     per = p.perceive(obs["sonar"], obs["odometry"], obs["goal"])
     assert per.region.tolist() == per.expert.tolist() == [0, 1, 2, 3]
     assert per.winner.tolist() == [-1] * 4 and per.novel.all()
-    one = policy("no_partition", seeds=range(4))
-    assert one.expert_names == ("all",)
+    one = policy("no_partition", seeds=range(4))  # told no regions: one region, one expert
+    assert one.expert_names == ("all",) and one.region_names == ("all",)
     per = one.perceive(obs["sonar"], obs["odometry"], obs["goal"])
-    assert per.region.tolist() == [0, 1, 2, 3] and per.expert.tolist() == [0, 0, 0, 0]
+    assert per.region.tolist() == [0, 0, 0, 0] and per.expert.tolist() == [0, 0, 0, 0]
 
 
-@pytest.mark.parametrize("recipe", ["paper", "paper_literal"])  # pose input, sensor input
+@pytest.mark.parametrize("recipe", ["paper_map", "paper_literal"])  # pose input, sensor input
 def test_perceiving_again_follows_the_observation_not_the_tensor(recipe):
     """The gate and the inputs of the last observation are reused only for the same bits: an
     observation changed in place, or another one, is perceived afresh."""
@@ -88,7 +88,7 @@ def test_novel_state_acts_as_its_new_neuron_would():
     assert float(td["action"][0, 0]) == pytest.approx(reflex + float(td["xi"][0]), abs=1e-6)
     assert float(td["taken"][0]) == pytest.approx(float(td["action"][0, 0]), abs=1e-6)
     # residual experts: p = 0 on top of the reflex
-    r = policy("paper", "options.enabled=false", "shield.enabled=false")
+    r = policy("paper_map", "options.enabled=false", "shield.enabled=false")
     td = r(obs.clone())
     assert float(td["proto"][0]) == 0.0
     reflex = _reflex(r, obs)  # the paper recipe's own reflex (its output sets differ)
@@ -154,7 +154,7 @@ def test_greedy_is_deterministic_and_draws_nothing():
 
 
 def test_greedy_residual_expert_adds_its_correction_to_the_reflex():
-    p = policy("paper", "options.enabled=false", "shield.enabled=false")
+    p = policy("paper_map", "options.enabled=false", "shield.enabled=false")
     obs = observation(goal=(4.5, -0.46))
     place(p, obs, action=0.25)
     with set_exploration_type(GREEDY):
@@ -204,7 +204,7 @@ def test_shield_replaces_a_move_into_a_wall():
 
 
 def test_options_choose_at_the_first_entry_of_a_region_per_trial():
-    p = policy("paper", seeds=(0, 1))
+    p = policy("paper_map", seeds=(0, 1))
     room, door = observation(), observation(pose=POSES["door"])
     both = stack(room, room)
     td = p(both.clone())
@@ -229,7 +229,7 @@ def test_options_choose_at_the_first_entry_of_a_region_per_trial():
 
 def test_options_steer_the_reflex_at_the_chosen_subgoal():
     # (no goal lead: the sub-goal from the region's first step)
-    p = policy("paper", "shield.enabled=false", "options.try_untried=false",
+    p = policy("paper_map", "shield.enabled=false", "options.try_untried=false",
                "options.goal_lead_deg=0")  # fmt: skip
     r = p.region_names.index("room")
     labels = p.options.labels[r]
@@ -247,7 +247,7 @@ def test_options_steer_the_reflex_at_the_chosen_subgoal():
 
 
 def test_robot_states_round_trip():
-    p = policy("paper", seeds=(4, 5))
+    p = policy("paper_map", seeds=(4, 5))
     for b, (sonar, n) in enumerate(((0.2, 3), (0.7, 70))):  # robot 1 outgrows the capacity
         for k in range(n):
             place(p, observation(sonar=sonar + 0.003 * k), action=0.01 * k, utility=-k, row=b)
@@ -255,22 +255,22 @@ def test_robot_states_round_trip():
     p.best_total[0] = -9.0
     p.options.q[1, 0, 1] = -4.5
     p.options.n[1, 0, 1] = 3
-    single = MixtureOfExpertsPolicy(p.config, p.world, [5])
+    single = MixtureOfExpertsPolicy(p.config, p.knowledge, [5])
     single.load_state_dict(p.robot_state(1))
     assert single.neurons().tolist() == [p.neurons()[1].tolist()]
     assert float(single.temperature[0]) == 0.05 and float(single.options.q[0, 0, 1]) == -4.5
     n = int(p.experts.count[1, 0])
     assert torch.equal(single.experts.centres[0, 0, :n], p.experts.centres[1, 0, :n])
     # several controllers side by side, in any order, with different capacities
-    small = MixtureOfExpertsPolicy(p.config, p.world, [4])
+    small = MixtureOfExpertsPolicy(p.config, p.knowledge, [4])
     small.load_state_dict(p.robot_state(0))
     both = MixtureOfExpertsPolicy.from_robot_states(
-        p.config, p.world, [small.state_dict(), single.state_dict()], seeds=[4, 5]
+        p.config, p.knowledge, [small.state_dict(), single.state_dict()], seeds=[4, 5]
     )
     for key, value in p.state_dict().items():
         assert torch.equal(both.state_dict()[key], value), key
     swapped = MixtureOfExpertsPolicy.from_robot_states(
-        p.config, p.world, [p.robot_state(1), p.robot_state(0)]
+        p.config, p.knowledge, [p.robot_state(1), p.robot_state(0)]
     )
     assert swapped.neurons().tolist() == p.neurons().flip(0).tolist()
     assert swapped.best_total.tolist() == [-math.inf, -9.0]
@@ -286,8 +286,8 @@ def test_robot_states_round_trip():
 def test_a_robots_actions_do_not_depend_on_the_batch():
     """Robot b of a batch draws and acts as the same seed alone."""
     obs = [observation(sonar=0.3), observation(sonar=0.6, pose=POSES["door"])]
-    batch = policy("paper", seeds=(11, 12))
-    alone = [policy("paper", seeds=(s,)) for s in (11, 12)]
+    batch = policy("paper_map", seeds=(11, 12))
+    alone = [policy("paper_map", seeds=(s,)) for s in (11, 12)]
     for _ in range(5):
         td = batch(stack(*obs))
         for b, p in enumerate(alone):
@@ -326,15 +326,15 @@ def test_with_map_localisation_the_gate_and_the_goal_follow_the_scan_not_the_odo
     rays = walls.cast_many(true[:, 0], true[:, 1], true[:, 2:3] + offsets, 5.26)
     sonar = (np.clip(rays - 0.26, 0.0, 5.0) / 5.0)[0].tolist()
     obs = observation(sonar=sonar, pose=(3.25, -0.5, 0.1), goal=(1.0, 0.0))
-    plain = policy("paper")
+    plain = policy("paper_map")
     # an odometry 0.3 m off at a trial's first observation: the config's advice for such a
     # start is about 5 Gauss-Newton steps (a reset's odometry is exact, so paper takes 2)
-    localised = policy("paper", "localize.enabled=true", "localize.iterations=5")
+    localised = policy("paper_map", "localize.enabled=true", "localize.iterations=5")
     assert plain.perceive(obs["sonar"], obs["odometry"], obs["goal"]).region.tolist() == [0]
     assert localised.perceive(obs["sonar"], obs["odometry"], obs["goal"]).region.tolist() == [2]
     pose, goal = localised.belief(obs["sonar"], obs["odometry"], obs["goal"])
     assert np.allclose(pose.numpy(), true, atol=0.01)
-    g = localised.world.goal
+    g = localised.knowledge.goal
     assert math.isclose(float(goal[0, 0]), math.hypot(g.x - 3.55, g.y + 0.5), abs_tol=0.01)
     # without localisation the belief is the observation itself
     same = plain.belief(obs["sonar"], obs["odometry"], obs["goal"])
@@ -347,7 +347,7 @@ def test_a_trials_first_action_turns_straight_at_an_aim_behind_the_robot(side):
     trial is the whole turn to the aim, mirrored with the pose; later actions, and a first
     action with the aim less than start_turn_deg off, follow the reflex."""
     args = ("shield.enabled=false", "experts.learning=false", "options.start_turn_deg=90")
-    p = policy("paper", *args)
+    p = policy("paper_map", *args)
     heading = side * 2.6  # the goal (4, -2) is ~150 degrees off from (0, 0)
     behind = observation(pose=(0.0, 0.0, heading))
     td = p(behind.clone())
@@ -359,9 +359,9 @@ def test_a_trials_first_action_turns_straight_at_an_aim_behind_the_robot(side):
     assert abs(float(again["action"][0, 0])) <= math.radians(45) + 1e-6
     p.begin_trial(torch.tensor([0]))  # a new trial turns again
     assert float(p(behind.clone())["action"][0, 0]) == pytest.approx(aim, abs=1e-5)
-    off = policy("paper", *args[:2], "options.start_turn_deg=null")
+    off = policy("paper_map", *args[:2], "options.start_turn_deg=null")
     assert abs(float(off(behind.clone())["action"][0, 0])) <= math.radians(45) + 1e-6
-    ahead = policy("paper", *args)  # the aim 26 degrees off: the reflex's action
+    ahead = policy("paper_map", *args)  # the aim 26 degrees off: the reflex's action
     obs = observation(pose=(0.0, 0.0, 0.0))
     assert float(ahead(obs.clone())["action"][0, 0]) == pytest.approx(
         _reflex(ahead, obs, math.atan2(-2.0, 4.0)), abs=1e-5

@@ -31,8 +31,8 @@ def runs(tmp_path_factory):
     """The same seed run 4 trials at once, and 2 trials then resumed to 4."""
     root = tmp_path_factory.mktemp("runs")
     whole, parted = root / "whole", root / "parted"
-    assert _train("paper", "--trials", "4", "--seed", str(SEED), "--logdir", str(whole)) == 0
-    assert _train("paper", "--trials", "2", "--seed", str(SEED), "--logdir", str(parted)) == 0
+    assert _train("paper_map", "--trials", "4", "--seed", str(SEED), "--logdir", str(whole)) == 0
+    assert _train("paper_map", "--trials", "2", "--seed", str(SEED), "--logdir", str(parted)) == 0
     assert len(read_trials_csv(parted / "trials.csv")) == 2
     assert _train("--resume", str(parted), "--trials", "4") == 0
     return whole, parted
@@ -78,7 +78,7 @@ def test_a_signal_stops_the_run_with_its_finished_trials_saved(runs, tmp_path, c
     runs_module.RunWriter.trial = trial_then_signal
     try:
         # every 3 trials: no checkpoint on disk at trial 2 until the stop writes it
-        code = _train("paper", "--trials", "4", "--seed", str(SEED), "--logdir", str(run),
+        code = _train("paper_map", "--trials", "4", "--seed", str(SEED), "--logdir", str(run),
                       "--checkpoint-every", "3")  # fmt: skip
     finally:
         runs_module.RunWriter.trial = real

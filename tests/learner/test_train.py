@@ -17,7 +17,7 @@ from symrl.runs import CheckpointError, load_checkpoint, save_checkpoint
 from symrl.train import make_env, train, train_batch
 
 SEEDS = (3, 8)
-RECIPE = "paper"  # options, shield and residual experts: every per-robot stream is in play
+RECIPE = "paper_map"  # options, shield and residual experts: every per-robot stream is in play
 
 
 def _config(seed: int, trials: int = 2, recipe: str = RECIPE):
@@ -106,7 +106,7 @@ def test_reflex_only_grows_nothing():
 def test_env_specs():
     from torchrl.envs.utils import check_env_specs
 
-    env = make_env(load_config("paper"), [0, 1])
+    env = make_env(load_config("paper_map"), [0, 1])
     check_env_specs(env, seed=0)
     td = env.reset()
     assert td["true_pose"].dtype == torch.float64 and td["collision"].dtype == torch.bool
@@ -238,7 +238,7 @@ def test_checkpoint_with_a_bad_config_or_format(checkpoint, tmp_path):
 
 def test_checkpoint_with_malformed_entries(checkpoint, tmp_path):
     def config_not_a_mapping(data):
-        data["config"] = "paper"
+        data["config"] = "paper_map"
 
     def policy_not_a_mapping(data):
         data["policy"] = [1, 2]
@@ -255,7 +255,7 @@ def test_checkpoint_with_malformed_entries(checkpoint, tmp_path):
 
 def test_train_command_writes_the_run_folder(tmp_path, capsys):
     out = tmp_path / "run"
-    args = ["train", "paper", "--trials", "2", "--seed", "1", "--logdir", str(out)]
+    args = ["train", "paper_map", "--trials", "2", "--seed", "1", "--logdir", str(out)]
     assert main(args) == 0
     for name in ("config.yaml", "trials.csv", "checkpoint.pt", "trajectory.png"):
         assert (out / name).is_file(), name
@@ -266,7 +266,7 @@ def test_train_command_writes_the_run_folder(tmp_path, capsys):
     assert {"steps", "total_reinforcement", "collisions", "shielded", "reached_goal", "neurons",
             "temperature", "replaced", "path_length", "neurons_room",
             "option_room"} <= set(rows[0])  # fmt: skip
-    assert "paper (seed 1)" in capsys.readouterr().out
+    assert "paper_map (seed 1)" in capsys.readouterr().out
     policy, config = load_checkpoint(out / "checkpoint.pt")
     assert config.run.seed == 1 and config.run.trials == 2
     assert int(policy.neurons().sum()) == int(rows[-1]["neurons"])
@@ -285,7 +285,7 @@ def test_train_command_writes_the_run_folder(tmp_path, capsys):
 
 
 def test_train_command_errors_and_help_keys(tmp_path, capsys):
-    assert main(["train", "paper", "update.gama=1", "--logdir", str(tmp_path / "x")]) == 2
+    assert main(["train", "paper_map", "update.gama=1", "--logdir", str(tmp_path / "x")]) == 2
     assert "update.gama" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
     assert main(["train", "--logdir", str(tmp_path / "y")]) == 2

@@ -18,7 +18,7 @@ from symrl.train import train_batch
 from symrl.world.physics import wrap_angle as _wrap
 
 RANGE, CLOSE, STEP, GOAL = 5.0, 0.3, 0.2, (4.0, -2.0)
-REFLEX = FuzzyReflex(load_config("paper").reflex)
+REFLEX = FuzzyReflex(load_config("paper_map").reflex)
 
 
 def _recorded_trial(seed: int = 5):
@@ -222,9 +222,9 @@ def test_the_rule_moves_each_neuron_by_at_most_max_step_per_trial():
     # REINFORCE off, so the means move by the trial gradient alone
     base = ["run.trials=2", "update.beta=0", "trial_gradient.max_step=0.01",
             "trial_gradient.limit=0.015"]  # fmt: skip
-    (off,) = train_batch(load_config("paper", [*base, "trial_gradient.rate=0"]), [3],
+    (off,) = train_batch(load_config("paper_map", [*base, "trial_gradient.rate=0"]), [3],
                          progress=False)  # fmt: skip
-    (on,) = train_batch(load_config("paper", [*base, "trial_gradient.rate=1"]), [3],
+    (on,) = train_batch(load_config("paper_map", [*base, "trial_gradient.rate=1"]), [3],
                         progress=False)  # fmt: skip
     assert off.policy.experts.means.abs().max() == 0
     means = on.policy.experts.means

@@ -32,7 +32,7 @@ TINY = {
 
 @pytest.fixture(scope="module")
 def config():
-    return load_config("paper")
+    return load_config("paper_map")
 
 
 def _td(control, reflex=None, ir=None):
@@ -201,7 +201,7 @@ def test_a_paper_checkpoint_is_not_a_baseline(tmp_path):
     from symrl.runs import save_checkpoint
     from symrl.train import train
 
-    config = load_config("paper", ["run.trials=1"])
+    config = load_config("paper_map", ["run.trials=1"])
     result = train(config)
     save_checkpoint(tmp_path / "c.pt", result.policy, config, 0)
     assert load_baseline(tmp_path / "c.pt") is None

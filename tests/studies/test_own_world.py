@@ -35,22 +35,22 @@ SHORT = "env.max_actions=60"  # trials cut at 60 actions: the reflex is stuck fo
 def test_drive_train_and_study_run_on_the_map(name, tmp_path):
     assert main(["drive", "--map", name, "--no-noise", "--out", str(tmp_path / "drive")]) == 0
     assert (tmp_path / "drive").is_dir() and any((tmp_path / "drive").glob("*.png"))
-    assert main(["train", "paper", "--trials", "2", "--map", name,
+    assert main(["train", "paper_map", "--trials", "2", "--map", name,
                  "--logdir", str(tmp_path / "train"), SHORT]) == 0  # fmt: skip
     assert (tmp_path / "train" / "trials.csv").is_file()
     out = tmp_path / "study"
     if name == FIGURES:
-        assert main(["study", "paper", "--sets", "2", "--trials", "2", "--map", name,
+        assert main(["study", "paper_map", "--sets", "2", "--trials", "2", "--map", name,
                      "--out", str(out), SHORT]) == 0  # fmt: skip
         for png in ("curves.png", "trajectories.png", "ghosts.png"):
             assert (out / png).stat().st_size > 0, png
     else:
-        study = run_study("paper", sets=2, trials=2, overrides=[f"env.map={name}", SHORT],
+        study = run_study("paper_map", sets=2, trials=2, overrides=[f"env.map={name}", SHORT],
                           out=out, figures=False, progress=False)  # fmt: skip
         assert study.world.name == name
     table = json.loads((out / "table1.json").read_text())
     assert table["optimum"]["steps"] == optimum(name)["steps"]
-    assert "paper" not in table and table["map"] == name  # the paper's numbers: its world only
+    assert "paper_map" not in table and table["map"] == name  # the paper's numbers: its world only
     assert len(table["other_starts"]) == 4  # derived from the map, driven by every set
     assert (out / "trials.csv").is_file() and (out / "table1.md").is_file()
     assert "paper mean" not in (out / "table1.md").read_text()  # the paper's numbers: its world
@@ -116,14 +116,14 @@ def test_ablate_takes_a_map(tmp_path):
     assert summary["_optimum"]["steps"] == optimum("hailu2001_mirror")["steps"]
     assert "paper, Table 1" not in (out / "summary.md").read_text()
     table = json.loads((out / "reflex_only" / "table1.json").read_text())
-    assert "paper" not in table and table["map"] == "hailu2001_mirror"
+    assert "paper_map" not in table and table["map"] == "hailu2001_mirror"
     mirror = load_map("hailu2001_mirror")
     assert [s["start"] for s in table["other_starts"]] == [list(p) for p in study_starts(mirror)]
 
 
 def test_generalise_takes_a_map(tmp_path):
     mirror = load_map("hailu2001_mirror")
-    report = run_generalisation("paper", sets=1, trials=1, out=tmp_path / "gen",
+    report = run_generalisation("paper_map", sets=1, trials=1, out=tmp_path / "gen",
                                 noise_levels=(), map="hailu2001_mirror")  # fmt: skip
     assert report["map"] == "hailu2001_mirror" and len(report["starts"]) == 8
     assert [s["near_learned_route"] for s in report["starts"]] == [True] * 4 + [False] * 4

@@ -75,13 +75,13 @@ def test_set_k_of_a_study_is_train_with_seed_plus_k():
     from symrl.studies.runner import run_sets
     from symrl.train import train
 
-    sets = run_sets("paper", sets=3, trials=2, seed=40, progress=False)
-    alone = train(load_config("paper", ["run.trials=2", "run.seed=42"]), progress=False)
+    sets = run_sets("paper_map", sets=3, trials=2, seed=40, progress=False)
+    alone = train(load_config("paper_map", ["run.trials=2", "run.seed=42"]), progress=False)
     columns = ("steps", "total_reinforcement", "collisions", "neurons", "temperature", "shielded")
     assert [[t[c] for c in columns] for t in sets[2].rows] == [
         [t[c] for c in columns] for t in alone.trials
     ]
-    split = run_sets("paper", sets=3, trials=2, seed=40, workers=2, progress=False)
+    split = run_sets("paper_map", sets=3, trials=2, seed=40, workers=2, progress=False)
     assert [s.rows for s in split] == [s.rows for s in sets]
     # the controllers come back from the workers as the same tensors
     for a, b in zip(split, sets, strict=True):

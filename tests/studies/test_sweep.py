@@ -82,15 +82,15 @@ def test_rerun_keeps_finished_runs(swept, monkeypatch, capsys):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--recipes", "paper", "--seeds", "5-2"], "--seeds '5-2'"),
-        (["--recipes", "paper", "--seeds", "a-b"], "--seeds 'a-b'"),
+        (["--recipes", "paper_map", "--seeds", "5-2"], "--seeds '5-2'"),
+        (["--recipes", "paper_map", "--seeds", "a-b"], "--seeds 'a-b'"),
         (["--recipes", "nosuch", "--seeds", "1"], "nosuch"),
-        (["--recipes", "paper", "--seeds", "1", "--maps", "nosuch"], "nosuch"),
+        (["--recipes", "paper_map", "--seeds", "1", "--maps", "nosuch"], "nosuch"),
         (["--recipes", ",", "--seeds", "1"], "--recipes"),
-        (["--recipes", "paper", "--seeds", "1", "--trials", "0"], "--trials 0"),
-        (["--recipes", "paper", "--seeds", "1", "--workers", "0"], "--workers 0"),
-        (["--recipes", "paper", "--seeds", "1", "update.nosuch=1"], "nosuch"),
-        (["--recipes", "paper", "--seeds", "1", "--maps", f"two_doors,{TWO_DOORS_FILE}"],
+        (["--recipes", "paper_map", "--seeds", "1", "--trials", "0"], "--trials 0"),
+        (["--recipes", "paper_map", "--seeds", "1", "--workers", "0"], "--workers 0"),
+        (["--recipes", "paper_map", "--seeds", "1", "update.nosuch=1"], "nosuch"),
+        (["--recipes", "paper_map", "--seeds", "1", "--maps", f"two_doors,{TWO_DOORS_FILE}"],
          "share the folder"),
     ],
 )
@@ -114,7 +114,7 @@ def test_ray_missing_is_one_line(tmp_path, capsys, monkeypatch):
         return real_import(name, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "__import__", no_ray)
-    argv = ["sweep", "--recipes", "paper", "--seeds", "1", "--backend", "ray",
+    argv = ["sweep", "--recipes", "paper_map", "--seeds", "1", "--backend", "ray",
             "--out", str(tmp_path / "out")]  # fmt: skip
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
