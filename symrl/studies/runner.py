@@ -466,6 +466,8 @@ def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any
         by_set.setdefault(int(r["set"]), []).append(r)
     never = 0
     firsts, success, steps, reinf, neurons, coll_last, coll_all = ([] for _ in range(7))
+    opening: list[float] = []
+    coll_tail = 0
     for s in sorted(by_set):
         trials = sorted(by_set[s], key=lambda r: int(r["trial"]))
         first = next((int(r["trial"]) for r in trials if bool(r["reached_goal"])), None)
@@ -480,6 +482,8 @@ def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any
         neurons.append(float(trials[-1]["neurons"]))
         coll_last.append(float(trials[-1]["collisions"]))
         coll_all.append(sum(float(r["collisions"]) for r in trials))
+        coll_tail += int(sum(float(r["collisions"]) for r in tail))
+        opening.append(float(trials[0]["total_reinforcement"]))
     return {
         "sets": len(by_set),
         "trials": max(int(r["trial"]) for r in rows),
@@ -490,6 +494,8 @@ def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any
         "neurons_last": mean_std(neurons),
         "collisions_last": mean_std(coll_last),
         "collisions_all_trials": mean_std(coll_all),
+        f"collisions_last{last}_sum": coll_tail,
+        "total_reinforcement_first": mean_std(opening),
     }
 
 
