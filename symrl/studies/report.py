@@ -318,7 +318,10 @@ def _section_baselines(results: Path, figures: Path) -> list[str]:
 
 
 def _section_generalise(results: Path, figures: Path) -> list[str]:
-    out = ["## Generalisation (`symrl generalise`)", ""]
+    out = ["## Generalisation (`symrl generalise`)", "",
+           "One recipe per rung of what the robot is told: `reflex_only` (its sensors), `paper` "
+           "(+ the region rules), `paper_map` (+ the map). The new obstacle is in the env's "
+           "world only, never in what the robot is told.", ""]  # fmt: skip
     for recipe in GENERALISE_RECIPES:
         folder = results / f"generalise-{recipe}"
         out += [f"### `{recipe}`", "", f"Command: `{COMMANDS['generalise'].format(recipe=recipe)}`",
