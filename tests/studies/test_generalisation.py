@@ -48,7 +48,7 @@ def test_markdown_tables():
     none = {"reached": 0, "runs": 2, "mean_steps_when_reached": None, "mean_collisions": 3.0}
     stat = {"mean": 30.0, "std": 1.0}
     report = {
-        "recipe": "paper_map", "sets": 2, "trials": 20, "seeds": [100, 101],
+        "recipe": "paper", "sets": 2, "trials": 20, "seeds": [100, 101],
         "provenance": {"revision": "abc1234", "dirty": True},
         "home_learned": r, "home_reflex_only": r, "obstacle_learned": none,
         "obstacle_reflex_only": r,
@@ -66,9 +66,9 @@ def test_markdown_tables():
 
 
 def test_the_new_obstacle_is_in_the_env_and_not_in_what_the_agent_knows():
-    """Told the map, the agent's sub-goal table, planner path and localiser walls are the
-    training map's; the robots drive in the map with the box, so their path cannot cross it."""
-    config = load_config("paper_map", [])
+    """The agent's sub-goal table, planner path and localiser walls are the training map's;
+    the robots drive in the map with the box, so their path cannot cross it."""
+    config = load_config("paper_map", [])  # told the map: its table, planner and walls
     world = load_map("hailu2001")
     blocked = world.with_obstacle(OBSTACLE)
     state = MixtureOfExpertsPolicy(config, world, [0]).robot_state(0)
@@ -94,20 +94,6 @@ def test_the_new_obstacle_is_in_the_env_and_not_in_what_the_agent_knows():
     assert boxed["path"] != free["path"]
 
 
-def test_below_the_map_rung_the_agent_holds_no_walls_while_the_env_holds_the_box():
-    config = load_config("paper", [])
-    world = load_map("hailu2001")
-    state = MixtureOfExpertsPolicy(config, world, [0]).robot_state(0)
-    blocked = world.with_obstacle(OBSTACLE)
-    policy, env = evaluation_batch(config, world, [state], [world_start(world)], [5],
-                                   env_world=blocked)  # fmt: skip
-    try:
-        assert config.knowledge == "regions" and policy.knowledge.world is None
-        assert policy.knowledge.regions == world.regions and env.world is blocked
-    finally:
-        env.close()
-
-
 def test_generalise_runs_from_its_defaults(tmp_path, capsys):
     """The command's own noise levels and recipes, at a tiny budget, end to end."""
     assert all(key.startswith("env.robot.") for _, keys in NOISE_LEVELS for key in keys)
@@ -115,7 +101,7 @@ def test_generalise_runs_from_its_defaults(tmp_path, capsys):
     assert main(["generalise", "--sets", "1", "--trials", "1", "--workers", "1",
                  "--out", str(out)]) == 0
     report = json.loads((out / "generalise.json").read_text())
-    assert report["recipe"] == "paper_map" and report["map"] == "hailu2001"
+    assert report["recipe"] == "paper" and report["map"] == "hailu2001"
     assert [n["level"] for n in report["noise"]] == [label for label, _ in NOISE_LEVELS]
     assert len(report["starts"]) == len(STARTS)
     assert report["obstacle_learned"]["runs"] == report["obstacle_reflex_only"]["runs"] == 1
