@@ -4,6 +4,7 @@ Readable top to bottom:
 
     env  = BatchedWorldEnv(B robots, robot b seeded seeds[b])      the world, batch [B]
     policy = MixtureOfExpertsPolicy(config, seeds)                  acts (gate, experts, reflex)
+    env = env.append_transform(policy.perception_transform())      what the robot perceives
     loss = TeseoLoss(policy)                                        learns (TESEO update)
     td = env.reset()
     loop:
@@ -276,6 +277,8 @@ def train_batch(
     env = make_env(config, seeds, world=world)
     check_memory(config, batch, env.world)
     policy = MixtureOfExpertsPolicy(config, env.world, seeds)  # cut to config.knowledge
+    # what the robot makes of each observation, written once on reset and step
+    env = env.append_transform(policy.perception_transform())
     loss = TeseoLoss(policy)
     recorder = TrialRecorder(batch)
     trials: list[list[dict[str, Any]]] = [[] for _ in seeds]
@@ -442,5 +445,8 @@ def restore_snapshot(state: dict[str, Any], env, policy, loss):
     loss.load_state_dict(state["loss"])
     policy.load_random_state(state)
     restore_env_state(env, state)
-    return TensorDict(state["td"], batch_size=env.batch_size).clone()
+    td = TensorDict(state["td"], batch_size=env.batch_size).clone()
+    # the perception of the trial's first observation again: its localisation starts afresh
+    # there, as in the uninterrupted run, and the next one is warm-started from it
+    return policy.perception_transform()(td)
 

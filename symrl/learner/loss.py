@@ -12,8 +12,10 @@ first if the policy met a novel state at s, with p = the policy's ``proto``, u =
 
 The paper adapts the previous winner *before* acting on the present sensation: TorchRL's loop
 gives that order (the update of a transition runs before the policy acts on its next state), so
-no state is handed between the two. The steps are the gradient steps of 1/2 delta^2 (target
-detached, lr eta) and of -delta * log N(xi; mu, sigma^2) (lr beta * sigma^2);
+no state is handed between the two. What the robot makes of s' (its expert and input x, the
+pose it believes) is read from ``"next"``, where the perception transform wrote it. The steps
+are the gradient steps of 1/2 delta^2 (target detached, lr eta) and of
+-delta * log N(xi; mu, sigma^2) (lr beta * sigma^2);
 ``tests/learner/test_loss.py`` checks them against autograd. Growth replaces rows, which an
 optimizer cannot follow, so they are applied in place under ``no_grad``.
 
@@ -75,9 +77,7 @@ class TeseoLoss(LossModule):
         option_entry: str = "option_entry"
         state_reward: str = "state_reward"
         sonar: str = "sonar"
-        odometry: str = "odometry"
         pose: str = "pose"
-        goal: str = "goal"
         reward: str = "reward"
         done: str = "done"
         terminated: str = "terminated"
@@ -119,11 +119,11 @@ class TeseoLoss(LossModule):
         k = self.tensor_keys
         own = [k.expert, k.winner, k.novel, k.x, k.proto, k.xi, k.taken, k.region,
                k.option_entry, k.state_reward]  # fmt: skip
+        reached = [k.expert, k.x, k.reward, k.terminated, k.truncated]
         if self.record is not None:
             own += [k.sonar, k.pose, k.aim, k.shielded]
-        nxt = [("next", key) for key in (k.sonar, k.odometry, k.goal, k.reward, k.terminated,
-                                          k.truncated)]  # fmt: skip
-        return own + nxt
+            reached += [k.sonar, k.pose]
+        return own + [("next", key) for key in reached]
 
     def _forward_value_estimator_keys(self, **kwargs) -> None:  # no value estimator
         pass
@@ -173,25 +173,23 @@ class TeseoLoss(LossModule):
         flat.taken[index] = read(td, k.taken).numpy()
         flat.used[index] = True
 
-        # the pose the robot believes in the state reached (the policy asks for it again when
-        # it acts there: the policy keeps the answer)
-        sonar_next = read(nxt, k.sonar)
-        pose_next, goal_next = policy.belief(sonar_next, read(nxt, k.odometry), read(nxt, k.goal))
         if self.record is not None:  # the poses the robot steered by (its belief)
             self.record.append(
                 read(td, k.pose).numpy(), read(td, k.sonar).numpy(), read(td, k.aim).numpy(),
                 read(td, k.shielded).numpy(), flat.row_base + expert, winner,
-                pose_next.numpy(), sonar_next.numpy(),
+                read(nxt, k.pose).numpy(), read(nxt, k.sonar).numpy(),
             )  # fmt: skip
 
         # 2. the utility of the state reached
         terminated = read(nxt, k.terminated).numpy().reshape(-1)
         truncated = read(nxt, k.truncated).numpy().reshape(-1)
         u_prev = utilities[index]
-        _, seen_expert, _, seen_winner, seen_novel = policy.perceive_believed(
-            sonar_next, pose_next, goal_next
-        )
-        u_seen = utilities[bank.flat_index_np(seen_expert.numpy(), np.maximum(seen_winner, 0))]
+        # the state reached as the robot perceives it (its perception transform's keys), and
+        # its nearest neuron
+        seen_expert = read(nxt, k.expert).numpy()
+        seen_winner, distance = bank.nearest_np(seen_expert, read(nxt, k.x).numpy())
+        seen_novel = distance > cfg.experts.novelty_radius  # inf for an empty expert
+        u_seen = utilities[bank.flat_index_np(seen_expert, np.maximum(seen_winner, 0))]
         # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
         u_trunc = np.where(seen_winner >= 0, u_seen, u_prev)
         u_next = np.where(seen_novel, r, u_seen)

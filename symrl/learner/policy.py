@@ -1,10 +1,12 @@
 """The mixture-of-experts controller of B robots (paper Fig. 4, sections 6-8): it acts, it does
 not learn.
 
-Per step, for every robot of the batch at once (``docs/ALGORITHM.md``):
+Per step, for every robot of the batch at once (``docs/ALGORITHM.md``); steps 0-2 are the
+robot's perception (:class:`symrl.learner.perception.Perception`, a TorchRL env transform the
+policy builds from what the robot is told: the env writes them once per observation):
 
 0. the pose the robot believes: its odometry pose, or with map localisation the pose its sonar
-   scan gives in the map (:meth:`MixtureOfExpertsPolicy.belief`); "pose" below is this one;
+   scan gives in the map; "pose" below is this one;
 1. x = (n normalised sonars, goal-distance codes phi_m = exp(-((mu_m - rho) / w)^2)), rho the
    distance to the goal from the pose over the start's distance, clipped to [0, 1] (with the
    pose input: the pose itself);
@@ -43,22 +45,19 @@ from torchrl.envs.utils import ExplorationType, exploration_type
 
 from symrl.grad import no_grad
 from symrl.knowledge.borders import border_subgoals
-from symrl.knowledge.localize import MapLocalizer, PoseTracker
 from symrl.knowledge.reflex import FuzzyReflex
-from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
+from symrl.learner.perception import PERCEPTION_KEYS, Perception
 from symrl.learner.progress import TrialProgress
 from symrl.tensordicts import read, write
-from symrl.world.geometry import Walls
-from symrl.world.physics import goal_reading
 from symrl.world.worldmap import WorldMap, load_map
 
-__all__ = ["Perception", "MixtureOfExpertsPolicy", "OBS_KEYS", "is_greedy"]
+__all__ = ["PerceptionResult", "MixtureOfExpertsPolicy", "OBS_KEYS", "is_greedy"]
 
 OBS_KEYS = ("sonar", "ir", "odometry", "goal", "state_reward")
 _GREEDY = (ExplorationType.DETERMINISTIC, ExplorationType.MODE, ExplorationType.MEAN)
@@ -69,15 +68,12 @@ _PER_ROBOT_MODULES = ("experts.", "progress.", "options.critic.")
 _BLOCK = 1024  # random draws per robot per refill: one call per robot instead of one per step
 
 
-_GateAndInputs = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
-
-
 def is_greedy() -> bool:
     """True under a deterministic TorchRL exploration type (evaluation)."""
     return exploration_type() in _GREEDY
 
 
-class Perception(NamedTuple):
+class PerceptionResult(NamedTuple):
     """What the gate and the winner search make of a batch of observations (read-only)."""
 
     region: torch.Tensor
@@ -95,19 +91,21 @@ class Perception(NamedTuple):
 class MixtureOfExpertsPolicy(TensorDictModuleBase):
     """Region-gated growing RBF experts acting through Gullapalli's Gaussian unit (Eq. 6).
 
-    Reads ``sonar``, ``ir``, ``odometry``, ``goal``, ``state_reward`` of a batch [B] and writes
-    ``action`` (B, 1) and the decision: ``region``, ``expert``, ``winner`` (-1 when novel),
-    ``novel``, ``x``, ``proto`` (the action a new neuron here gets), ``xi`` (exploration draw),
-    ``sigma``, ``taken`` (the action relative to its base, remembered for action replacement),
-    ``shielded``, ``aim`` (B, 2) (the point the reflex steered at: the goal or the option's
-    sub-goal), with options ``option`` and ``option_entry``, and ``pose`` (B, 3): the pose it
-    believed (the odometry's, or the map localisation's).
+    Reads ``sonar``, ``ir``, ``state_reward`` of a batch [B] and what its perception
+    transform (:meth:`perception_transform`) made of them: ``pose`` (the pose it believes),
+    ``belief_goal``, ``region``, ``expert``, ``x`` (without them, as on a bare env, it perceives
+    ``sonar``, ``odometry``, ``goal`` itself and writes them). Writes ``action`` (B, 1) and the
+    decision: ``winner`` (-1 when novel), ``novel``, ``proto`` (the action a new neuron here
+    gets), ``xi`` (exploration draw), ``sigma``, ``taken`` (the action relative to its base,
+    remembered for action replacement), ``shielded``, ``aim`` (B, 2) (the point the reflex
+    steered at: the goal or the option's sub-goal), with options ``option`` and
+    ``option_entry``.
     """
 
-    in_keys = list(OBS_KEYS)
+    in_keys = [*OBS_KEYS, *PERCEPTION_KEYS]
     out_keys = [
-        "action", "region", "expert", "winner", "novel", "x", "proto", "xi", "sigma", "taken",
-        "shielded", "aim", "option", "option_entry", "pose",
+        "action", "winner", "novel", "proto", "xi", "sigma", "taken", "shielded", "aim",
+        "option", "option_entry",
     ]  # fmt: skip
 
     def __init__(
@@ -137,21 +135,16 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         batch = len(self.seeds)
         robot = config.env.robot
         xc = config.experts
-        lc = config.localize
-        self.localizer = (
-            PoseTracker(MapLocalizer(Walls(knowledge.geometry("localize").segments), robot,
-                                     lc.iterations, lc.prior_xy, lc.prior_heading,
-                                     max_move=lc.max_move),
-                        batch)
-            if lc.enabled
-            else None
-        )  # fmt: skip
-        self._beliefs: dict[bytes, tuple[torch.Tensor, torch.Tensor]] = {}
-        self.mapper = RegionMapper(knowledge.regions)
+        # what the robot makes of an observation: a TorchRL env transform built from what it
+        # is told (kept out of the state dict but for the region rules and the goal codes,
+        # which are saved with the controller as before)
+        perception = Perception(knowledge, config, batch)
+        self.__dict__["perception"] = perception
+        self.mapper = perception.mapper
         self.region_names: tuple[str, ...] = tuple(self.mapper.names)
         self.expert_names = self.region_names if config.gate.partition else ("all",)
         self.reflex = FuzzyReflex(config.reflex)
-        self.input_dim = 4 if xc.input == "pose" else robot.n_sensors + xc.goal_codes
+        self.input_dim = perception.input_dim
         self.experts = ExpertBank(
             batch, len(self.expert_names), self.input_dim, xc.capacity, xc.max_neurons,
             names=self.expert_names,
@@ -169,10 +162,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             if config.shield.enabled
             else None
         )
-        start, goal = knowledge.start, knowledge.goal
-        self.start_distance = max(math.hypot(start.x - goal.x, start.y - goal.y), 1e-9)
-        n = xc.goal_codes
-        self.register_buffer("code_centres", torch.arange(n, dtype=torch.float32) / (n - 1))
+        goal = knowledge.goal
+        self.register_buffer("code_centres", perception.code_centres)
         self.progress = TrialProgress(batch, config.update.temperature0)
         self.generators = [torch.Generator().manual_seed(int(s)) for s in self.seeds]
         self._normals = torch.empty(batch, 0)
@@ -184,8 +175,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self._no_option = torch.full((batch,), -1, dtype=torch.long)
         self._no_entry = torch.zeros(batch, dtype=torch.bool)
         self._goal_aim = torch.tensor([[goal.x, goal.y]], dtype=torch.float64).repeat(batch, 1)
-        # the observation of the last perception and its (region, expert, x)
-        self._last_seen: tuple[tuple, _GateAndInputs] | None = None
 
     @property
     def subgoals(self) -> SubgoalTable | None:
@@ -196,99 +185,31 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def batch(self) -> int:
         return len(self.seeds)
 
-    # -- perception (read-only; the update calls it on the next state) --------------------
-    def belief(
-        self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor]:
-        """The pose the robot steers by and the goal's (distance, angle) from it: the odometry's
-        as observed, or with map localisation the pose its sonar scan gives in the map
-        (``symrl.knowledge.localize``). The policy and the update ask for the same two
-        observations in turn, so the last two answers are kept, by the observations' bits."""
-        if self.localizer is None:
-            return odometry, goal
-        key = odometry.numpy().tobytes() + sonar.numpy().tobytes()
-        known = self._beliefs.get(key)
-        if known is not None:
-            return known
-        pose = self.localizer(odometry.numpy(), sonar.numpy())
-        g = self.knowledge.goal
-        seen = goal_reading(g.x, g.y, pose[:, 0], pose[:, 1], pose[:, 2])
-        out = torch.from_numpy(pose.astype(np.float32)), torch.from_numpy(seen)
-        if len(self._beliefs) >= 2:
-            del self._beliefs[next(iter(self._beliefs))]
-        self._beliefs[key] = out
-        return out
-
-    def encode(self, sonar: torch.Tensor, goal_distance: torch.Tensor) -> torch.Tensor:
-        """x = (sonars, goal-distance codes) (Eq. 2); rho clipped to [0, 1]."""
-        rho = (goal_distance.to(torch.float32) / self.start_distance).clamp(0.0, 1.0)
-        width = self.config.experts.goal_code_width
-        codes = torch.exp(-(((self.code_centres - rho[:, None]) / width) ** 2))
-        return torch.cat((sonar, codes), dim=-1)
-
-    def encode_pose(self, odometry: torch.Tensor) -> torch.Tensor:
-        """x = (x, y, h cos theta, h sin theta) of the odometry pose, h = ``heading_scale``."""
-        h = self.config.experts.heading_scale
-        # numpy on the tensor's memory (four columns of a handful of rows); cos and sin stay
-        # torch's, whose last bit differs from numpy's
-        pose = odometry.numpy().astype(np.float32, copy=False)
-        theta = torch.from_numpy(pose[:, 2])
-        x = np.empty((len(pose), 4), dtype=np.float32)  # the four columns written in place
-        x[:, :2] = pose[:, :2]
-        np.multiply(h, theta.cos().numpy(), out=x[:, 2])
-        np.multiply(h, theta.sin().numpy(), out=x[:, 3])
-        return torch.from_numpy(x)
+    # -- perception ---------------------------------------------------------------------
+    def perception_transform(self) -> Perception:
+        """The robot's perception as a TorchRL env transform (``env.append_transform``): it
+        writes ``pose``, ``belief_goal``, ``region``, ``expert`` and ``x`` on reset and step,
+        which the policy and the update read. The policy's own: one env at a time."""
+        return self.perception
 
     def perceive(
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
-    ) -> Perception:
+    ) -> PerceptionResult:
         """Gate and winner search for a batch of observations; changes nothing that is learned
-        (the result's tensors are read-only: the gate and the inputs may be those of the
-        previous call; with map localisation the tracker keeps each robot's last correction,
-        where its next estimate starts)."""
-        region, expert, x, winner, novel = self.perceive_arrays(sonar, odometry, goal)
-        return Perception(region, expert, x, torch.from_numpy(winner), torch.from_numpy(novel))
+        (with map localisation the tracker keeps each robot's last correction, where its next
+        estimate starts)."""
+        seen = self.perception.perceive(sonar, odometry, goal)
+        winner, novel = self._winners(seen["expert"], seen["x"])
+        return PerceptionResult(seen["region"], seen["expert"], seen["x"],
+                                torch.from_numpy(winner), torch.from_numpy(novel))  # fmt: skip
 
-    def perceive_arrays(
-        self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray, np.ndarray]:
-        """:meth:`perceive` with the winner and the novelty as numpy arrays (the control loop
-        reads them as numpy: no tensors in between)."""
-        return self.perceive_believed(sonar, *self.belief(sonar, odometry, goal))
-
-    def perceive_believed(
-        self, sonar: torch.Tensor, pose: torch.Tensor, goal: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray, np.ndarray]:
-        """:meth:`perceive_arrays` at the believed ``pose`` and ``goal`` (:meth:`belief`'s
-        answer, for a caller that has it already)."""
-        region, expert, x = self._gate_and_inputs(sonar, pose, goal)
+    def _winners(self, expert: torch.Tensor, x: torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest neuron of each robot's expert to its input and whether none lies within
+        the novelty radius (numpy: the control loop reads them so)."""
         if not self.config.experts.learning:
-            return region, expert, x, np.full(len(region), -1), np.ones(len(region), dtype=bool)
+            return np.full(len(expert), -1), np.ones(len(expert), dtype=bool)
         winner, distance = self.experts.nearest_np(expert.numpy(), x.numpy())
-        novel = distance > self.config.experts.novelty_radius  # inf for an empty expert
-        return region, expert, x, winner, novel
-
-    def _gate_and_inputs(
-        self, sonar: torch.Tensor, pose: torch.Tensor, goal: torch.Tensor
-    ) -> _GateAndInputs:
-        """Region, expert and input x of a batch of observations. They depend on the
-        observation alone, and the loop asks twice for most observations (the update perceives
-        the state reached, then the policy acts on it), so the last result is kept with a copy
-        of the observation it came from and reused when the same bits come again (about a
-        fifth of the cost of the two calls: ``benchmarks/bench_train.py``)."""
-        pose_input = self.config.experts.input == "pose"
-        seen = (pose,) if pose_input else (sonar, pose, goal)
-        # the observation's bits (bitwise: -0.0 is not 0.0, NaN is NaN), read through numpy:
-        # a byte string compares for a fraction of a torch.equal's cost
-        key = tuple((t.dtype, t.shape, t.numpy().tobytes()) for t in seen)
-        last = self._last_seen
-        if last is not None and last[0] == key:
-            return last[1]
-        region = torch.from_numpy(self.mapper.ids_np(pose.numpy()[:, :2].astype(np.float64)))
-        expert = region if self.config.gate.partition else torch.zeros_like(region)
-        x = self.encode_pose(pose) if pose_input else self.encode(sonar, goal[:, 0])
-        self._last_seen = (key, (region, expert, x))
-        return region, expert, x
+        return winner, distance > self.config.experts.novelty_radius  # inf for an empty expert
 
     # -- random streams -------------------------------------------------------------------
     def random_state(self) -> dict[str, Any]:
@@ -338,8 +259,11 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         xc = self.config.experts
         greedy = is_greedy()
         sonar = read(td, "sonar")
-        pose, goal = self.belief(sonar, read(td, "odometry"), read(td, "goal"))
-        region, expert, x, winner, novel = self.perceive_believed(sonar, pose, goal)
+        if self.perception.container is None:  # driven without its env transform
+            self.perception(td)
+        pose, goal = read(td, "pose"), read(td, "belief_goal")
+        region, expert, x = read(td, "region"), read(td, "expert"), read(td, "x")
+        winner, novel = self._winners(expert, x)
         zero = self._zeros
         option, entered, aim = self._no_option, self._no_entry, self._goal_aim
         start_turn = None
@@ -398,11 +322,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             td,
             {
                 "action": torch.from_numpy(action.astype(np.float32).reshape(-1, 1)),
-                "region": region,
-                "expert": expert,
                 "winner": torch.from_numpy(np.where(novel, -1, winner)),
                 "novel": torch.from_numpy(novel),
-                "x": x,
                 "proto": proto,
                 "xi": xi,
                 "sigma": sigma,
@@ -411,7 +332,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 "option": option,
                 "option_entry": entered,
                 "aim": aim,
-                "pose": pose,
             },
         )
         return td
@@ -421,9 +341,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         """Forget the per-trial decisions of robots ``rows`` (they start a new trial)."""
         if self.options is not None:
             self.options.begin_trial(rows)
-        if self.localizer is not None:
-            self.localizer.begin_trial(rows.numpy())
-            self._beliefs.clear()
 
     # -- per-robot state ------------------------------------------------------------------
     def robot_state(self, b: int) -> dict[str, torch.Tensor]:

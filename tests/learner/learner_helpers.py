@@ -123,7 +123,10 @@ def transition(
         },
         [1],
     )
+    full = nxt[:1].expand(p.batch).clone()
+    seen = p.perception_transform().perceive(full["sonar"], full["odometry"], full["goal"])
     nxt = nxt.select("sonar", "ir", "odometry", "goal", "state_reward").clone()
+    nxt.update({key: value[row : row + 1] for key, value in seen.items()})  # its perception
     nxt["reward"] = torch.tensor([[reward]], dtype=torch.float32)
     nxt["terminated"] = torch.tensor([[terminated]])
     nxt["truncated"] = torch.tensor([[truncated]])

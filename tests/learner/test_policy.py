@@ -26,13 +26,14 @@ def _reflex(p, obs, target=None) -> float:
 
 def test_input_is_sonars_and_goal_codes():
     p = policy()
-    obs = observation(sonar=0.25, goal=(p.start_distance * 0.5, 0.0))
+    obs = observation(sonar=0.25, goal=(p.perception.start_distance * 0.5, 0.0))
     x = p.perceive(obs["sonar"], obs["odometry"], obs["goal"]).x[0]
     assert x.shape == (32,) and p.input_dim == 32
     assert torch.equal(x[:24], torch.full((24,), 0.25))
     mu = torch.arange(8) / 7
     assert torch.allclose(x[24:], torch.exp(-((mu - 0.5) ** 2)))
-    far = p.encode(obs["sonar"], torch.tensor([p.start_distance * 3]))[0]  # rho clipped to 1
+    far_goal = torch.tensor([p.perception.start_distance * 3])
+    far = p.perception.encode(obs["sonar"], far_goal)[0]  # rho clipped to 1
     assert torch.allclose(far[24:], torch.exp(-((mu - 1.0) ** 2)))
 
 
@@ -51,8 +52,8 @@ def test_region_gate_picks_the_expert():
 
 @pytest.mark.parametrize("recipe", ["paper_map", "paper_literal"])  # pose input, sensor input
 def test_perceiving_again_follows_the_observation_not_the_tensor(recipe):
-    """The gate and the inputs of the last observation are reused only for the same bits: an
-    observation changed in place, or another one, is perceived afresh."""
+    """Perception follows the observation's values: the same values give the same gate and
+    inputs, an observation changed in place, or another one, is perceived afresh."""
     p = policy(recipe, seeds=range(2))
     obs = stack(observation(pose=POSES["room"]), observation(0.3, POSES["door"], (2.0, 0.5)))
     first = p.perceive(obs["sonar"], obs["odometry"], obs["goal"])
@@ -333,12 +334,12 @@ def test_with_map_localisation_the_gate_and_the_goal_follow_the_scan_not_the_odo
     localised = policy("paper_map", "localize.enabled=true", "localize.iterations=5")
     assert plain.perceive(obs["sonar"], obs["odometry"], obs["goal"]).region.tolist() == [0]
     assert localised.perceive(obs["sonar"], obs["odometry"], obs["goal"]).region.tolist() == [2]
-    pose, goal = localised.belief(obs["sonar"], obs["odometry"], obs["goal"])
+    pose, goal = localised.perception.belief(obs["sonar"], obs["odometry"], obs["goal"])
     assert np.allclose(pose.numpy(), true, atol=0.01)
     g = localised.knowledge.goal
     assert math.isclose(float(goal[0, 0]), math.hypot(g.x - 3.55, g.y + 0.5), abs_tol=0.01)
     # without localisation the belief is the observation itself
-    same = plain.belief(obs["sonar"], obs["odometry"], obs["goal"])
+    same = plain.perception.belief(obs["sonar"], obs["odometry"], obs["goal"])
     assert same[0] is obs["odometry"] and same[1] is obs["goal"]
 
 

@@ -81,7 +81,7 @@ def test_the_new_obstacle_is_in_the_env_and_not_in_what_the_agent_knows():
         assert trained.labels != told.labels  # told of the box, the planner would route round it
         assert policy.options.table.labels == trained.labels
         torch.testing.assert_close(policy.options.table.points, trained.points)
-        np.testing.assert_array_equal(policy.localizer.localizer.walls.segments,
+        np.testing.assert_array_equal(policy.perception.tracker.localizer.walls.segments,
                                       Walls(world.segments).segments)
         assert len(blocked.segments) == len(world.segments) + 4
     finally:
