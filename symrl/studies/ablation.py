@@ -61,8 +61,9 @@ RECIPES = (
     "paper", "paper_map", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only",
 )
 
-# what a change ablation leaves alone: the recipe's name, and the budget, seed and logging
-_NOT_CHANGES = ("recipe", "run.")
+# what a change ablation leaves alone: the recipe's name, what the robot is told (its settings
+# need it: put back alone it makes the recipe invalid), and the budget, seed and logging
+_NOT_CHANGES = ("recipe", "knowledge", "run.")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -54,6 +54,14 @@ def test_each_changed_setting_is_put_back_alone(recipe):
     assert off.experts.learning is False
 
 
+def test_a_recipe_told_more_than_its_base_keeps_its_knowledge_in_every_row():
+    variants = changes_of("paper_map")
+    assert not any("knowledge" in v.name for v in variants)
+    for v in variants:  # every row is a valid config on paper_map's rung
+        assert load_config("paper_map", list(v.overrides)).knowledge == "map"
+    assert "paper_map-without-options.enabled" in [v.name for v in variants]
+
+
 def test_the_base_recipe_has_no_changes_of_its_own():
     assert [v.name for v in changes_of("paper_literal")] == [
         "paper_literal", "paper_literal-experts-off"
