@@ -171,3 +171,14 @@ def test_the_hook_replaces_its_markers():
     for name in hook.GENERATORS:
         assert any(hook.MARKER.format(name) in p.read_text()
                    for p in (DOCS / "reference").glob("*.md")), name  # fmt: skip
+
+
+def test_the_readme_is_an_overview_with_the_command_ci_runs():
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.splitlines()) <= 150
+    ci = (ROOT / ".ci" / "run").read_text().strip().splitlines()[-1]
+    assert ci == "pytest -n 2 tests && pytest --nbmake notebooks"
+    assert f'pip install -e ".[dev]" && {ci}\n' in readme
+    assert "## What each piece of knowledge buys" in readme
+    for recipe in ("reflex_only", "paper_literal", "paper", "paper_map"):
+        assert f"`{recipe}`" in readme
