@@ -11,8 +11,8 @@ from pathlib import Path
 
 import yaml
 
+from symrl.knowledge.planner import shortest_path
 from symrl.knowledge.subgoals import SubgoalConfig, build_subgoals
-from symrl.studies.planner import shortest_path
 from symrl.world.autoregions import auto_regions
 from symrl.world.render import save_map_figure
 from symrl.world.worldmap import builtin_maps, load_map

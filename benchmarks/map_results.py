@@ -1,4 +1,5 @@
-"""Per-world numbers for docs/MAPS.md: the reflex alone and `paper` (hand and found regions).
+"""Per-world numbers for docs/MAPS.md: the reflex alone, `paper` and `paper_map` (hand and found
+regions).
 
 For every shipped world: the planner's optimum; ``reflex_only``; ``paper`` with the map's hand
 regions; ``paper`` with ``regions: auto`` (a copy of the map with its regions removed). Each is
@@ -40,8 +41,9 @@ once each by then on the paper's world)."""
 
 VARIANTS = {
     "reflex": ("reflex alone", "reflex_only"),
-    "hand": ("`paper`, hand regions", "paper_map"),
-    "auto": ("`paper`, `regions: auto`", "paper_map"),
+    "rules": ("`paper` (regions rung), hand regions", "paper"),
+    "hand": ("`paper_map`, hand regions", "paper_map"),
+    "auto": ("`paper_map`, `regions: auto`", "paper_map"),
 }
 
 

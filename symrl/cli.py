@@ -116,8 +116,8 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
     from symrl.runs import load_resume, run_one
     from symrl.world.worldmap import load_map
 
-    if args.help_keys:
-        print(describe_keys())
+    if args.help_keys:  # with a RECIPE (and key=value), that recipe's values
+        print(describe_keys(load_config(args.recipe, args.overrides) if args.recipe else None))
         return 0
     _at_least("--trials", args.trials, 1)
     _at_least("--seed", args.seed, 0)
@@ -256,7 +256,7 @@ def _ablate(args: argparse.Namespace) -> int:
 
 
 def _plan(args: argparse.Namespace) -> int:
-    from symrl.studies.planner import plan_command
+    from symrl.studies.plan import plan_command
 
     return plan_command(args)
 
@@ -328,7 +328,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--checkpoint-every", type=int, default=1, metavar="N",
                    help="write the resumable checkpoint every N trials (default 1; always at "
                    "the end and when stopped by Ctrl-C or SIGTERM)")
-    p.add_argument("--help-keys", action="store_true", help="list every config key and exit")
+    p.add_argument("--help-keys", action="store_true",
+                   help="list every config key with its value in RECIPE (default: the library "
+                   "defaults) and its meaning, and exit")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
     p.set_defaults(handler=_train)
 
@@ -368,6 +370,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="RECIPE, then RECIPE with each setting in which it differs from --base "
                         "put back in turn, and with experts.learning=false; writes changes.md "
                         "(paired differences over the sets)")
+    p.add_argument("--ladder", action="store_true",
+                   help="the knowledge ladder: the best recipe of each rung (reflex_only, "
+                   "paper_literal, paper, paper_map) on the same seeds; writes ladder.md")
     p.add_argument("--base", default="paper_literal",
                    help="the recipe --changes-of puts settings back to (default paper_literal)")
     p.add_argument("--map", default="hailu2001",

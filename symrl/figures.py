@@ -28,7 +28,7 @@ import numpy as np  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 if TYPE_CHECKING:
-    from symrl.studies.planner import Plan
+    from symrl.knowledge.planner import Plan
     from symrl.world import WorldMap
 
 __all__ = [

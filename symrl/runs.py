@@ -30,6 +30,7 @@ import torch
 import yaml
 
 from symrl.learner.config import ConfigError, RunConfig, config_from_dict, config_to_dict
+from symrl.learner.experts import expert_names
 
 __all__ = [
     "RunWriter",
@@ -70,11 +71,6 @@ BASE_COLUMNS: tuple[str, ...] = _BASE_COLUMNS
 
 class CheckpointError(ValueError):
     """A checkpoint file cannot be used; the message names the file and the fault."""
-
-
-def expert_names(config: RunConfig, world: Any) -> tuple[str, ...]:
-    """The experts of a controller: one per map region, or one for all without partition."""
-    return tuple(world.regions.names) if config.gate.partition else ("all",)
 
 
 def trial_columns(config: RunConfig, world: Any) -> list[str]:

@@ -38,6 +38,7 @@ import numpy as np
 import torch
 
 from symrl.learner.config import RunConfig
+from symrl.learner.experts import expert_names
 from symrl.tensordicts import read
 
 __all__ = [
@@ -225,8 +226,6 @@ def check_memory(config: RunConfig, batch: int, world: Any) -> int:
     """Bytes the expert storage of ``batch`` robots takes at ``experts.capacity``; a
     ValueError (one line, with the estimate) if that is over a quarter of the memory available
     (checkpoints and the end-of-trial updates copy it)."""
-    from symrl.runs import expert_names
-
     xc = config.experts
     dim = config.env.robot.n_sensors + xc.goal_codes
     per_neuron = 4 * dim + 8 * 4 + 1  # centre (f32), action/utility/mean/taken (f64), used

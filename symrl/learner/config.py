@@ -1,10 +1,12 @@
-"""Typed run configuration, loaded and validated by pydantic.
+"""Typed run configuration: read and merged by OmegaConf, validated by pydantic.
 
 A recipe (``symrl/recipes/<name>.yaml``) sets a few fields of :class:`RunConfig`; the defaults
 are the literal rules of the paper (``docs/ALGORITHM.md``), so a recipe lists only what it
-changes. ``key=value`` overrides (``update.gamma=0.9``) are merged on top; mappings merge entry
-by entry (``reflex.near`` keeps the sectors a recipe does not name). Every error is one line
-naming the key and the value (:class:`ConfigError`).
+changes. ``key=value`` overrides (``update.gamma=0.9``, each key once) are merged on top;
+mappings merge entry by entry (``reflex.near`` keeps the sectors a recipe does not name), anything
+else replaces. OmegaConf reads, parses and merges (so ``${shield.margin}`` refers to another key);
+pydantic validates. Every error is one line naming the key and the value (:class:`ConfigError`).
+The string under each field is its description (``symrl train --help-keys``).
 
 The sections follow the data flow: ``env`` (world and robot) -> ``localize`` (the pose the
 robot believes) -> ``gate`` (regions) ->
@@ -15,13 +17,16 @@ robot believes) -> ``gate`` (regions) ->
 
 from __future__ import annotations
 
-import contextlib
-import copy
+import dataclasses
+import difflib
+import functools
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import yaml
+from omegaconf import DictConfig, ListConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -35,7 +40,6 @@ from pydantic import (
 from symrl.knowledge.reflex import ReflexConfig
 from symrl.knowledge.rungs import Rung, rung_at_least
 from symrl.world.robot import RobotConfig
-from symrl.world.worldmap import YAML_LOADER
 
 __all__ = [
     "ConfigError",
@@ -63,8 +67,11 @@ class ConfigError(ValueError):
 
 
 class _Section(BaseModel):
-    # StrictBool / StrictInt fields: no silent "yes" -> True or 2.5 -> 2 coercion
-    model_config = ConfigDict(extra="forbid", validate_default=True, allow_inf_nan=False)
+    # StrictBool / StrictInt fields: no silent "yes" -> True or 2.5 -> 2 coercion; the string
+    # under each field is its description (``--help-keys``), here and in the dataclass sections
+    model_config = ConfigDict(
+        extra="forbid", validate_default=True, allow_inf_nan=False, use_attribute_docstrings=True
+    )
 
 
 class EnvConfig(_Section):
@@ -169,6 +176,12 @@ class OptionsConfig(_Section):
 
     enabled: StrictBool = False
     """False: the reflex always steers at the goal (the paper)."""
+    source: Literal["map", "rules"] = "map"
+    """Where the sub-goal points come from. ``map`` (needs ``knowledge: map``): the passages
+    the region lines cross in the free-space polygon, and the settings below that use the
+    walls or the planner. ``rules`` (needs ``knowledge: regions``): the region rules alone,
+    per region the goal and a point of each border with a region no farther from the goal's
+    (``symrl.knowledge.borders``); the map-only settings must then be off."""
     epsilon: float = Field(0.3, ge=0, le=1)
     """Probability of a random option at a region's first entry, first trial."""
     epsilon_decay: float = Field(0.8, ge=0, le=1)
@@ -239,6 +252,13 @@ class OptionsConfig(_Section):
     line earns it at little cost to the route. 0: at the sub-goal from the region's entry."""
 
 
+_MAP_ONLY_OPTIONS = (
+    "subgoal_min_clearance", "subgoal_planner", "subgoal_planner_first", "subgoal_way_out",
+    "subgoal_detour", "subgoal_approach",
+)  # fmt: skip
+"""The options settings that read the walls or the planner (``knowledge: map``)."""
+
+
 class LocalizeSection(_Section):
     """Map localisation (``symrl.knowledge.localize``): the pose the robot steers by is the one
     that best explains its sonar scan in the map, near its odometry pose, instead of the
@@ -307,9 +327,10 @@ class RunConfig(_Section):
 
     @model_validator(mode="after")
     def _consistent(self) -> RunConfig:
+        o = self.options
         for key, on, needed in (
             ("gate.partition", self.gate.partition, "regions"),
-            ("options.enabled", self.options.enabled, "map"),
+            ("options.enabled", o.enabled, "map" if o.source == "map" else "regions"),
             ("localize.enabled", self.localize.enabled, "map"),
         ):
             if on and not rung_at_least(self.knowledge, needed):
@@ -317,6 +338,14 @@ class RunConfig(_Section):
                     f"{key}=true needs knowledge={needed} or higher, but the recipe declares "
                     f"knowledge={self.knowledge}"
                 )
+        if o.enabled and o.source == "rules":
+            for key in _MAP_ONLY_OPTIONS:
+                value = getattr(o, key)
+                if value not in (None, False, 0.0):
+                    raise ValueError(
+                        f"options.{key}={value} uses the walls or the planner: it needs "
+                        "options.source=map"
+                    )
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
         robot = self.env.robot
@@ -339,7 +368,8 @@ class RunConfig(_Section):
 
 
 # ---------------------------------------------------------------------------------------------
-# Loading: recipe file -> dict, merged over the defaults, then key=value overrides, validated.
+# Loading: OmegaConf reads the recipe file and the ``key=value`` overrides and merges them over the
+# defaults; pydantic validates the result. What is left here is the one-line error messages.
 
 
 def builtin_recipes() -> list[str]:
@@ -364,99 +394,196 @@ def _recipe_path(recipe: str | Path) -> tuple[str, Path]:
     return text, path
 
 
-class _UniqueKeyLoader(YAML_LOADER):  # type: ignore[misc,valid-type]
-    """A YAML loader that refuses a key given twice in one mapping (PyYAML keeps the last)."""
+def _read_recipe(text: str, path: Path) -> DictConfig:
+    """The recipe file as a mapping (OmegaConf's YAML loader refuses a key given twice)."""
+    stat = path.stat()
+    return _read_recipe_file(text, str(path.resolve()), stat.st_mtime_ns, stat.st_size)
 
 
-def _no_duplicates(loader: Any, node: yaml.MappingNode, deep: bool = False) -> Any:
-    seen: set[Any] = set()
-    for key_node, _ in node.value:
-        key = loader.construct_object(key_node, deep=deep)
-        if key in seen:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r}", key_node.start_mark
+@functools.lru_cache(maxsize=64)
+def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictConfig:
+    """Kept while the file is unchanged: studies and tests load the same recipes many times,
+    and merging never changes its inputs."""
+    try:
+        data = OmegaConf.load(path)
+    except yaml.MarkedYAMLError as err:
+        where = f"line {err.problem_mark.line + 1}: " if err.problem_mark else ""
+        problem = " ".join(str(err.problem or err).split())
+        raise ConfigError(f"recipe {text!r}: not valid YAML ({where}{problem})") from None
+    except (yaml.YAMLError, UnicodeDecodeError, OmegaConfBaseException) as err:
+        problem = " ".join(str(err).split())
+        raise ConfigError(f"recipe {text!r}: not valid YAML ({problem})") from None
+    if not isinstance(data, DictConfig) or not data:
+        shown = OmegaConf.to_container(data) if isinstance(data, ListConfig) else data
+        raise ConfigError(f"recipe {text!r}: expected a non-empty mapping, got {shown!r}")
+    return data
+
+
+def _overrides(overrides: list[str] | tuple[str, ...]) -> list[tuple[str, str, DictConfig]]:
+    """Each ``key=value`` as (text, dotted key, nested config); the value is read as YAML. A key
+    given twice (or inside another given key) and the recipe's name are refused."""
+    out: list[tuple[str, str, DictConfig]] = []
+    for text in overrides:
+        if "=" not in text:
+            raise ConfigError(f"override {text!r}: expected key=value, e.g. update.gamma=0.9")
+        key, value = text.split("=", 1)
+        key = key.strip()
+        if not all(key.split(".")):
+            raise ConfigError(f"override {text!r}: empty key")
+        if key == "recipe":
+            raise ConfigError(
+                f"{text}: the recipe's name is not a key to override; name the recipe or its file"
             )
-        seen.add(key)
-    return loader.construct_mapping(node, deep)
-
-
-_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _no_duplicates)
-
-
-def _merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
-    """Deep merge: mappings merge key by key, anything else replaces."""
-    out = dict(base)
-    for key, value in update.items():
-        if isinstance(value, dict) and isinstance(out.get(key), dict):
-            out[key] = _merge(out[key], value)
-        else:
-            out[key] = value
+        for other, known, _ in out:
+            if key == known or key.startswith(known + ".") or known.startswith(key + "."):
+                raise ConfigError(f"{text}: {key} is already set by {other}; give each key once")
+        try:
+            out.append((text, key, OmegaConf.from_dotlist([f"{key}={value}"])))
+        except (yaml.YAMLError, OmegaConfBaseException) as err:
+            problem = " ".join((getattr(err, "problem", None) or str(err)).split())
+            raise ConfigError(f"{text}: not a valid YAML value ({problem})") from None
     return out
 
 
-def _parse_override(text: str) -> dict[str, Any]:
-    if "=" not in text:
-        raise ConfigError(f"override {text!r}: expected key=value, e.g. update.gamma=0.9")
-    key, raw = text.split("=", 1)
-    parts = key.strip().split(".")
-    if not all(parts):
-        raise ConfigError(f"override {text!r}: empty key")
+_ABSENT = object()
+
+
+@functools.cache
+def _mapping_defaults() -> DictConfig:
+    """The default entries of every mapping field (``reflex.near``, ``reflex.sectors``): pydantic
+    fills in a missing field but not a mapping's missing entries, so the layers are merged over
+    these (the rest of the defaults would only cost OmegaConf's time)."""
+
+    def walk(section: Any) -> dict[str, Any]:
+        names = (
+            [f.name for f in dataclasses.fields(section)]
+            if dataclasses.is_dataclass(section)
+            else list(type(section).model_fields)
+        )
+        out: dict[str, Any] = {}
+        for name in names:
+            value = getattr(section, name)
+            if isinstance(value, BaseModel) or dataclasses.is_dataclass(value):
+                if inner := walk(value):
+                    out[name] = inner
+            elif isinstance(value, dict):
+                out[name] = _plain(value)
+        return out
+
+    return OmegaConf.create(walk(RunConfig()))
+
+
+def _merge(layers: list[tuple[str, Any]]) -> dict[str, Any]:
+    """``layers`` (source, data) merged in order: mappings merge entry by entry, anything else
+    replaces (``reflex.near.FL=[0.1, 0.3]`` keeps the other sectors); ``${key}`` interpolations
+    are resolved. Keys no layer names take their defaults when pydantic validates."""
     try:
-        value = yaml.safe_load(raw) if raw.strip() else raw
-    except yaml.YAMLError:
-        value = raw
-    if isinstance(value, str):  # YAML 1.1 reads 1e-3 as a string
-        with contextlib.suppress(ValueError):
-            value = float(value)
-    nested: Any = value
-    for part in reversed(parts):
-        nested = {part: nested}
-    return nested
+        merged = OmegaConf.merge(_mapping_defaults(), *(data for _, data in layers))
+    except (OmegaConfBaseException, TypeError, ValueError):
+        below: Any = OmegaConf.to_container(_mapping_defaults())
+        for source, data in layers:  # which layer puts a list over a mapping or the reverse
+            clash = _clash(below, _container(data))
+            if clash is not None:
+                key, value = clash
+                shown = f"{source}: " if source.startswith("recipe ") else ""
+                raise ConfigError(
+                    f"{shown}{key}={value!r}: a mapping and a list cannot replace each other"
+                ) from None
+            below = OmegaConf.to_container(OmegaConf.merge(below, data))
+        raise
+    try:
+        out = OmegaConf.to_container(merged, resolve=True)
+    except OmegaConfBaseException as err:
+        key = str(getattr(err, "full_key", "") or "")
+        value = _at(OmegaConf.to_container(merged), key)
+        reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise ConfigError(f"{key or 'config'}={value!r}: {reason}") from None
+    return cast("dict[str, Any]", out)
 
 
-def _one_line(err: ValidationError) -> str:
-    """The first pydantic error as ``key=value: reason``."""
+def _container(data: Any) -> Any:
+    return OmegaConf.to_container(data) if isinstance(data, (DictConfig, ListConfig)) else data
+
+
+def _clash(base: Any, data: Any, prefix: str = "") -> tuple[str, Any] | None:
+    """The first key where ``data`` puts a mapping over a list or a list over a mapping."""
+    if not isinstance(base, dict) or not isinstance(data, dict):
+        return None
+    for name, value in data.items():
+        key, old = f"{prefix}{name}", base.get(name)
+        if (
+            isinstance(old, dict)
+            and isinstance(value, list)
+            or (isinstance(old, list) and isinstance(value, dict))
+        ):
+            return key, value
+        found = _clash(old, value, key + ".")
+        if found is not None:
+            return found
+    return None
+
+
+def _at(data: Any, key: str, default: Any = None) -> Any:
+    """The value at dotted ``key`` in nested mappings (``default`` where there is none)."""
+    for part in key.split(".") if key else []:
+        if not isinstance(data, dict) or part not in data:
+            return default
+        data = data[part]
+    return data
+
+
+def _unknown(key: str, value: Any) -> str:
+    """``key=value: unknown key``, with the nearest field name of its section if one is close;
+    a mapping of a single entry is shown as its dotted key."""
+    leaf = ""
+    while isinstance(value, dict) and len(value) == 1:
+        name, value = next(iter(value.items()))
+        leaf += f".{name}"
+    shown = key + leaf if isinstance(value, dict) else f"{key}{leaf}={value!r}"
+    parts = key.split(".")
+    section = _at(config_to_dict(RunConfig()), ".".join(parts[:-1]))
+    names = [f for f in section if f != "recipe"] if isinstance(section, dict) else []
+    close = difflib.get_close_matches(parts[-1], names, n=1)
+    hint = f"; did you mean {'.'.join([*parts[:-1], close[0]])}{leaf}?" if close else ""
+    return f"{shown}: unknown key{hint} (`symrl train --help-keys` lists them all)"
+
+
+def _one_line(err: ValidationError) -> tuple[str, str]:
+    """The first pydantic error as (dotted key, ``key=value: reason``)."""
     first = err.errors()[0]
     key = ".".join(str(p) for p in first["loc"])
     value = first.get("input")
     reason = first["msg"].removeprefix("Value error, ")
     if first["type"] in ("extra_forbidden", "unexpected_keyword_argument"):
-        shown = key if isinstance(value, dict) else f"{key}={value!r}"
-        return f"{shown}: unknown key; `symrl train --help-keys` lists them all"
+        return key, _unknown(key, value)
     if isinstance(value, dict) or not key:
-        return f"{key or 'config'}: {reason}"
-    return f"{key}={value!r}: {reason}"
+        return key, f"{key or 'config'}: {reason}"
+    return key, f"{key}={value!r}: {reason}"
+
+
+def _validate(layers: list[tuple[str, Any]], recipe: str | None) -> RunConfig:
+    """Merge ``layers`` over the defaults and validate; an error names the layer that set the
+    bad key when it is a recipe file (an override's message already shows its key and value)."""
+    merged = _merge(layers)
+    if recipe is not None:
+        merged["recipe"] = recipe
+    try:
+        return RunConfig.model_validate(merged)
+    except ValidationError as err:
+        key, message = _one_line(err)
+    for source, data in reversed(layers):
+        if key and _at(_container(data), key, _ABSENT) is not _ABSENT:
+            if source.startswith("recipe "):
+                message = f"{source}: {message}"
+            break
+    raise ConfigError(message) from None
 
 
 def config_from_dict(data: dict[str, Any], recipe: str | None = None) -> RunConfig:
     """Build a validated RunConfig from a nested dict merged over the defaults."""
     if not isinstance(data, dict):
         raise ConfigError(f"config: expected a mapping of sections, got {data!r}")
-    merged = _merge(config_to_dict(RunConfig()), data)
-    if recipe is not None:
-        merged["recipe"] = recipe
-    merged = _tuples(merged)
-    try:
-        return RunConfig.model_validate(merged)
-    except ValidationError as err:
-        raise ConfigError(_one_line(err)) from None
-
-
-def _tuples(data: Any) -> Any:
-    """Lists from YAML become tuples where the dataclass sections expect them."""
-    reflex = data.get("reflex") if isinstance(data, dict) else None
-    if isinstance(reflex, dict):
-        data = copy.deepcopy(data)
-        reflex = data["reflex"]
-        for name in ("rules", "peaks"):
-            if isinstance(reflex.get(name), list):
-                reflex[name] = tuple(reflex[name])
-        for name in ("near", "sectors"):
-            if isinstance(reflex.get(name), dict):
-                reflex[name] = {
-                    k: tuple(v) if isinstance(v, list) else v for k, v in reflex[name].items()
-                }
-    return data
+    return _validate([("config", data)], recipe)
 
 
 def config_to_dict(config: RunConfig) -> dict[str, Any]:
@@ -474,77 +601,57 @@ def _plain(value: Any) -> Any:
 
 
 def load_config(
-    recipe: str | Path = "paper_literal", overrides: list[str] | None = None
+    recipe: str | Path = "paper_literal", overrides: list[str] | tuple[str, ...] | None = None
 ) -> RunConfig:
-    """Load a recipe by name or path and apply ``key=value`` overrides (dotted keys)."""
+    """Load a recipe by name or path and apply ``key=value`` overrides (dotted keys, each key
+    once; values read as YAML)."""
     name, path = _recipe_path(recipe)
-    try:
-        data = yaml.load(path.read_text(), Loader=_UniqueKeyLoader)
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        detail = str(err).replace("\n", " ")
-        raise ConfigError(f"recipe {str(path)!r}: not valid YAML ({detail})") from None
-    if not isinstance(data, dict) or not data:
-        raise ConfigError(f"recipe {str(path)!r}: expected a non-empty mapping, got {data!r}")
-    for text in overrides or []:
-        data = _merge(data, _parse_override(text))
-    return config_from_dict(data, recipe=str(data.get("recipe", name)))
+    data = _read_recipe(str(recipe), path)
+    layers = [(f"recipe {str(recipe)!r}", data)]
+    layers += [(text, nested) for text, _, nested in _overrides(overrides or [])]
+    return _validate(layers, recipe=str(data.get("recipe", name)))
 
 
 def apply_overrides(config: RunConfig, overrides: list[str] | tuple[str, ...]) -> RunConfig:
     """``config`` with ``key=value`` overrides applied (validated again)."""
-    data = config_to_dict(config)
-    for text in overrides:
-        data = _merge(data, _parse_override(text))
-    return config_from_dict(data, recipe=config.recipe)
+    layers: list[tuple[str, Any]] = [("config", config_to_dict(config))]
+    layers += [(text, nested) for text, _, nested in _overrides(overrides)]
+    return _validate(layers, recipe=config.recipe)
 
 
-def describe_keys() -> str:
-    """Every config key with its default and docstring (for ``symrl train --help-keys``)."""
-    import dataclasses
-    import inspect
-
-    def docs(cls: type) -> dict[str, str]:
-        # field docstrings are the string literal right under each field
-        out: dict[str, str] = {}
-        lines = inspect.getsource(cls).splitlines()
-        for i, line in enumerate(lines[:-1]):
-            head = line.strip().split(":")[0]
-            nxt = lines[i + 1].strip()
-            if nxt.startswith('"""') and head.isidentifier():
-                text = [nxt.strip('"')]
-                j = i + 1
-                while not lines[j].rstrip().endswith('"""') or (j == i + 1 and nxt == '"""'):
-                    j += 1
-                    text.append(lines[j].strip().strip('"'))
-                out[head] = " ".join(t for t in text if t)
-        return out
-
-    rows = []
+def describe_keys(config: RunConfig | None = None) -> str:
+    """Every config key with its value in ``config`` (the library default where a recipe changes
+    it is shown beside it) and its description, from the schema: the string under each field
+    (for ``symrl train [RECIPE] --help-keys``)."""
+    config = config if config is not None else RunConfig()
+    schema = RunConfig.model_json_schema()
+    defs = schema.get("$defs", {})
     defaults = config_to_dict(RunConfig())
-    sections: list[tuple[str, type]] = [
-        ("env", EnvConfig), ("env.robot", RobotConfig), ("localize", LocalizeSection),
-        ("gate", GateConfig),
-        ("experts", ExpertsConfig), ("update", UpdateConfig),
-        ("trial_gradient", TrialGradientConfig), ("options", OptionsConfig),
-        ("reflex", ReflexConfig), ("shield", ShieldSection),
-        ("run", RunSection),
-    ]  # fmt: skip
-    for prefix, cls in sections:
-        names = (
-            [f.name for f in dataclasses.fields(cls)]
-            if dataclasses.is_dataclass(cls)
-            else list(cls.model_fields)  # type: ignore[attr-defined]
-        )
-        doc = docs(cls)
-        value: Any = defaults
-        for part in prefix.split("."):
-            value = value[part]
-        rows.append(f"{prefix}:")
-        for name in names:
-            if isinstance(value.get(name), dict) and prefix == "env" and name == "robot":
+    rows = [f"Config keys of recipe {config.recipe!r}: key = value, then what it means. "
+            "Override one as key=value."]  # fmt: skip
+
+    def section(field: dict[str, Any]) -> dict[str, Any] | None:
+        ref = field.get("$ref") or next((f["$ref"] for f in field.get("allOf", [])), None)
+        return defs[ref.rsplit("/", 1)[-1]] if ref else None
+
+    def walk(prefix: str, properties: dict[str, Any], values: dict[str, Any]) -> None:
+        nested = []
+        for name, field in properties.items():
+            key, inner = f"{prefix}{name}", section(field)
+            doc = " ".join((field.get("description") or "").split())
+            if inner is not None:  # a section: its keys after the plain ones
+                doc = doc or " ".join(inner.get("description", "").split())
+                nested.append((key, doc, inner["properties"], values[name]))
                 continue
-            default = value.get(name)
-            rows.append(f"  {prefix}.{name} = {default!r}")
-            if doc.get(name):
-                rows.append(f"      {doc[name]}")
+            default = _at(defaults, key)
+            changed = f"  (default {default!r})" if values[name] != default else ""
+            rows.append(f"  {key} = {values[name]!r}{changed}")
+            if doc:
+                rows.append(f"      {doc}")
+        for key, doc, inner_properties, inner_values in nested:
+            rows.append(f"{key}:" + (f"  {doc}" if doc else ""))
+            walk(f"{key}.", inner_properties, inner_values)
+
+    walk("", {k: v for k, v in schema["properties"].items() if k != "recipe"},
+         config_to_dict(config))  # fmt: skip
     return "\n".join(rows)

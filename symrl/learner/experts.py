@@ -17,7 +17,7 @@ growth replaces rows, which an optimizer could not follow.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import torch
@@ -25,10 +25,16 @@ import torch
 from symrl.buffers import BufferViews
 from symrl.grad import no_grad
 
-__all__ = ["ExpertBank"]
+__all__ = ["ExpertBank", "expert_names"]
 
 # Per-neuron tensors (B, E, N[, D]); every one is resized together when storage doubles.
 _ROWS = ("centres", "actions", "utilities", "means", "taken", "used")
+
+
+def expert_names(config: Any, world: Any) -> tuple[str, ...]:
+    """The experts of a controller of ``config`` in ``world``: one per map region, or one for
+    all (``"all"``) without the partition."""
+    return tuple(world.regions.names) if config.gate.partition else ("all",)
 
 
 def _sum_last(squares: np.ndarray) -> np.ndarray:

@@ -26,6 +26,8 @@ import torch
 
 from symrl.buffers import BufferViews
 from symrl.grad import no_grad
+from symrl.knowledge.planner import shortest_path
+from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalConfig, SubgoalTable, build_subgoals
 from symrl.world.geometry import Walls
 from symrl.world.worldmap import WorldMap
@@ -72,14 +74,19 @@ class SubgoalOptions(BufferViews):
 
     def __init__(
         self,
-        world: WorldMap,
+        world: WorldMap | Knowledge,
         batch: int,
         config: object,
         seeds: list[int],
         table: SubgoalTable | None = None,
         step: float = 0.2,
     ) -> None:
+        """``world``: the map (``options.source: map``), or a robot's ``Knowledge`` below it
+        with its ``table`` from the region rules (no region limit: it needs the planner)."""
         super().__init__()
+        mapless = isinstance(world, Knowledge)
+        if mapless and table is None:
+            raise ValueError("SubgoalOptions: without the map, pass the table of the rules")
         self.config = config
         self.table = table or subgoal_table(world, config)
         r, k = self.table.valid.shape
@@ -118,7 +125,10 @@ class SubgoalOptions(BufferViews):
         # (reset with every trial, so nothing of it outlives one: not in the state dict)
         slack = config.region_limit  # type: ignore[attr-defined]
         self._limit: np.ndarray | None = None
-        if slack is not None:
+        # without the map: a region's option is given up, for the best one left, after this
+        # many actions in the region (no planner to fall back to)
+        self._timeout: int | None = int(slack) if mapless and slack is not None else None
+        if slack is not None and not mapless:
             share = _route_lengths(world)
             self._limit = np.array([int(slack) + math.ceil(share.get(name, 0.0) / step)
                                     for name in self.region_names])  # fmt: skip
@@ -134,8 +144,8 @@ class SubgoalOptions(BufferViews):
         self._detour = np.full((batch, 2), np.nan)
         self._detour_region = np.full(batch, -1, dtype=np.int64)
         self._world = world
-        self._walls = Walls(world.segments) if slack is not None else None
-        if self._limit is not None:
+        self._walls = Walls(world.segments) if self._limit is not None else None
+        if slack is not None:
             # learned: the options that needed the planner's one to finish their region; they
             # are not chosen again (the credit of the rescued trial would hide the dead end)
             self.register_buffer("stalled", torch.zeros(batch, r, k, dtype=torch.bool))
@@ -168,6 +178,15 @@ class SubgoalOptions(BufferViews):
         visit[:] = region_np
         pose = odometry.numpy().astype(np.float64)
         xy = pose[:, :2]
+        if self._timeout is not None:  # without the map: an option timed out gives way
+            steps = self._region_steps
+            steps[rows, region_np] += 1
+            for b in np.flatnonzero(steps[rows, region_np] > self._timeout).tolist():
+                here = int(region_np[b])
+                a["stalled"][b, here, chosen[b]] = True
+                choice[b, here] = self._choose(b, here, greedy=True)
+                steps[b, here], stage[b] = 0, _FIRST_STAGE
+            chosen = choice[rows, region_np]
         lost = None
         if self._limit is not None:  # a region past its limit goes on by the planner
             steps, fallen = self._region_steps, self._fallen_back
@@ -231,7 +250,6 @@ class SubgoalOptions(BufferViews):
     def _replan(self, xy: np.ndarray) -> np.ndarray:
         """The first turn of the planner's shortest path from ``xy`` more than ``reach`` away,
         pushed out to 0.45 m from its wall (the goal if the way is straight or unknown)."""
-        from symrl.studies.planner import shortest_path
 
         reach = float(self.config.reach)  # type: ignore[attr-defined]
         start = (float(xy[0]), float(xy[1]))
@@ -255,7 +273,7 @@ class SubgoalOptions(BufferViews):
         cfg = self.config
         a = self.arrays
         valid = a["valid"][region].tolist()
-        if self._limit is not None:  # a stalled option is as if not offered
+        if "stalled" in self._buffers:  # a stalled option is as if not offered
             valid = [ok and not stalled for ok, stalled in
                      zip(valid, a["stalled"][b, region].tolist(), strict=True)]  # fmt: skip
             if not any(valid):
@@ -428,8 +446,6 @@ def with_planner_waypoints(
     drives into its back wall for the rest of the trial), gets the first turn of the planner's
     path from its centre (the centroid of its largest piece, or the piece's most open point
     if the centroid is too near a wall), labelled ``out``."""
-    from symrl.studies.planner import shortest_path  # the planner is a study tool: import late
-
     plan = shortest_path(world)
     walls = Walls(world.segments)
     inside: dict[str, tuple[float, float]] = {}
@@ -581,8 +597,6 @@ once each (6 ms a policy on the paper's map)."""
 
 def _route(world: WorldMap) -> _Route:
     """The start-to-goal route of ``world``, planned once and shared: callers only read it."""
-    from symrl.studies.planner import shortest_path
-
     known = _ROUTES.get(id(world))
     if known is not None and known[0]() is world:
         return known[1]
@@ -728,8 +742,6 @@ def without_detours(
     The goal (the paper's reflex) and the planner's own turns (``path``) are always kept, and
     so is every option of a region the path does not enter. ``lengths``: the planner's length
     from each point judged, kept between calls on the same map (a planner call each)."""
-    from symrl.studies.planner import shortest_path
-
     walls = Walls(world.segments)
 
     def straight(a: np.ndarray, b: np.ndarray) -> bool:  # crosses no wall (1 cm: not a graze)

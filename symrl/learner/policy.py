@@ -39,6 +39,7 @@ from tensordict.nn import TensorDictModuleBase
 from torchrl.envs.utils import ExplorationType, exploration_type
 
 from symrl.grad import no_grad
+from symrl.knowledge.borders import border_subgoals
 from symrl.knowledge.localize import MapLocalizer, PoseTracker
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.regions import RegionMapper
@@ -157,12 +158,14 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             batch, len(self.expert_names), self.input_dim, xc.capacity, xc.max_neurons,
             names=self.expert_names,
         )  # fmt: skip
-        self.options = (
-            SubgoalOptions(knowledge.geometry("options"), batch, config.options, self.seeds,
-                           subgoals, step=config.env.robot.step)
-            if config.options.enabled
-            else None
-        )
+        self.options = None
+        if config.options.enabled and config.options.source == "rules":
+            table = subgoals or border_subgoals(knowledge.regions, knowledge.goal)
+            self.options = SubgoalOptions(knowledge, batch, config.options, self.seeds, table,
+                                          step=robot.step)  # fmt: skip
+        elif config.options.enabled:
+            self.options = SubgoalOptions(knowledge.geometry("options"), batch, config.options,
+                                          self.seeds, subgoals, step=robot.step)  # fmt: skip
         self.shield = (
             IRShield(ShieldConfig(margin=config.shield.margin), robot)
             if config.shield.enabled

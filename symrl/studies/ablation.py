@@ -57,13 +57,16 @@ __all__ = [
     "ablate_command",
 ]
 
+LADDER = ("reflex_only", "paper_literal", "paper", "paper_map")
+"""``symrl ablate --ladder``: the best recipe of each knowledge rung, and the paper's literal
+learner, on the same seeds."""
+
 RECIPES = (
     "paper", "paper_map", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only",
 )
 
-# what a change ablation leaves alone: the recipe's name, what the robot is told (its settings
-# need it: put back alone it makes the recipe invalid), and the budget, seed and logging
-_NOT_CHANGES = ("recipe", "knowledge", "run.")
+# what a change ablation leaves alone: the recipe's name, and the budget, seed and logging
+_NOT_CHANGES = ("recipe", "run.")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,8 +108,10 @@ def changes_of(recipe: str, base: str = "paper_literal") -> list[Variant]:
     to ``base``'s value (one at a time, in config order), then ``recipe`` with
     ``experts.learning=false`` if its experts learn. Names: ``RECIPE``, ``RECIPE-without-KEY``,
     ``RECIPE-experts-off``. A setting that only matters under another (``options.*`` with
-    ``options.enabled``) is still its own row: put back with the rest of ``recipe`` kept."""
-    from symrl.learner.config import load_config
+    ``options.enabled``) is still its own row: put back with the rest of ``recipe`` kept. A
+    setting that cannot be put back alone (the config it gives is refused, e.g.
+    ``options.source=map`` below the map rung) has no row."""
+    from symrl.learner.config import ConfigError, load_config
 
     mine, theirs = load_config(recipe), load_config(base)
     name = mine.recipe
@@ -116,6 +121,10 @@ def changes_of(recipe: str, base: str = "paper_literal") -> list[Variant]:
         if key.startswith(_NOT_CHANGES) or other.get(key) == value:
             continue
         back = other[key]
+        try:
+            load_config(recipe, [f"{key}={json.dumps(back)}"])
+        except ConfigError:
+            continue
         shown = (value, back)
         if isinstance(value, dict) and isinstance(back, dict):  # only the entries that differ
             keys = [k for k in {**back, **value} if value.get(k) != back.get(k)]
@@ -225,6 +234,41 @@ def summary_markdown(summary: dict[str, dict[str, Any]], last: int = LAST) -> st
     opt = summary.get("_optimum")
     if opt:
         lines.append(f"| *optimum (`symrl plan`)* | - | - | - | {opt['steps']} | - | - | 0 | 0 |")
+    return "\n".join(lines) + "\n"
+
+
+def ladder_markdown(summary: dict[str, dict[str, Any]], last: int = LAST) -> str:
+    """The knowledge ladder: per recipe, its rung and what the robot is told, and what that
+    buys (last-``last`` means over the sets), with the paper's real robot for reference."""
+    from symrl.knowledge.rungs import TOLD
+    from symrl.learner.config import load_config
+
+    lines = [
+        f"| rung | recipe | what the robot is told | total reinf. trial 1 "
+        f"| total reinf. last {last} | actions last {last} | neurons last "
+        f"| collisions last {last} (all sets) |",
+        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    from symrl.knowledge.rungs import RUNGS
+
+    rungs = {r: load_config(r).knowledge for r in summary if not r.startswith("_")}
+    order = {r: i for i, r in enumerate(LADDER)}
+    for recipe in sorted(rungs, key=lambda r: (RUNGS.index(rungs[r]), order.get(r, 99), r)):
+        s, rung = summary[recipe], rungs[recipe]
+        lines.append(
+            f"| {rung} | `{recipe}` | {TOLD[rung]} "
+            f"| {_pm(s['total_reinforcement_first'], '.2f')} "
+            f"| {_pm(s[f'total_reinforcement_last{last}'], '.2f')} "
+            f"| {_pm(s[f'steps_last{last}'])} | {_pm(s['neurons_last'])} "
+            f"| {s.get(f'collisions_last{last}_sum', '-')} |"
+        )
+    p = PAPER_TABLE1
+    if summary.get("_map", "hailu2001") == "hailu2001":
+        lines.append(
+            f"| regions | *paper, real robot (Table 1, last trial)* | {TOLD['regions']} | - "
+            f"| {p['total_reinforcement']['mean']} | {p['steps']['mean']} "
+            f"| {p['neurons']['mean']} | - |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -359,6 +403,10 @@ def ablate_command(args: argparse.Namespace) -> int:
     time."""
     named = tuple(r.strip() for r in args.recipes.split(",")) if args.recipes else ()
     changes = getattr(args, "changes_of", None)
+    ladder = getattr(args, "ladder", False)
+    if ladder and (named or changes):
+        raise ValueError("--ladder runs its own recipes: give it without --recipes or --changes-of")
+    named = LADDER if ladder else named
     recipes: list[str | Variant] = []
     if changes:
         recipes += changes_of(changes, args.base)
@@ -367,6 +415,10 @@ def ablate_command(args: argparse.Namespace) -> int:
     summary = run_ablation(recipes, args.sets, args.trials, args.seed, args.workers, args.out,
                            map=args.map)
     print(summary_markdown(summary))
+    if ladder:
+        table = ladder_markdown(summary)
+        (Path(args.out) / "ladder.md").write_text(table)
+        print(table)
     written = "summary.md, summary.json, comparison.png, one folder per recipe"
     if changes:
         print((Path(args.out) / "changes.md").read_text())

@@ -46,6 +46,7 @@ from tensordict.nn import TensorDictModuleBase
 
 from symrl.knowledge.reflex import ReflexConfig
 from symrl.learner.config import RunConfig, config_to_dict, load_config
+from symrl.studies.actor import make_actor
 from symrl.studies.priors import PriorAction, PriorObservation, Priors
 
 __all__ = [
@@ -128,29 +129,6 @@ def make_env(config: RunConfig, priors: Priors, seeds: Sequence[int], world: Any
     world = world if world is not None else load_map(config.env.map)
     base = make_world(config, list(seeds), world=world)
     return TransformedEnv(base, PriorObservation(priors, config, world))
-
-
-def make_actor(n_obs: int, cells: Sequence[int], activation: str):
-    """TanhNormal actor on [-1, 1] over ``observation``, writing ``control`` and its log-prob."""
-    from tensordict.nn import NormalParamExtractor, TensorDictModule
-    from torch import nn
-    from torchrl.data import Bounded
-    from torchrl.modules import MLP, ProbabilisticActor, TanhNormal
-
-    act = {"relu": nn.ReLU, "tanh": nn.Tanh}[activation]
-    net = nn.Sequential(
-        MLP(in_features=n_obs, out_features=2, num_cells=list(cells), activation_class=act),
-        NormalParamExtractor(),
-    )
-    return ProbabilisticActor(
-        TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"]),
-        in_keys=["loc", "scale"],
-        out_keys=["control"],
-        spec=Bounded(-1.0, 1.0, (1,)),
-        distribution_class=TanhNormal,
-        distribution_kwargs={"low": -1.0, "high": 1.0},
-        return_log_prob=True,
-    )
 
 
 # ---------------------------------------------------------------------------------------------

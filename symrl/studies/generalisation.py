@@ -7,9 +7,11 @@ measurements, each beside the reflex alone (``reflex_only``) on the same seeds:
 1. **Other start poses**: train the recipe (``sets`` sets x ``trials`` trials, seed + k), then drive
    the final controller greedily from ``STARTS`` (four near the learned route, four far from it).
 2. **New obstacle**: the same controllers, from the usual start, in the map plus ``OBSTACLE``
-   (a 0.5 m box on the learned route) via ``WorldMap.with_obstacle``.
-3. **Noise**: learning itself under more odometry drift (``env.rotation_noise_deg``) and more
-   sonar noise (``env.sonar_noise_std``): the ablation summary per level.
+   (a 0.5 m box on the learned route) via ``WorldMap.with_obstacle``. The obstacle is in the
+   env's world only: the agent (its regions, sub-goal table, planner and localiser) is built
+   from the map it learned in, as the paper's robot was not told of the box.
+3. **Noise**: learning itself under more odometry drift (``env.robot.rotation_noise_deg``) and
+   more sonar noise (``env.robot.sonar_noise_std``): the ablation summary per level.
 
 ``STARTS`` and ``OBSTACLE`` are the paper's world's. On any other map (``map=``, ``--map``) the
 start poses are the map's ``starts:`` or four derived in the start's region and its neighbours
@@ -29,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from symrl.studies.repeatability import OTHER_STARTS
+from symrl.studies.placement import OTHER_STARTS
 from symrl.studies.runner import evaluate_states, resolve_config, run_sets, summarise
 
 __all__ = ["STARTS", "OBSTACLE", "NOISE_LEVELS", "starts_for", "obstacle_for", "transfer",
@@ -49,12 +51,12 @@ OBSTACLE = [[1.75, -0.6], [2.25, -0.6], [2.25, -0.1], [1.75, -0.1]]
 
 NOISE_LEVELS: tuple[tuple[str, list[str]], ...] = (
     ("default (rot 0.5 deg, sonar 0.01 m)", []),
-    ("odometry rot 2 deg", ["env.rotation_noise_deg=2.0"]),
-    ("odometry rot 5 deg", ["env.rotation_noise_deg=5.0"]),
+    ("odometry rot 2 deg", ["env.robot.rotation_noise_deg=2.0"]),
+    ("odometry rot 5 deg", ["env.robot.rotation_noise_deg=5.0"]),
     ("odometry rot 5 deg + transl 5%",
-     ["env.rotation_noise_deg=5.0", "env.translation_noise=0.05"]),
-    ("sonar 0.05 m", ["env.sonar_noise_std=0.05"]),
-    ("sonar 0.15 m", ["env.sonar_noise_std=0.15"]),
+     ["env.robot.rotation_noise_deg=5.0", "env.robot.translation_noise=0.05"]),
+    ("sonar 0.05 m", ["env.robot.sonar_noise_std=0.05"]),
+    ("sonar 0.15 m", ["env.robot.sonar_noise_std=0.15"]),
 )
 """(label, config overrides) of the noise sweep."""
 
@@ -99,7 +101,7 @@ def transfer(recipe: str, sets: int, trials: int, seed: int, workers: int | None
     blocked = world.with_obstacle(obstacle_for(world))
     home = world_start(world)
     out: list[dict[str, Any]] = [{"set": k, "seed": seed + k} for k in range(sets)]
-    for name, n in ((recipe, trials), ("reflex_only", 1)):
+    for who, name, n in (("learned", recipe, trials), ("reflex_only", "reflex_only", 1)):
         config = resolve_config(name, [f"run.trials={n}", f"env.map={map}"])
         states = [s.controller for s in run_sets(config, sets, n, seed, workers=workers)]
         pairs = [(k, j) for k in range(sets) for j in range(len(STARTS))]
@@ -109,8 +111,8 @@ def transfer(recipe: str, sets: int, trials: int, seed: int, workers: int | None
         )  # fmt: skip
         seeds = [seed + k + 999 for k in range(sets)]
         homes = evaluate_states(config, world, states, [home] * sets, seeds)
-        walls = evaluate_states(config, blocked, states, [home] * sets, seeds)
-        who = "reflex_only" if name == "reflex_only" else "learned"
+        # the env holds the new obstacle, the agent only the map it learned in
+        walls = evaluate_states(config, world, states, [home] * sets, seeds, env_world=blocked)
         for k in range(sets):
             out[k][who] = {
                 "starts": starts[k * len(STARTS) : (k + 1) * len(STARTS)],
@@ -203,10 +205,12 @@ def markdown(report: dict[str, Any]) -> str:
     (bx0, by0), (bx1, by1) = box.min(axis=0), box.max(axis=0)
     what = (f"{bx1 - bx0:.2g} m box at ({(bx0 + bx1) / 2:.2f}, {(by0 + by1) / 2:.2f})"
             if abs((bx1 - bx0) - (by1 - by0)) < 1e-6 else "polygon")  # fmt: skip
+    code = report.get("provenance", {})
+    revision = f"{code.get('revision') or '?'}{'+dirty' if code.get('dirty') else ''}"
     lines = [
         f"Map `{report.get('map', 'hailu2001')}`. "
         f"Recipe `{report['recipe']}`, {report['sets']} sets x {report['trials']} trials, seeds "
-        f"{report['seeds'][0]}-{report['seeds'][1]}, code `{report.get('code', '?')}`; greedy "
+        f"{report['seeds'][0]}-{report['seeds'][1]}, code `{revision}`; greedy "
         "runs with noise on. Cells: reached the goal / runs (mean actions when reached).",
         "",
         "| start pose | near the learned route | learned controller | reflex alone |",
@@ -225,7 +229,7 @@ def markdown(report: dict[str, Any]) -> str:
     lo, ro = report["obstacle_learned"], report["obstacle_reflex_only"]
     lines += [
         "",
-        f"| new obstacle ({what}) | reached | mean collisions |",
+        f"| new obstacle ({what}), not on the agent's map | reached | mean collisions |",
         "| --- | ---: | ---: |",
         f"| learned controller | {_frac(lo)} | {lo['mean_collisions']:.1f} |",
         f"| reflex alone | {_frac(ro)} | {ro['mean_collisions']:.1f} |",

@@ -23,15 +23,24 @@ import numpy as np
 import shapely
 from shapely.geometry import LineString, MultiLineString, Point, box
 
+from symrl.knowledge.planner import shortest_path
 from symrl.world.worldmap import BODY_RADIUS, WorldMap, reaches_goal
 
-__all__ = ["GRID", "map_starts", "derived_starts", "derived_obstacle", "study_starts",
-           "near_start"]
+__all__ = ["OTHER_STARTS", "GRID", "map_starts", "derived_starts", "derived_obstacle",
+           "study_starts", "near_start"]
 
 GRID = 0.25
 """Spacing (metres) of the candidate grid for derived start poses."""
 
 Pose3 = tuple[float, float, float]
+
+OTHER_STARTS: tuple[Pose3, ...] = (
+    (-1.0, 1.5, 0.0),
+    (1.0, -1.8, 0.0),
+    (2.0, 1.5, -math.pi / 2),
+    (-0.8, -1.0, math.pi / 4),
+)
+"""Four start poses in the paper's room for the final controller (Fig. 5 bottom right)."""
 
 
 def _walls(world: WorldMap) -> MultiLineString:
@@ -144,8 +153,6 @@ def map_starts(world: WorldMap, n: int = 4) -> tuple[Pose3, ...]:
 def study_starts(world: WorldMap) -> tuple[Pose3, ...]:
     """The other start poses of ``symrl study`` / ``ablate``: the paper's four on its own world,
     the map's (listed or derived) elsewhere."""
-    from symrl.studies.repeatability import OTHER_STARTS
-
     return OTHER_STARTS if world.name == "hailu2001" else map_starts(world)
 
 
@@ -159,8 +166,6 @@ def derived_obstacle(
     the first (size, fraction) in order that fits: clear of the start by the body radius +
     ``margin``, clear of the goal disc by the same, inside the free area, off every thin wall,
     and leaving the goal reachable. None if no candidate fits."""
-    from symrl.studies.planner import shortest_path
-
     plan = shortest_path(world)
     line = LineString(np.asarray(plan.points, dtype=float).reshape(-1, 2))
     free = world.free_polygon

@@ -16,7 +16,7 @@ from typing import Any
 import torch
 from tensordict import TensorDictBase
 
-from symrl.studies.baseline import make_actor
+from symrl.studies.actor import make_actor
 
 __all__ = ["PPOConfig", "PPOAgent"]
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -25,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from symrl.runs import write_trials_csv
+from symrl.studies.placement import OTHER_STARTS, study_starts
 from symrl.studies.runner import SetResult, curves, optimum, run_sets, start_summary, table1
 
 __all__ = [
@@ -43,14 +43,6 @@ PAPER_TABLE1 = {
     "total_reinforcement": {"mean": -6.24, "variance": 0.8752},
 }
 """Hailu (2001), Table 1: real robot, 10 sets x 20 trials, at the last trial."""
-
-OTHER_STARTS: tuple[tuple[float, float, float], ...] = (
-    (-1.0, 1.5, 0.0),
-    (1.0, -1.8, 0.0),
-    (2.0, 1.5, -math.pi / 2),
-    (-0.8, -1.0, math.pi / 4),
-)
-"""Four start poses in the room for the final controller (Fig. 5 bottom right)."""
 
 TABLE_KEYS = (
     "neurons", "steps", "total_reinforcement", "collisions", "reached_goal", "path_length"
@@ -142,7 +134,6 @@ def run_study(
 ) -> StudyResult:
     """Run ``sets`` sets of ``trials`` trials (set k: seed + k) and write the results folder."""
     from symrl.about import provenance
-    from symrl.studies.placement import study_starts
     from symrl.studies.runner import resolve_config
     from symrl.world import load_map
 

@@ -22,8 +22,7 @@ COMMANDS = {
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
     "changes": "symrl ablate --changes-of paper_map --recipes paper_literal,reflex_only "
     "--sets 10 --trials 20 --seed 100 --out results/changes-s100",
-    "generalise": "symrl generalise --recipe {recipe} --sets 10 --trials 20 --seed 100 "
-    "--out results/generalise-{recipe}",
+    "generalise": "symrl generalise --recipe {recipe} --out results/generalise-{recipe}",
 }
 """The commands whose folders this report reads (the baselines': ``BASELINE_VARIANTS``)."""
 
@@ -33,6 +32,9 @@ RECIPE_ORDER = ("paper", "paper_map", "paper_literal", "no_partition", "reflex_o
 
 STUDIED = ("paper", "paper_map")
 """Recipes whose whole study (Table 1 and Figs 5-9) the report shows."""
+
+GENERALISE_RECIPES = ("paper", "reflex_only")
+"""The recipes of the generalisation section: the paper's learner and the reflex it starts from."""
 
 INTERPRETATION = Path(__file__).with_name("results_discussion.md")
 """Hand-written discussion appended to the generated report (what reproduces and what not)."""
@@ -432,7 +434,7 @@ def _section_baselines(results: Path, figures: Path) -> list[str]:
 
 def _section_generalise(results: Path, figures: Path) -> list[str]:
     out = ["## Generalisation (`symrl generalise`)", ""]
-    for recipe in ("paper_map", "paper_literal"):
+    for recipe in GENERALISE_RECIPES:
         folder = results / f"generalise-{recipe}"
         out += [f"### `{recipe}`", "", f"Command: `{COMMANDS['generalise'].format(recipe=recipe)}`",
                 ""]

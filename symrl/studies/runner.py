@@ -29,6 +29,7 @@ __all__ = [
     "run_jobs",
     "worker_pool",
     "evaluate_states",
+    "evaluation_batch",
     "last_trial_rows",
     "table1",
     "curves",
@@ -77,23 +78,44 @@ def _xy(path: Any) -> list[list[float]]:
     return np.asarray(path, dtype=float).reshape(-1, 2).round(4).tolist()
 
 
+def evaluation_batch(
+    config: RunConfig,
+    world: Any,
+    states: Sequence[dict[str, Any]],
+    starts: Sequence[tuple[float, float, float]],
+    seeds: Sequence[int],
+    env_world: Any = None,
+) -> tuple[Any, Any]:
+    """The policy of controllers ``states`` and the env their robots drive in, from ``starts``.
+
+    The agent (region mapper, sub-goal table, planner, localiser) is built from ``world``, the
+    map it learned in; the env holds ``env_world`` (default ``world``), e.g. the same map with a
+    new obstacle that the agent is not told of."""
+    from symrl.learner.policy import MixtureOfExpertsPolicy
+    from symrl.train import make_env
+
+    policy = MixtureOfExpertsPolicy.from_robot_states(config, world, list(states), list(seeds))
+    env = make_env(config, list(seeds), world=world if env_world is None else env_world,
+                   starts=np.asarray(starts, dtype=np.float64))  # fmt: skip
+    return policy, env
+
+
 def evaluate_states(
     config: RunConfig,
     world: Any,
     states: Sequence[dict[str, Any]],
     starts: Sequence[tuple[float, float, float]],
     seeds: Sequence[int],
+    env_world: Any = None,
 ) -> list[dict[str, Any]]:
     """Greedy trials of controller ``states[i]`` from ``starts[i]`` with noise seed ``seeds[i]``,
-    all in one batch; one compact record (with its path) per run."""
+    all in one batch; one compact record (with its path) per run. The agent knows ``world``,
+    the robots drive in ``env_world`` (default ``world``): :func:`evaluation_batch`."""
     from symrl.evaluate import rollout
-    from symrl.learner.policy import MixtureOfExpertsPolicy
-    from symrl.train import make_env
 
     if not states:
         return []
-    policy = MixtureOfExpertsPolicy.from_robot_states(config, world, list(states), list(seeds))
-    env = make_env(config, list(seeds), world=world, starts=np.asarray(starts, dtype=np.float64))
+    policy, env = evaluation_batch(config, world, states, starts, seeds, env_world)
     try:
         records = rollout(policy, env)
     finally:
@@ -441,6 +463,8 @@ def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any
         by_set.setdefault(int(r["set"]), []).append(r)
     never = 0
     firsts, success, steps, reinf, neurons, coll_last, coll_all = ([] for _ in range(7))
+    opening: list[float] = []
+    coll_tail = 0
     for s in sorted(by_set):
         trials = sorted(by_set[s], key=lambda r: int(r["trial"]))
         first = next((int(r["trial"]) for r in trials if bool(r["reached_goal"])), None)
@@ -455,6 +479,8 @@ def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any
         neurons.append(float(trials[-1]["neurons"]))
         coll_last.append(float(trials[-1]["collisions"]))
         coll_all.append(sum(float(r["collisions"]) for r in trials))
+        coll_tail += int(sum(float(r["collisions"]) for r in tail))
+        opening.append(float(trials[0]["total_reinforcement"]))
     return {
         "sets": len(by_set),
         "trials": max(int(r["trial"]) for r in rows),
@@ -465,6 +491,8 @@ def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any
         "neurons_last": mean_std(neurons),
         "collisions_last": mean_std(coll_last),
         "collisions_all_trials": mean_std(coll_all),
+        f"collisions_last{last}_sum": coll_tail,
+        "total_reinforcement_first": mean_std(opening),
     }
 
 
@@ -491,7 +519,7 @@ def start_summary(results: Sequence[SetResult]) -> list[dict[str, Any]]:
 
 @functools.lru_cache(maxsize=8)
 def _optimum(map_name: str) -> tuple[int, float]:
-    from symrl.studies.planner import shortest_path
+    from symrl.knowledge.planner import shortest_path
     from symrl.world import load_map
 
     plan = shortest_path(load_map(map_name))

@@ -15,7 +15,7 @@ from typing import Any
 import torch
 from tensordict import TensorDictBase
 
-from symrl.studies.baseline import make_actor
+from symrl.studies.actor import make_actor
 
 __all__ = ["SACConfig", "SACAgent"]
 

@@ -45,12 +45,16 @@ def test_below_map_the_knowledge_holds_no_geometry():
 )
 def test_a_setting_above_the_declared_rung_is_a_one_line_error(override, needed):
     with pytest.raises(ConfigError) as err:
-        load_config("paper", [override])
+        load_config("paper_literal", [override])
     message = str(err.value)
     assert "\n" not in message
     assert f"{override} needs knowledge={needed}" in message and "knowledge=regions" in message
     with pytest.raises(ConfigError, match="gate.partition=true needs knowledge=regions"):
         load_config("paper_literal", ["knowledge=sensors"])
+    # sub-goals from the rules need only the rules; the settings that read the walls need more
+    assert load_config("paper_literal", ["options.enabled=true", "options.source=rules"])
+    with pytest.raises(ConfigError, match="options.subgoal_planner=True uses the walls"):
+        load_config("paper", ["options.subgoal_planner=true"])
 
 
 def test_every_recipe_declares_a_rung_its_settings_fit():

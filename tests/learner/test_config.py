@@ -3,15 +3,20 @@
 from __future__ import annotations
 
 import math
+import re
+from importlib import resources
 
 import pytest
 import torch
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
 from symrl.learner.config import (
     ConfigError,
     RunConfig,
+    apply_overrides,
     builtin_recipes,
     config_from_dict,
     config_to_dict,
@@ -141,6 +146,13 @@ def _error(overrides: list[str], recipe: str = "paper_literal") -> str:
         ("update.beta=.inf", ["update.beta", "inf", "finite"]),
         ("env.robot.radius=-1", ["env.robot", "radius", "-1"]),
         ("update=3", ["update", "3"]),
+        ("update=[1, 2]", ["update=[1, 2]"]),  # a section is a mapping
+        ("reflex.near.FL={a: 1}", ["reflex.near.FL", "'a': 1", "a mapping and a list"]),
+        ("updte.gamma=0.9", ["updte.gamma=0.9", "unknown key", "did you mean update.gamma?"]),
+        ("update.gama=0.9", ["update.gama=0.9", "unknown key", "did you mean update.gamma?"]),
+        ("update.gamma=[1,", ["update.gamma=[1,", "not a valid yaml value"]),
+        ("options.reach=${nope.x}", ["options.reach", "${nope.x}", "not found"]),
+        ("update.=1", ["update.=1", "empty key"]),
         ("gamma", ["gamma", "key=value"]),
     ],
 )
@@ -162,19 +174,21 @@ def test_cross_field_rules():
 def test_bad_recipe_files(tmp_path):
     unknown = tmp_path / "unknown.yaml"
     unknown.write_text("experts:\n  novelty_radus: 0.2\n")
-    with pytest.raises(ConfigError, match="experts.novelty_radus"):
+    with pytest.raises(ConfigError, match="unknown.yaml.*experts.novelty_radus=0.2: unknown key"):
         load_config(unknown)
     typed = tmp_path / "typed.yaml"
     typed.write_text("env:\n  noise: maybe\n")
-    with pytest.raises(ConfigError, match="env.noise='maybe'"):
+    with pytest.raises(ConfigError, match="typed.yaml.*env.noise='maybe'"):
         load_config(typed)
+    with pytest.raises(ConfigError, match="^env.noise='perhaps'"):  # the override is named
+        load_config(typed, ["env.noise=perhaps"])
     empty = tmp_path / "empty.yaml"
     empty.write_text("")
     with pytest.raises(ConfigError, match="empty.yaml.*non-empty mapping"):
         load_config(empty)
     twice = tmp_path / "twice.yaml"
     twice.write_text("update:\n  gamma: 0.9\n  gamma: 0.8\n")
-    with pytest.raises(ConfigError, match="twice.yaml.*duplicate key 'gamma'") as err:
+    with pytest.raises(ConfigError, match="twice.yaml.*line 3.*duplicate key gamma") as err:
         load_config(twice)
     assert "\n" not in str(err.value)
     listed = tmp_path / "listed.yaml"
@@ -254,3 +268,89 @@ def test_bad_localisation_settings_are_named():
     assert "localize.prior_xy" in _error(["localize.prior_xy=-1"])
     assert "localize.enabled" in _error(["localize.enabled=sometimes"])
     assert "search" in _error(["search.enabled=true"])  # the removed goal search is unknown
+
+
+def _leaves(data: dict, prefix: str = "") -> dict:
+    out = {}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            out.update(_leaves(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
+
+
+@pytest.mark.parametrize("name", builtin_recipes())
+def test_a_recipe_is_its_file_merged_over_the_defaults_entry_by_entry(name):
+    """Every value the recipe file names, and the defaults for everything else (inside a mapping
+    such as ``reflex.near`` too)."""
+    text = (resources.files("symrl") / "recipes" / f"{name}.yaml").read_text()
+    expected = _leaves(config_to_dict(RunConfig())) | _leaves(yaml.safe_load(text))
+    expected["recipe"] = name
+    assert _leaves(config_to_dict(load_config(name))) == expected
+
+
+def test_a_key_given_twice_and_the_recipe_name_are_refused():
+    message = _error(["update.gamma=0.9", "run.seed=3", "update.gamma=0.8"])
+    assert message.startswith("update.gamma=0.8: ") and "already set by update.gamma=0.9" in message
+    message = _error(["update={gamma: 0.9}", "update.gamma=0.8"])  # one inside the other
+    assert "update.gamma=0.8" in message and "update={gamma: 0.9}" in message
+    assert "update.gamma" in _error(["update.gamma=0.8", "update={gamma: 0.9}"])
+    assert "recipe=mine" in _error(["recipe=mine"])
+    with pytest.raises(ConfigError, match="recipe=mine"):
+        apply_overrides(load_config("paper"), ["recipe=mine"])
+    # keys that only share a prefix of their names are different keys
+    c = load_config(
+        "paper", ["options.subgoal_planner=false", "options.subgoal_planner_first=false"]
+    )
+    assert not c.options.subgoal_planner and not c.options.subgoal_planner_first
+
+
+_DISTINCT = ["update.gamma=0.9", "reflex.near.FL=[0.1, 0.3]", "reflex.near.F=[0.2, 0.6]",
+             "env.robot.radius=0.3", "options.subgoal_detour=null", "run.seed=5"]  # fmt: skip
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.permutations(_DISTINCT))
+def test_the_order_of_distinct_overrides_does_not_matter(overrides):
+    assert load_config("paper", overrides) == load_config("paper", _DISTINCT)
+
+
+def test_apply_overrides_equals_loading_with_them():
+    assert apply_overrides(load_config("paper"), _DISTINCT) == load_config("paper", _DISTINCT)
+
+
+def test_overrides_may_refer_to_other_keys():
+    c = load_config("paper", ["options.reach=${shield.margin}"])
+    assert c.options.reach == c.shield.margin == 0.06
+
+
+def test_help_keys_show_the_recipes_values_and_every_keys_meaning():
+    paper = describe_keys(load_config("paper", ["update.gamma=0.5"]))
+    assert "recipe 'paper'" in paper
+    assert "update.temperature0 = 0.1  (default 0.3)" in paper  # the recipe's value
+    assert "update.gamma = 0.5  (default 0.95)" in paper  # an override's
+    assert "update.eta = 0.3\n" in paper  # a key the recipe keeps
+    rows = paper.splitlines()
+    keys = [re.match(r"  (\S+) = ", row) for row in rows]
+    shown = [key.group(1) for key in keys if key]
+    mappings = ("reflex.near.", "reflex.sectors.")  # shown whole
+    expected = {k.rsplit(".", 1)[0] if k.startswith(mappings) else k
+                for k in _leaves(config_to_dict(RunConfig())) if k != "recipe"}  # fmt: skip
+    assert sorted(shown) == sorted(expected)  # every key once
+    undocumented = [
+        key.group(1) for key, after in zip(keys, [*rows[1:], ""], strict=True)
+        if key and not after.startswith("      ")
+    ]  # fmt: skip
+    assert not undocumented, undocumented  # every key says what it means
+
+
+def test_train_help_keys_with_a_recipe(capsys):
+    from symrl.cli import main
+
+    assert main(["train", "paper", "--help-keys"]) == 0
+    out = capsys.readouterr().out
+    assert "localize.enabled = True  (default False)" in out
+    assert "Discount of the TD error" in out
+    assert main(["train", "paper", "update.gama=1", "--help-keys"]) == 2
+    assert "update.gama=1: unknown key" in capsys.readouterr().err

@@ -620,7 +620,7 @@ def test_a_region_past_its_limit_goes_on_by_the_planner_option_and_stalls_the_ch
 
 
 def test_a_regions_limit_is_its_length_of_the_planners_path_not_a_count_of_its_points():
-    from symrl.studies.planner import shortest_path
+    from symrl.knowledge.planner import shortest_path
 
     world = load_map("l_corridor")  # the path rounds the inner corner in a few cm of arc
     opt = SubgoalOptions(world, 1, paper_map("options.region_limit=5").options, [0])

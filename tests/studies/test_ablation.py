@@ -54,14 +54,6 @@ def test_each_changed_setting_is_put_back_alone(recipe):
     assert off.experts.learning is False
 
 
-def test_a_recipe_told_more_than_its_base_keeps_its_knowledge_in_every_row():
-    variants = changes_of("paper_map")
-    assert not any("knowledge" in v.name for v in variants)
-    for v in variants:  # every row is a valid config on paper_map's rung
-        assert load_config("paper_map", list(v.overrides)).knowledge == "map"
-    assert "paper_map-without-options.enabled" in [v.name for v in variants]
-
-
 def test_the_base_recipe_has_no_changes_of_its_own():
     assert [v.name for v in changes_of("paper_literal")] == [
         "paper_literal", "paper_literal-experts-off"
@@ -107,3 +99,26 @@ def test_ablate_changes_of_writes_one_run_per_setting(recipe, tmp_path, capsys):
     assert json.loads((out / "mine-without-reflex.d_a" / "table1.json").read_text())[
         "overrides"] == ["reflex.d_a=0.7"]
     assert "Δ last 5 (paired)" in capsys.readouterr().out
+
+
+def test_a_setting_that_cannot_be_put_back_alone_has_no_row():
+    """``paper`` takes its sub-goals from the region rules; ``options.source=map`` alone would
+    need the map rung, so it is no row (``options.enabled=false`` is)."""
+    names = [v.name for v in changes_of("paper")]
+    assert "paper-without-options.source" not in names
+    assert "paper-without-options.enabled" in names
+
+
+def test_the_ladder_runs_each_rungs_recipe_on_the_same_seeds(tmp_path, capsys):
+    out = tmp_path / "ladder"
+    argv = ["ablate", "--ladder", "--sets", "1", "--trials", "1", "--workers", "1",
+            "--out", str(out)]  # fmt: skip
+    assert main(argv) == 0
+    table = (out / "ladder.md").read_text()
+    rows = [line for line in table.splitlines() if line.startswith("| ") and "`" in line]
+    assert [r.split("|")[1].strip() for r in rows] == ["sensors", "regions", "regions", "map"]
+    assert [r.split("`")[1] for r in rows] == ["reflex_only", "paper_literal", "paper",
+                                               "paper_map"]
+    assert "real robot" in table and table in capsys.readouterr().out
+    assert main(["ablate", "--ladder", "--recipes", "paper", "--out", str(out)]) != 0
+    assert "--ladder runs its own recipes" in capsys.readouterr().err

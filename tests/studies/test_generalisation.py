@@ -1,10 +1,27 @@
-"""The generalisation study's pieces that need no training: poses, obstacle, tables."""
+"""The generalisation study: poses, obstacle, tables, what the agent knows, the command."""
 
 from __future__ import annotations
 
-import numpy as np
+import json
 
-from symrl.studies.generalisation import OBSTACLE, STARTS, _rate, markdown
+import numpy as np
+import torch
+from shapely.geometry import Point, Polygon
+
+from symrl.cli import main
+from symrl.learner.config import load_config
+from symrl.learner.options import subgoal_table
+from symrl.learner.policy import MixtureOfExpertsPolicy
+from symrl.studies.generalisation import (
+    NOISE_LEVELS,
+    OBSTACLE,
+    STARTS,
+    _rate,
+    markdown,
+    transfer,
+    world_start,
+)
+from symrl.studies.runner import evaluate_states, evaluation_batch
 from symrl.world import load_map
 from symrl.world.geometry import Walls
 
@@ -31,7 +48,8 @@ def test_markdown_tables():
     none = {"reached": 0, "runs": 2, "mean_steps_when_reached": None, "mean_collisions": 3.0}
     stat = {"mean": 30.0, "std": 1.0}
     report = {
-        "recipe": "paper_map", "sets": 2, "trials": 20, "seeds": [100, 101],
+        "recipe": "paper", "sets": 2, "trials": 20, "seeds": [100, 101],
+        "provenance": {"revision": "abc1234", "dirty": True},
         "home_learned": r, "home_reflex_only": r, "obstacle_learned": none,
         "obstacle_reflex_only": r,
         "starts": [{"start": [1.0, -1.8, 0.0], "near_learned_route": True, "learned": none,
@@ -41,6 +59,59 @@ def test_markdown_tables():
                    "collisions_all_trials": stat}],
     }
     md = markdown(report)
+    assert "seeds 100-101, code `abc1234+dirty`" in md
     assert "| (1, -1.8, 0 deg) | yes | 0/2 | 1/2 (40.0) |" in md
     assert "| learned controller | 0/2 | 3.0 |" in md
     assert "| sonar 0.05 m | 2.0 (0) | 90% |" in md
+
+
+def test_the_new_obstacle_is_in_the_env_and_not_in_what_the_agent_knows():
+    """The agent's sub-goal table, planner path and localiser walls are the training map's;
+    the robots drive in the map with the box, so their path cannot cross it."""
+    config = load_config("paper", [])
+    world = load_map("hailu2001")
+    blocked = world.with_obstacle(OBSTACLE)
+    state = MixtureOfExpertsPolicy(config, world, [0]).robot_state(0)
+    home = world_start(world)
+    policy, env = evaluation_batch(config, world, [state], [home], [5], env_world=blocked)
+    try:
+        assert env.world is blocked
+        assert policy.world is world
+        trained, told = subgoal_table(world, config.options), subgoal_table(blocked, config.options)
+        assert trained.labels != told.labels  # told of the box, the planner would route round it
+        assert policy.options.table.labels == trained.labels
+        torch.testing.assert_close(policy.options.table.points, trained.points)
+        np.testing.assert_array_equal(policy.localizer.localizer.walls.segments,
+                                      Walls(world.segments).segments)
+        assert len(blocked.segments) == len(world.segments) + 4
+    finally:
+        env.close()
+    (free,) = evaluate_states(config, world, [state], [home], [5])
+    (boxed,) = evaluate_states(config, world, [state], [home], [5], env_world=blocked)
+    box = Polygon(OBSTACLE)
+    assert any(box.distance(Point(p)) < 0.3 for p in free["path"])  # its way runs by the box
+    assert all(box.distance(Point(p)) > 0.25 for p in boxed["path"])  # the body stays outside
+    assert boxed["path"] != free["path"]
+
+
+def test_generalise_runs_from_its_defaults(tmp_path, capsys):
+    """The command's own noise levels and recipes, at a tiny budget, end to end."""
+    assert all(key.startswith("env.robot.") for _, keys in NOISE_LEVELS for key in keys)
+    out = tmp_path / "gen"
+    assert main(["generalise", "--sets", "1", "--trials", "1", "--workers", "1",
+                 "--out", str(out)]) == 0
+    report = json.loads((out / "generalise.json").read_text())
+    assert report["recipe"] == "paper" and report["map"] == "hailu2001"
+    assert [n["level"] for n in report["noise"]] == [label for label, _ in NOISE_LEVELS]
+    assert len(report["starts"]) == len(STARTS)
+    assert report["obstacle_learned"]["runs"] == report["obstacle_reflex_only"]["runs"] == 1
+    for name in ("generalise.md", "starts.png", "obstacle.png"):
+        assert (out / name).is_file(), name
+    assert "| learned controller |" in capsys.readouterr().out
+
+
+def test_the_reflex_alone_can_be_the_recipe_under_test():
+    """``--recipe reflex_only``: the learned column is the recipe's, the other the reflex's."""
+    (row,) = transfer("reflex_only", sets=1, trials=1, seed=3)
+    assert set(row) == {"set", "seed", "learned", "reflex_only"}
+    assert row["learned"]["home"] == row["reflex_only"]["home"]  # nothing to learn in one trial

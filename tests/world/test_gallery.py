@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from symrl.drive import drive
-from symrl.studies.planner import shortest_path
+from symrl.knowledge.planner import shortest_path
 from symrl.world import load_map
 from symrl.world.worldmap import builtin_maps
 

@@ -312,7 +312,7 @@ BENCHMARK_WORLDS = sorted((Path(__file__).parents[2] / "benchmarks" / "worlds").
 
 @pytest.mark.parametrize("path", BENCHMARK_WORLDS, ids=lambda p: p.stem)
 def test_every_benchmark_world_loads_says_what_it_tests_and_its_goal_can_be_reached(path):
-    from symrl.studies.planner import shortest_path
+    from symrl.knowledge.planner import shortest_path
 
     assert path.read_text().startswith("# "), "a header comment: what the world tests"
     world = load_map(path)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from symrl.studies.planner import check_walk, chord_walk, shortest_path
+from symrl.knowledge.planner import shortest_path
 from symrl.world import load_map
 
 REGIONS = {"names": ["all"], "lines": {}, "rules": [{"region": "all"}]}
@@ -66,27 +66,10 @@ def test_bad_start_raises_a_clear_error():
         shortest_path(world, start=(0.1, 5.0), clearance=0.3)
 
 
-def test_chord_walk_counts_the_moves_of_a_straight_line():
-    poses = chord_walk(np.array([[0.0, 0.0], [1.0, 0.0]]), 0.2, (1.0, 0.0), 0.1)
-    assert len(poses) - 1 == 5  # 0.9 m to the rim in 0.2 m moves
-    np.testing.assert_allclose(np.diff(poses[:, 0]), 0.2, atol=1e-12)
-
-
-def test_paper_world_optimum_is_25_actions_and_the_walk_is_legal():
-    world = load_map("hailu2001")
-    plan = shortest_path(world)
-    assert plan.length == pytest.approx(4.913, abs=2e-3)
-    assert plan.actions == 25
-    outer = shortest_path(world, clearance=plan.clearance + 0.002)
-    walk = chord_walk(outer.points, 0.2, (world.goal.x, world.goal.y), world.goal.radius)
-    check = check_walk(world, walk, 0.26, plan.clearance)
-    assert check == {**check, "moves": 25, "sweep_contacts": 0, "virtual_collisions": 0}
-
-
 def test_plans_on_one_map_reuse_its_checks_and_give_the_same_plan_as_a_fresh_map():
     """The checker of a map remembers its answers: a second plan from another start asks
     mostly the same questions again, and its plan is the one a fresh copy of the map gives."""
-    from symrl.studies import planner
+    from symrl.knowledge import planner
 
     world = load_map("hailu2001")
     shortest_path(world)

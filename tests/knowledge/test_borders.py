@@ -1,0 +1,116 @@
+"""Sub-goals from the region rules alone: the borders the rules define, the region graph, the
+table of options, and the option timeout that stands in for the planner without a map."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from symrl.knowledge.borders import Border, border_subgoals, region_borders, region_hops
+from symrl.knowledge.rungs import Knowledge
+from symrl.learner.config import load_config
+from symrl.learner.options import SubgoalOptions
+from symrl.world.worldmap import load_map, parse_map
+
+INF = math.inf
+
+
+def test_the_paper_worlds_borders_from_its_rules():
+    spec = load_map("hailu2001").regions
+    assert region_borders(spec) == [
+        Border("l1", 1, -1.0, -INF, 3.5, "concave", "room"),
+        Border("l1", 1, -1.0, 3.5, 3.75, "concave", "door"),
+        Border("l2", 0, 3.5, -1.0, INF, "room", "door"),
+        Border("l3", 0, 3.75, -INF, -1.0, "concave", "corridor"),
+        Border("l3", 0, 3.75, -1.0, INF, "door", "corridor"),
+    ]
+
+
+def test_hops_count_borders_to_the_goals_region():
+    world = load_map("hailu2001")
+    hops = region_hops(world.regions, region_borders(world.regions), world.goal)
+    assert hops == {"corridor": 0, "concave": 1, "door": 1, "room": 2}
+
+
+def test_the_table_offers_a_point_of_each_border_toward_the_goal():
+    """Room: the goal, 0.5 m along l1 from the concave corner's end and 0.4 m past it, and
+    0.5 m up l2 from its end and 0.4 m past it (into the door region and beyond); the corridor,
+    which holds the goal, only the goal; no region offers a border back up the graph."""
+    world = load_map("hailu2001")
+    table = border_subgoals(world.regions, world.goal)
+    assert table.region_names == ("room", "concave", "door", "corridor")
+    assert table.labels == [
+        ["goal", "l1>concave", "l2>door"],
+        ["goal", "l1>door"],  # the corridor's border point lies within 0.3 m of the goal
+        ["goal", "l1>concave", "l3>corridor"],
+        ["goal"],
+    ]
+    assert table.point(0, 1) == pytest.approx((3.0, -1.4))
+    assert table.point(0, 2) == pytest.approx((3.9, -0.5))
+    assert table.point(1, 1) == pytest.approx((3.625, -0.6))  # a short border: its middle
+    assert table.point(2, 2) == pytest.approx((4.15, -0.5))
+
+
+def test_the_table_reads_only_the_rules():
+    """Two worlds with the same rules and goal and other walls give the same table."""
+    plain = load_map("hailu2001")
+    boxed = plain.with_obstacle([[1.0, 1.0], [2.0, 1.0], [2.0, 1.8], [1.0, 1.8]])
+    a, b = (border_subgoals(w.regions, w.goal) for w in (plain, boxed))
+    assert a.labels == b.labels and torch.equal(a.points, b.points)
+
+
+@settings(max_examples=30, deadline=None)
+@given(split=st.floats(-1.0, 1.0), goal_y=st.floats(-1.8, 1.8))
+def test_every_point_lies_in_the_neighbour_it_leads_to(split, goal_y):
+    """Two regions split by one line x = split: the west region's option past the border lies
+    in the east region, whatever the goal's height, and the east region (the goal's) offers
+    only the goal."""
+    world = parse_map({
+        "name": "split", "boundary": [[-2, -2], [2, -2], [2, 2], [-2, 2]],
+        "start": {"x": -1.5, "y": 0.0}, "goal": {"x": 1.8, "y": goal_y, "radius": 0.1},
+        "regions": {"names": ["west", "east"], "lines": {"m": {"x": split}},
+                    "rules": [{"region": "west", "when": ["x < m"]}, {"region": "east"}]},
+    })  # fmt: skip
+    table = border_subgoals(world.regions, world.goal)
+    assert table.labels == [["goal", "m>east"], ["goal"]]
+    x, y = table.point(0, 1)
+    assert x == pytest.approx(split + 0.4) and y == pytest.approx(goal_y, abs=1e-6)
+    assert world.regions.region_of(x, y) == "east"
+
+
+def _odometry(x: float, y: float, heading: float = 0.0) -> torch.Tensor:
+    return torch.tensor([[x, y, heading]], dtype=torch.float32)
+
+
+def test_without_the_map_an_option_timed_out_gives_way_to_the_best_one_left():
+    """region_limit actions in a region on one option: the option is given up (stalled, never
+    chosen again) and the region steers by the best option left, with a fresh budget."""
+    world = load_map("hailu2001")
+    config = load_config("paper", ["options.region_limit=3"]).options
+    told = Knowledge.told(world, "regions")
+    table = border_subgoals(told.regions, told.goal)
+    opt = SubgoalOptions(told, 1, config, [0], table)
+    room = 0
+    opt.choice[0, room] = 0  # the goal: the concave trap
+    opt.q[0, room] = torch.tensor([-20.0, -30.0, -7.0], dtype=torch.float64)
+    opt.n[0, room] = torch.tensor([1, 1, 1])
+    region, pose = torch.tensor([room]), _odometry(3.0, -0.8)
+    for _ in range(3):
+        _, option, _, _ = opt.steer(region, pose, greedy=False)
+        assert int(option[0]) == 0
+    _, option, _, aim = opt.steer(region, pose, greedy=False)  # one action past the limit
+    assert int(option[0]) == 2 and aim[0].tolist() == pytest.approx([3.9, -0.5], abs=1e-6)
+    assert opt.stalled[0, room].tolist() == [True, False, False]
+    for _ in range(3):  # the new option has the whole budget again
+        _, option, _, _ = opt.steer(region, pose, greedy=False)
+        assert int(option[0]) == 2
+
+
+def test_without_the_map_the_options_need_their_table():
+    told = Knowledge.told(load_map("hailu2001"), "regions")
+    with pytest.raises(ValueError, match="without the map, pass the table"):
+        SubgoalOptions(told, 1, load_config("paper").options, [0])
