@@ -217,7 +217,7 @@ def _section_study(results: Path, figures: Path) -> list[str]:
 
 def _section_changes(results: Path, figures: Path) -> list[str]:
     folder = results / "changes-s100"
-    out = ["## Which setting of `paper_map` buys what (`symrl ablate --changes-of`)", "",
+    out = ["## Which setting of `paper_map` buys what (`symrl ablate --changes-of paper_map`)", "",
            f"Command: `{COMMANDS['changes']}`", ""]
     changes = folder / "changes.md"
     if not changes.is_file():
