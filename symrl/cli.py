@@ -433,7 +433,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "generalise", help="learned controller from other starts, new obstacle, noise"
     )
-    p.add_argument("--recipe", default="paper_map")
+    p.add_argument("--recipe", default="paper")
     p.add_argument("--sets", type=int, default=5)
     p.add_argument("--trials", type=int, default=20)
     p.add_argument("--workers", type=int, default=None,

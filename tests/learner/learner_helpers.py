@@ -22,7 +22,8 @@ POSES = {
 def config(recipe: str = "paper_literal", *overrides: str) -> RunConfig:
     """The recipe with map localisation off unless an override turns it on: the hand-made
     observations here are not scans of the map, so a localiser would move their poses."""
-    return load_config(recipe, ["localize.enabled=false", *overrides])
+    named = any(o.startswith("localize.enabled=") for o in overrides)
+    return load_config(recipe, [*([] if named else ["localize.enabled=false"]), *overrides])
 
 
 def policy(recipe: str = "paper_literal", *overrides: str, seeds=(0,)) -> MixtureOfExpertsPolicy:

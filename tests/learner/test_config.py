@@ -348,7 +348,7 @@ def test_help_keys_show_the_recipes_values_and_every_keys_meaning():
 def test_train_help_keys_with_a_recipe(capsys):
     from symrl.cli import main
 
-    assert main(["train", "paper", "--help-keys"]) == 0
+    assert main(["train", "paper_map", "--help-keys"]) == 0
     out = capsys.readouterr().out
     assert "localize.enabled = True  (default False)" in out
     assert "Discount of the TD error" in out

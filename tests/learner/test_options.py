@@ -295,10 +295,16 @@ LONG_WALL = {
 _NEITHER = ["options.subgoal_detour=null", "options.subgoal_way_out=false"]
 
 
+def _neither(*overrides: str) -> list[str]:
+    """``_NEITHER`` less the keys ``overrides`` set, then ``overrides`` (each key once)."""
+    given = {o.split("=")[0] for o in overrides}
+    return [o for o in _NEITHER if o.split("=")[0] not in given] + list(overrides)
+
+
 def _offered(world, *overrides: str) -> dict[str, list[str]]:
     """The labels of the valid options of each region under ``paper`` without the detour and
     way-out rules, then ``overrides``."""
-    config = load_config("paper_map", _NEITHER + list(overrides)).options
+    config = load_config("paper_map", _neither(*overrides)).options
     opt = SubgoalOptions(world, 1, config, [0])
     return {
         name: [label for k, label in enumerate(opt.labels[r]) if bool(opt.valid[r, k])]
@@ -329,7 +335,7 @@ def test_detour_drops_subgoals_off_the_short_way_and_unseen_from_it():
     assert _offered(world, "options.subgoal_detour=0")["east_gap"] == ["goal", "path"]
     # the table keeps its shape (a checkpoint's critic fits either way)
     shapes = {
-        SubgoalOptions(world, 1, load_config("paper_map", _NEITHER + o).options, [0]).valid.shape
+        SubgoalOptions(world, 1, load_config("paper_map", _neither(*o)).options, [0]).valid.shape
         for o in ([], ["options.subgoal_detour=1.0"])
     }
     assert len(shapes) == 1
@@ -377,7 +383,7 @@ def test_way_out_gives_a_dead_end_region_the_planner_turn_out_of_it():
     assert _offered(world)["bay"] == ["goal"]  # steering at the goal from the bay: its wall
     out = _offered(world, "options.subgoal_way_out=true")
     assert out["bay"] == ["goal", "out"]
-    config = load_config("paper_map", _NEITHER + ["options.subgoal_way_out=true"]).options
+    config = load_config("paper_map", _neither("options.subgoal_way_out=true")).options
     opt = SubgoalOptions(world, 1, config, [0])
     bay = opt.region_names.index("bay")
     x, y = opt.table.point(bay, 1)

@@ -68,7 +68,7 @@ def test_markdown_tables():
 def test_the_new_obstacle_is_in_the_env_and_not_in_what_the_agent_knows():
     """The agent's sub-goal table, planner path and localiser walls are the training map's;
     the robots drive in the map with the box, so their path cannot cross it."""
-    config = load_config("paper", [])
+    config = load_config("paper_map", [])  # told the map: its table, planner and walls
     world = load_map("hailu2001")
     blocked = world.with_obstacle(OBSTACLE)
     state = MixtureOfExpertsPolicy(config, world, [0]).robot_state(0)
@@ -76,7 +76,7 @@ def test_the_new_obstacle_is_in_the_env_and_not_in_what_the_agent_knows():
     policy, env = evaluation_batch(config, world, [state], [home], [5], env_world=blocked)
     try:
         assert env.world is blocked
-        assert policy.world is world
+        assert policy.knowledge.world is world
         trained, told = subgoal_table(world, config.options), subgoal_table(blocked, config.options)
         assert trained.labels != told.labels  # told of the box, the planner would route round it
         assert policy.options.table.labels == trained.labels
