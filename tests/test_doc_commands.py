@@ -156,7 +156,7 @@ def unknown_key(override: str) -> str | None:
 def unknown_names(args) -> list[str]:
     """Recipes and maps a parsed command names that are neither shipped nor a YAML file."""
     from symrl.learner.config import builtin_recipes
-    from symrl.world.worldmap import builtin_maps
+    from symrl.world.worldmap import SUITES, builtin_maps, suite_maps
 
     def files_or(names: str | None, known: list[str], what: str) -> list[str]:
         return [f"unknown {what} {name!r}" for name in (names or "").split(",")
@@ -166,8 +166,9 @@ def unknown_names(args) -> list[str]:
     for attr in ("recipe", "recipes", "changes_of", "base"):
         if isinstance(getattr(args, attr, None), str) and args.command != "baseline":
             problems += files_or(getattr(args, attr), builtin_recipes(), "recipe")
+    maps = builtin_maps() + [name for suite in SUITES for name in suite_maps(suite)]
     for attr in ("map", "maps"):
-        problems += files_or(getattr(args, attr, None), builtin_maps(), "map")
+        problems += files_or(getattr(args, attr, None), maps, "map")
     return problems
 
 
@@ -262,6 +263,7 @@ def test_the_checker_catches_bad_commands_and_keys():
     assert check_command(Command("t", ("study", "paper_mapp"))) == ["unknown recipe 'paper_mapp'"]
     assert check_command(Command("t", ("plan", "--map", "ofice"))) == ["unknown map 'ofice'"]
     assert check_command(Command("t", ("plan", "--map", "my_world.yaml"))) == []
+    assert check_command(Command("t", ("plan", "--map", "tuning/long_wall"))) == []
     assert "unrecognized argument '--sets'" in check_command(Command("t", ("plan", "--sets", "2")))
     assert check_command(Command("t", ("fly",))) == ["unknown command 'fly'"]
     assert is_synopsis(("train", "RECIPE", "[--trials", "N]"))
