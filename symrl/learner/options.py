@@ -82,13 +82,16 @@ class SubgoalOptions(BufferViews):
         step: float = 0.2,
     ) -> None:
         """``world``: the map (``options.source: map``), or a robot's ``Knowledge`` below it
-        with its ``table`` from the region rules (no region limit: it needs the planner)."""
+        with its ``table`` from the region rules (the region limit is then a timeout)."""
         super().__init__()
-        mapless = isinstance(world, Knowledge)
-        if mapless and table is None:
-            raise ValueError("SubgoalOptions: without the map, pass the table of the rules")
+        mapped = None if isinstance(world, Knowledge) else world
+        mapless = mapped is None
+        if table is None:
+            if mapped is None:
+                raise ValueError("SubgoalOptions: without the map, pass the table of the rules")
+            table = subgoal_table(mapped, config)
         self.config = config
-        self.table = table or subgoal_table(world, config)
+        self.table = table
         r, k = self.table.valid.shape
         self.labels = self.table.labels
         self.region_names = self.table.region_names
@@ -128,8 +131,8 @@ class SubgoalOptions(BufferViews):
         # without the map: a region's option is given up, for the best one left, after this
         # many actions in the region (no planner to fall back to)
         self._timeout: int | None = int(slack) if mapless and slack is not None else None
-        if slack is not None and not mapless:
-            share = _route_lengths(world)
+        if slack is not None and mapped is not None:
+            share = _route_lengths(mapped)
             self._limit = np.array([int(slack) + math.ceil(share.get(name, 0.0) / step)
                                     for name in self.region_names])  # fmt: skip
             self._slack = int(slack)
@@ -143,8 +146,10 @@ class SubgoalOptions(BufferViews):
         # is: the turn it steers at (NaN: none) and the region it was planned in
         self._detour = np.full((batch, 2), np.nan)
         self._detour_region = np.full(batch, -1, dtype=np.int64)
-        self._world = world
-        self._walls = Walls(world.segments) if self._limit is not None else None
+        self._world = mapped
+        self._walls = (
+            Walls(mapped.segments) if mapped is not None and self._limit is not None else None
+        )
         if slack is not None:
             # learned: the options that needed the planner's one to finish their region; they
             # are not chosen again (the credit of the rescued trial would hide the dead end)
@@ -253,6 +258,7 @@ class SubgoalOptions(BufferViews):
 
         reach = float(self.config.reach)  # type: ignore[attr-defined]
         start = (float(xy[0]), float(xy[1]))
+        assert self._world is not None  # the region limit with the map, the only caller
         for clearance in (None, 0.27):  # pressed against a wall: nearer than the default
             try:
                 turns = shortest_path(self._world, start=start, clearance=clearance).waypoints
