@@ -9,12 +9,20 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-START_HELP = "start pose X,Y,HEADING_DEG (metres, metres, degrees; heading 0 if left out)"
+START_HELP = (
+    "start pose X,Y,HEADING_DEG (metres, metres, degrees; heading 0 if left out; negative "
+    "values as --start -1.4,0,0 or --start=-1.4,0,0); default: the map's start"
+)
+MAX_COORD = 1e4
+"""Largest |X|, |Y| of a pose given on the command line (metres), as in a map file."""
+_YAML11_BOOLS = {"yes", "no", "on", "off"}
+"""Words YAML 1.1 reads as booleans; an override spells them true / false."""
 
 
 def parse_pose(text: str) -> tuple[float, float, float]:
@@ -32,6 +40,11 @@ def parse_pose(text: str) -> tuple[float, float, float]:
         )
     if len(values) == 2:
         values.append(0.0)
+    if max(abs(values[0]), abs(values[1])) > MAX_COORD or abs(values[2]) > 360:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: X and Y must lie within +-{MAX_COORD:g} m and HEADING_DEG within "
+            "+-360 degrees"
+        )
     return values[0], values[1], math.radians(values[2])
 
 
@@ -63,12 +76,102 @@ def _naming_start(start):
         raise ValueError(f"--start {x:g},{y:g},{math.degrees(h):g}: {err}") from None
 
 
+def _output_folder(
+    flag: str, path: str | Path, results: Sequence[str] = (), overwrite: bool = False,
+    command: str = "",
+) -> Path:
+    """Check, before any work, that the output folder ``path`` of ``flag`` can be made and
+    written, and that it holds none of the ``results`` files of an earlier run of ``command``
+    unless ``overwrite``: each fault one line. Nothing is created here."""
+    import os
+
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"{flag} {str(path)!r}: exists and is not a folder")
+    probe = folder
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise ValueError(f"{flag} {str(path)!r}: cannot make it ({str(probe)!r} is a file)")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise ValueError(f"{flag} {str(path)!r}: cannot write in {str(probe)!r} (read-only)")
+    held = [name for name in results if (folder / name).exists()]
+    if held and not overwrite:
+        raise ValueError(
+            f"{flag} {str(path)!r}: holds the results of an earlier `symrl {command}` "
+            f"({', '.join(held)}); pass --overwrite to replace them, or another {flag}"
+        )
+    return folder
+
+
+def _recipe_argument(recipe: str | None) -> None:
+    """A folder given as RECIPE is a one-line error (the loader would say 'no such file')."""
+    if recipe is not None and Path(recipe).is_dir():
+        raise ValueError(
+            f"recipe {recipe!r}: is a folder; give a recipe name (e.g. paper) or a YAML file"
+        )
+
+
+def _check_overrides(overrides: Sequence[str], taken: dict[str, str]) -> None:
+    """Refuse, in one line, the ``key=value`` overrides that would be silently dropped or
+    silently win: a key given twice, ``recipe=`` (the RECIPE argument names the recipe), a key
+    a flag of the command sets (``taken``: key -> the flag), an empty mapping (mappings merge
+    entry by entry, so ``{}`` changes nothing) and YAML 1.1's yes/no/on/off for booleans."""
+    seen: dict[str, str] = {}
+    for text in overrides:
+        if "=" not in text:
+            continue  # the loader's one-line "expected key=value"
+        key, value = (part.strip() for part in text.split("=", 1))
+        if key == "recipe":
+            raise ValueError(
+                f"override {text!r}: the recipe is the RECIPE argument (`symrl train "
+                f"{value or 'NAME'}`), not a key"
+            )
+        if key in seen:
+            raise ValueError(
+                f"override {key!r} given twice ({seen[key]!r} and {text!r}); give it once"
+            )
+        seen[key] = text
+        if key in taken:
+            raise ValueError(f"override {text!r} conflicts with {taken[key]}; give one of them")
+        if value.lower() in _YAML11_BOOLS:
+            raise ValueError(f"override {text!r}: write true or false")
+        if value.replace(" ", "") == "{}":
+            raise ValueError(
+                f"override {text!r}: an empty mapping changes nothing (mappings merge entry by "
+                f"entry); set its entries, e.g. {key}.NAME=VALUE"
+            )
+
+
+def _plannable(source: Any) -> None:
+    """Before any work: refuse a map too big for the planner and the sub-goal table, and say so
+    when preparing them will take more than a second (see :func:`symrl.world.worldmap.
+    check_plannable`). ``source``: a map name, file or loaded map."""
+    from symrl.world.worldmap import WorldMap, check_plannable, load_map, planning_note
+
+    world = source if isinstance(source, WorldMap) else load_map(source)
+    check_plannable(world)
+    note = planning_note(world)
+    if note:
+        print(f"symrl: note: {note}", file=sys.stderr)
+
+
 def _drive(args: argparse.Namespace) -> int:
     from symrl.drive import drive_command
+    from symrl.world.robot import RobotConfig
 
     _at_least("--seed", args.seed, 0)
-    if args.out and Path(args.out).exists() and not Path(args.out).is_dir():
-        raise ValueError(f"--out {args.out!r}: exists and is not a folder")
+    from symrl.knowledge.shield import ShieldConfig
+
+    if args.shield is not None:
+        ShieldConfig(margin=args.shield)  # its own checks first
+    ir_range = RobotConfig().ir_range
+    if args.shield is not None and math.isfinite(args.shield) and args.shield >= ir_range:
+        raise ValueError(
+            f"--shield {args.shield:g}: the margin must be below the IR range {ir_range:g} m "
+            "(the shield sees walls only by their IR reflectance)"
+        )
+    _output_folder("--out", args.out, ("path.png", "trial.json"), args.overwrite, "drive")
     with _naming_start(args.start):
         return drive_command(args)
 
@@ -116,12 +219,15 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
     from symrl.runs import load_resume, run_one
     from symrl.world.worldmap import load_map
 
+    _recipe_argument(args.recipe)
     if args.help_keys:  # with a RECIPE (and key=value), that recipe's values
         print(describe_keys(load_config(args.recipe, args.overrides) if args.recipe else None))
         return 0
     _at_least("--trials", args.trials, 1)
     _at_least("--seed", args.seed, 0)
     _at_least("--checkpoint-every", args.checkpoint_every, 1)
+    if args.adopt_checkpoint and args.resume is None:
+        raise ValueError("--adopt-checkpoint: only with --resume RUN_DIR")
     state = None
     if args.resume is not None:
         given = [name for name, value in (
@@ -134,7 +240,7 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
                 f"--resume {args.resume!r}: a resumed run keeps its own config; drop "
                 f"{', '.join(given)} (only --trials may extend the budget)"
             )
-        config, seed, state = load_resume(args.resume)
+        config, seed, state = load_resume(args.resume, adopt=args.adopt_checkpoint)
         if args.trials is not None:
             data = config_to_dict(config)
             data["run"]["trials"] = args.trials
@@ -152,6 +258,12 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
     else:
         if args.recipe is None:
             raise ValueError("train: a RECIPE is needed (e.g. `symrl train paper`)")
+        _check_overrides(args.overrides or [], {key: f"{flag} {value}" for key, flag, value in (
+            ("run.trials", "--trials", args.trials), ("run.seed", "--seed", args.seed),
+            ("env.map", "--map", args.map),
+        ) if value is not None})  # fmt: skip
+        if args.logdir is not None:
+            _output_folder("--logdir", args.logdir)
         overrides = list(args.overrides or [])
         for flag, key in (
             (args.trials, "run.trials"), (args.seed, "run.seed"), (args.map, "env.map"),
@@ -163,6 +275,8 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
         stamp = time.strftime("%Y%m%d-%H%M%S") + f"-{time.time_ns() // 1000 % 1_000_000:06d}"
         logdir = args.logdir or f"runs/{config.recipe}__s{config.run.seed}__{stamp}-{os.getpid()}"
         world = load_map(config.env.map)
+    if config.options.enabled:
+        _plannable(world)
 
     result = run_one(
         config, logdir, world=world, overwrite=args.overwrite, resume=state, seed=seed,
@@ -204,8 +318,12 @@ def _evaluate(args: argparse.Namespace) -> int:
     from symrl.runs import load_checkpoint_world
 
     _at_least("--seed", args.seed, 0)
-    if args.out and Path(args.out).exists() and not Path(args.out).is_dir():
-        raise ValueError(f"--out {args.out!r}: exists and is not a folder")
+    from symrl.runs import CheckpointError
+
+    if Path(args.checkpoint).is_dir():
+        raise CheckpointError(
+            f"checkpoint {args.checkpoint!r}: is a folder; pass the checkpoint.pt file in it"
+        )
     from symrl.studies.baseline import load_baseline
 
     baseline = load_baseline(args.checkpoint)  # a baseline's checkpoint, else None
@@ -215,6 +333,8 @@ def _evaluate(args: argparse.Namespace) -> int:
     else:
         policy = baseline
     world = learned_in if baseline is None else baseline.world
+    out = Path(args.out) if args.out else Path(args.checkpoint).parent
+    _output_folder("--out", out, ("evaluate.png",), args.overwrite, "evaluate")
     if args.map is not None:
         from symrl.world.worldmap import load_map
 
@@ -225,7 +345,6 @@ def _evaluate(args: argparse.Namespace) -> int:
         else:
             (record,) = evaluate(policy, config, starts=[args.start], seed=args.seed,
                                  world=world)  # fmt: skip
-    out = Path(args.out) if args.out else Path(args.checkpoint).parent
     out.mkdir(parents=True, exist_ok=True)
     title = f"greedy: {record['steps']} actions, total {record['total_reinforcement']:.2f}"
     fig = trajectory_figure(world, record, title=title)
@@ -243,28 +362,63 @@ def _evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _sets_and_trials(args: argparse.Namespace) -> None:
+    _at_least("--sets", args.sets, 1)
+    _at_least("--trials", args.trials, 1)
+    _at_least("--seed", args.seed, 0)
+
+
 def _study(args: argparse.Namespace) -> int:
     from symrl.studies.repeatability import study_command
 
+    _sets_and_trials(args)
+    _recipe_argument(args.recipe)
+    taken = {"run.trials": "--trials (the study's budget)", "run.seed": "--seed (set k: seed + k)"}
+    if args.map is not None:
+        taken["env.map"] = f"--map {args.map}"
+    _check_overrides(args.overrides, taken)
+    args.out = args.out or f"results/study-{Path(args.recipe).stem}"
+    _output_folder("--out", args.out, ("table1.json",), args.overwrite, "study")
+    if args.map is None:
+        from symrl.learner.config import load_config
+
+        _plannable(load_config(args.recipe, args.overrides).env.map)
+    else:
+        _plannable(args.map)
     return study_command(args)
 
 
 def _ablate(args: argparse.Namespace) -> int:
     from symrl.studies.ablation import ablate_command
 
+    _sets_and_trials(args)
+    for flag, value in (("--recipes", args.recipes),):
+        if value is not None and not all(part.strip() for part in value.split(",")):
+            raise ValueError(
+                f"{flag} {value!r}: "
+                + ("names no recipe" if not value.strip(", ") else "an empty name in the list")
+                + "; name them (e.g. paper,reflex_only) or leave the flag out for all six"
+            )
+    _output_folder("--out", args.out)
+    _plannable(args.map)
     return ablate_command(args)
 
 
 def _plan(args: argparse.Namespace) -> int:
     from symrl.studies.plan import plan_command
 
-    return plan_command(args)
+    _output_folder("--out", args.out, ("plan.json", "plan.png"), args.overwrite, "plan")
+    _plannable(args.map)
+    with _naming_start(args.start):
+        return plan_command(args)
 
 
 def _baseline(args: argparse.Namespace) -> int:
     """``symrl baseline`` (stoppable with one worker: see :func:`_stoppable`)."""
     from symrl.studies.baseline import baseline_command
 
+    if args.out is not None:
+        _output_folder("--out", args.out)
     if args.workers != 1:  # worker processes keep their periodic checkpoints
         return baseline_command(args)
     return _stoppable(lambda signalled: baseline_command(args, signalled))
@@ -273,12 +427,21 @@ def _baseline(args: argparse.Namespace) -> int:
 def _generalise(args: argparse.Namespace) -> int:
     from symrl.studies.generalisation import generalise_command
 
+    _sets_and_trials(args)
+    _output_folder("--out", args.out, ("generalise.json",), args.overwrite, "generalise")
+    _plannable(args.map)
     return generalise_command(args)
 
 
 def _sweep(args: argparse.Namespace) -> int:
     from symrl.studies.sweep import sweep_command
 
+    _check_overrides(args.overrides, {
+        "run.trials": "--trials", "run.seed": "--seeds", "env.map": "--maps"})  # fmt: skip
+    _output_folder("--out", args.out)
+    for name in (args.maps or "").split(","):
+        if name.strip():
+            _plannable(name.strip())
     return sweep_command(args)
 
 
@@ -286,16 +449,23 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="symrl",
         description="Symbolic structures in numeric reinforcement (Hailu, 2001): "
-        "a robot that learns a short, safe path in a handful of trials.",
+        "a robot that learns a short, safe path in a handful of trials. Outputs: "
+        "`train` writes runs/RECIPE__sSEED__TIME/, every other command results/COMMAND.../ "
+        "(see --out of each).",
     )
+    _one_line_errors(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser("drive", help="let the fuzzy reflex drive one trial and save its path")
     _one_line_errors(p)
     p.add_argument("--start", type=parse_pose, default=None, help=START_HELP)
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--out", default="out/drive", help="output folder (default out/drive)")
-    p.add_argument("--map", default="hailu2001", help="built-in map name or map file")
+    p.add_argument("--out", default="results/drive",
+                   help="output folder for path.png and trial.json (default results/drive)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a path.png / trial.json already in --out")
+    p.add_argument("--map", default="hailu2001",
+                   help="built-in map name or map file (default hailu2001)")
     p.add_argument("--no-noise", action="store_true", help="turn every noise source off")
     p.add_argument(
         "--shield",
@@ -304,7 +474,8 @@ def build_parser() -> argparse.ArgumentParser:
         const=0.06,
         default=None,
         metavar="MARGIN",
-        help="veto moves into walls with the IR shield (margin in m, default 0.06)",
+        help="veto moves into walls with the IR shield (margin in m, below the IR range "
+        "0.5 m; 0.06 if given without a value)",
     )
     p.set_defaults(handler=_drive)
 
@@ -328,9 +499,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--checkpoint-every", type=int, default=1, metavar="N",
                    help="write the resumable checkpoint every N trials (default 1; always at "
                    "the end and when stopped by Ctrl-C or SIGTERM)")
+    p.add_argument("--adopt-checkpoint", action="store_true",
+                   help="with --resume: go on even if checkpoint.pt's recipe, seed, map or "
+                   "settings differ from the folder's config.yaml (the checkpoint's win)")
     p.add_argument("--help-keys", action="store_true",
-                   help="list every config key with its value in RECIPE (default: the library "
-                   "defaults) and its meaning, and exit")
+                   help="list every config key with its value (RECIPE's and the overrides', "
+                   "given one; else the defaults) and exit")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
     p.set_defaults(handler=_train)
 
@@ -341,19 +515,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start", type=parse_pose, default=None, help=START_HELP)
     p.add_argument("--seed", type=int, default=0, help="random seed for the world's noise")
     p.add_argument("--map", default=None, help="drive in another map (default: its own)")
-    p.add_argument("--out", default=None, help="output folder (default: beside the checkpoint)")
+    p.add_argument("--out", default=None,
+                   help="output folder for evaluate.png (default: beside the checkpoint)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an evaluate.png already in the output folder")
     p.set_defaults(handler=_evaluate)
 
     p = sub.add_parser("study", help="repeatability study: N sets x M trials (Table 1, Figs 5-9)")
-    p.add_argument("recipe")
-    p.add_argument("--sets", type=int, default=10)
-    p.add_argument("--trials", type=int, default=20)
+    p.add_argument("recipe", help="recipe name (paper, paper_literal, ...) or YAML file")
+    p.add_argument("--sets", type=int, default=10, help="sets, each a fresh learner (default 10)")
+    p.add_argument("--trials", type=int, default=20, help="trials per set (default 20)")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes, each training its share of the sets as one batch "
                    "(default: one per CPU core; set k is the same run whatever the split)")
     p.add_argument("--seed", type=int, default=100, help="first seed; set k uses seed + k")
     p.add_argument("--map", default=None, help="built-in map name or map file (env.map)")
     p.add_argument("--out", default=None, help="results folder (default results/study-RECIPE)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a finished study in --out (a stopped one always goes on)")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
     p.set_defaults(handler=_study)
 
@@ -381,10 +560,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="results folder (default results/ablate)")
     p.set_defaults(handler=_ablate)
 
-    p = sub.add_parser("plan", help="shortest collision-free path to the goal (the optimum)")
-    p.add_argument("--map", default="hailu2001")
-    p.add_argument("--start", type=parse_pose, default=None)
-    p.add_argument("--out", default="results/plan")
+    p = sub.add_parser(
+        "plan",
+        help="shortest collision-free path to the goal (fewest actions; not the reward's "
+        "optimum, which also pays for heading and wall distance)",
+    )
+    p.add_argument("--map", default="hailu2001",
+                   help="built-in map name or map file (default hailu2001)")
+    p.add_argument("--start", type=parse_pose, default=None, help=START_HELP)
+    p.add_argument("--out", default="results/plan",
+                   help="results folder for plan.json and plan.png (default results/plan)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a plan.json / plan.png already in --out")
     p.set_defaults(handler=_plan)
 
     p = sub.add_parser(
@@ -401,7 +588,7 @@ def build_parser() -> argparse.ArgumentParser:
         "GAE 0.95, clip 0.2, 2x64 tanh.",
     )
     _one_line_errors(p)
-    p.add_argument("algorithm", choices=["sac", "ppo"])
+    p.add_argument("algorithm", choices=["sac", "ppo"], help="sac or ppo")
     p.add_argument("--episodes", type=int, default=20,
                    help="training budget in episodes (= trials; default 20, the paper's)")
     p.add_argument("--seeds", default="100", help="seeds: a range 100-104 and/or a list 100,105")
@@ -433,16 +620,21 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "generalise", help="learned controller from other starts, new obstacle, noise"
     )
-    p.add_argument("--recipe", default="paper")
-    p.add_argument("--sets", type=int, default=5)
-    p.add_argument("--trials", type=int, default=20)
+    p.add_argument("--recipe", default="paper",
+                   help="recipe name or YAML file (default paper)")
+    p.add_argument("--sets", type=int, default=5, help="sets, each a fresh learner (default 5)")
+    p.add_argument("--trials", type=int, default=20, help="trials per set (default 20)")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes, each training its share of the sets as one batch "
                    "(default: one per CPU core; set k is the same run whatever the split)")
-    p.add_argument("--seed", type=int, default=100)
+    p.add_argument("--seed", type=int, default=100,
+                   help="first seed; set k uses seed + k (default 100)")
     p.add_argument("--map", default="hailu2001",
                    help="built-in map name or map file (env.map; default hailu2001)")
-    p.add_argument("--out", default="results/generalise")
+    p.add_argument("--out", default="results/generalise",
+                   help="results folder (default results/generalise)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the results of an earlier run in --out")
     p.set_defaults(handler=_generalise)
 
     p = sub.add_parser(
@@ -465,6 +657,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="sweep folder")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides for all")
     p.set_defaults(handler=_sweep)
+    for each in sub.choices.values():
+        _one_line_errors(each)
     return parser
 
 
@@ -510,13 +704,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; ``argv`` None: this process is the command (``symrl ...``), which
     then also keeps Ray out (unless it is ``sweep``), imports what the command needs with the
     garbage collector paused."""
+    import time
+
+    started = time.perf_counter()
     command_line = argv is None
     parser = build_parser()
+    argv = _negative_values(sys.argv[1:] if argv is None else list(argv))
     args, extra = parser.parse_known_args(argv)
+    args.started = started  # the command's wall time is counted from here
     # argparse cannot take positional key=value overrides after options (`study R --sets 2 k=v`)
     if extra:
         if hasattr(args, "overrides") and all("=" in e and not e.startswith("-") for e in extra):
             args.overrides = [*args.overrides, *extra]
+        elif hasattr(args, "overrides") and not extra[0].startswith("-"):
+            parser.error(
+                f"argument {extra[0]!r}: expected key=value (an override such as "
+                "update.gamma=0.9)"
+            )
         else:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
     if command_line:
@@ -531,9 +735,40 @@ def main(argv: Sequence[str] | None = None) -> int:
         code = int(args.handler(args) or 0)
     except (ValueError, FileNotFoundError, FileExistsError) as err:
         # Configuration and input errors: one clear line, no deep traceback.
-        print(f"symrl {args.command}: error: {err}", file=sys.stderr)
+        print(f"symrl {args.command}: error: {_one_line(err)}", file=sys.stderr)
         code = 2
+    except OSError as err:  # a file or folder the command cannot read or write
+        where = f"{err.filename!r}: " if err.filename else ""
+        print(f"symrl {args.command}: error: {where}{err.strerror or err}", file=sys.stderr)
+        code = 2
+    except KeyboardInterrupt:  # a command that does not catch Ctrl-C itself
+        print(f"symrl {args.command}: stopped by Ctrl-C; what was finished is kept",
+              file=sys.stderr)  # fmt: skip
+        code = 130
     return code
+
+
+def _one_line(err: BaseException) -> str:
+    """An input error's message on one line."""
+    return " ".join(str(err).split())
+
+
+_NEGATIVE_VALUE = re.compile(r"-\.?\d[\d.eE+-]*(,[^,]*)+")
+"""A negative pose such as ``-1.4,0,0``, which argparse would take for an option."""
+
+
+def _negative_values(argv: list[str]) -> list[str]:
+    """``--start -1.4,0,0`` as ``--start=-1.4,0,0``: argparse reads a value that starts with
+    a minus sign and is not a plain number as an option (and then says the flag is missing
+    its argument)."""
+    out: list[str] = []
+    for token in argv:
+        previous = out[-1] if out else ""
+        if previous.startswith("--") and "=" not in previous and _NEGATIVE_VALUE.fullmatch(token):
+            out[-1] = f"{previous}={token}"
+        else:
+            out.append(token)
+    return out
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ figures: 0.22 / 0.13 / 0.14 s -> 0.15 / 0.09 / 0.09 s).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -142,24 +142,32 @@ def plot_plan(world: WorldMap, plan: Plan, walk: np.ndarray, path: Path | str) -
 
 def plot_paths(
     world: WorldMap,
-    panels: Sequence[tuple[str, Iterable[Any], Iterable[Any]]],
+    panels: Sequence[tuple[str, Iterable[Any] | Mapping[str, Any], Iterable[Any]]],
     path: Path | str,
     columns: int = 3,
 ) -> None:
-    """One map per panel: (title, paths, ghost point sets); paths as lines from a start marker,
-    ghosts as crosses. Panels without any path are left out."""
-    panels = [p for p in panels if any(len(np.asarray(xy).reshape(-1, 2)) for xy in p[1])]
-    n = max(len(panels), 1)
+    """One map per panel: (title, paths, ghost point sets); paths as lines from a start marker
+    (a mapping ``{label: path}`` names them in the legend), ghosts as crosses. Panels without
+    any path are left out; a panel count one more than ``columns`` goes in one row, not two
+    rows with an empty panel."""
+    named: list[tuple[str, dict[Any, Any], Iterable[Any]]] = [
+        (t, dict(p) if isinstance(p, Mapping) else dict(enumerate(p)), g) for t, p, g in panels
+    ]
+    named = [p for p in named
+             if any(len(np.asarray(xy).reshape(-1, 2)) for xy in p[1].values())]  # fmt: skip
+    n = max(len(named), 1)
     cols = min(columns, n)
+    if n % cols and n <= columns + 1:
+        cols = n
     rows = -(-n // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.5 * cols, 4.6 * rows), squeeze=False)
-    for ax in axes.flat[len(panels):]:
+    for ax in axes.flat[len(named):]:
         ax.set_visible(False)
-    for ax, (title, paths, ghosts) in zip(axes.flat, panels, strict=False):
+    for ax, (title, paths, ghosts) in zip(axes.flat, named, strict=False):
         draw_map(ax, world)
-        paths = list(paths)
-        for i, xy in enumerate(paths):
-            _draw_xy(ax, xy, color=f"C{(i + 3) % 10}")
+        for i, (name, xy) in enumerate(paths.items()):
+            _draw_xy(ax, xy, color=f"C{(i + 3) % 10}",
+                     label=name if isinstance(name, str) else None)  # fmt: skip
             _start(ax, xy, label="start" if i == 0 else None)
         for j, g in enumerate(ghosts):
             _ghosts(ax, g, "ghosts" if j == 0 else None)
@@ -323,7 +331,8 @@ def plot_learning_curves(
         ax.axvline(20, ls=":", lw=1, color="0.5")
         ax.set(xlabel="trial (log scale; dotted: the paper's 20)", ylabel=name)
     if optimum is not None:
-        axes[0].axhline(optimum, ls="--", lw=1, color="0.4", label=f"optimum ({optimum:g})")
+        axes[0].axhline(optimum, ls="--", lw=1, color="0.4",
+                        label=f"shortest path ({optimum:g} actions)")  # fmt: skip
     axes[2].set_ylim(-0.05, 1.05)
     axes[0].legend(fontsize=7)
     if title:

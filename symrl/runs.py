@@ -178,13 +178,18 @@ def save_checkpoint(
     _atomic_save(data, path)
 
 
-def load_resume(run_dir: str | Path) -> tuple[RunConfig, int, dict[str, Any]]:
+def load_resume(
+    run_dir: str | Path, adopt: bool = False
+) -> tuple[RunConfig, int, dict[str, Any]]:
     """``(config, seed, state)`` of the run in folder ``run_dir`` to resume it; every fault
-    (no such folder, no checkpoint, a checkpoint without run state or of another format) is a
-    one-line :class:`CheckpointError`."""
+    (no such folder, no checkpoint, a checkpoint without run state or of another format, a
+    checkpoint whose recipe, seed, map or settings differ from the folder's ``config.yaml``
+    unless ``adopt``) is a one-line :class:`CheckpointError`."""
     from symrl.train import SNAPSHOT_FORMAT
 
     folder = Path(run_dir)
+    if folder.exists() and not folder.is_dir():
+        raise CheckpointError(f"--resume {str(folder)!r}: is a file; pass the run folder")
     if not folder.is_dir():
         raise CheckpointError(f"--resume {str(folder)!r}: no such run folder")
     path = folder / "checkpoint.pt"
@@ -203,7 +208,38 @@ def load_resume(run_dir: str | Path) -> tuple[RunConfig, int, dict[str, Any]]:
             f"--resume {str(folder)!r}: run state format {state.get('format')!r}, this symrl "
             f"resumes format {SNAPSHOT_FORMAT}"
         )
-    return config, int(data["seed"]), state
+    seed = int(data["seed"])
+    if not adopt:
+        _check_same_run(folder, config, seed)
+    return config, seed, state
+
+
+def _check_same_run(folder: Path, config: RunConfig, seed: int) -> None:
+    """The checkpoint of ``folder`` belongs to the run its ``config.yaml`` records: the same
+    settings (the trial budget aside, which ``--trials`` may extend) and seed."""
+    recorded_file = folder / "config.yaml"
+    if not recorded_file.is_file():
+        return
+    try:
+        recorded = yaml.safe_load(recorded_file.read_text())
+    except (OSError, yaml.YAMLError, UnicodeDecodeError):
+        recorded = None
+    if not isinstance(recorded, dict):
+        raise CheckpointError(
+            f"--resume {str(folder)!r}: config.yaml is not readable, so checkpoint.pt cannot be "
+            "checked against it; pass --adopt-checkpoint to go on with the checkpoint's config"
+        )
+    saved = _flat(config_to_dict(config))
+    saved["run.seed"] = seed
+    have = _flat({k: v for k, v in recorded.items() if k != "provenance"})
+    for key in ("recipe", "run.seed", "env.map", *sorted(set(saved) | set(have))):
+        if key == "run.trials" or saved.get(key) == have.get(key):
+            continue
+        raise CheckpointError(
+            f"--resume {str(folder)!r}: checkpoint.pt has {key}={saved.get(key)!r} but the "
+            f"folder's config.yaml {key}={have.get(key)!r}: not this folder's run; pass "
+            "--adopt-checkpoint to go on with the checkpoint's run"
+        )
 
 
 def read_checkpoint_file(path: Path, name: str) -> Any:
@@ -214,6 +250,73 @@ def read_checkpoint_file(path: Path, name: str) -> Any:
     except Exception as err:  # noqa: BLE001 - any unreadable file is the same user error
         detail = str(err).splitlines()[0][:120] if str(err) else type(err).__name__
         raise CheckpointError(f"{name}: not a readable symrl checkpoint ({detail})") from None
+
+
+_DERIVED = ("code_centres", "mapper.", "reflex.")
+"""State entries rebuilt from the config and the map: a checkpoint's must equal them."""
+_ANGLES = ("experts.actions", "experts.means", "experts.taken")
+_MAX_ANGLE = 2 * math.pi
+_AT_LEAST = {"trials_done": 0, "options.n": 0, "options.trials": 0, "options.stage": 0,
+             "temperature": 0.0, "options.epsilon": 0.0}  # fmt: skip
+
+
+def check_policy_state(state: dict[str, Any], fresh: dict[str, torch.Tensor]) -> str | None:
+    """The first fault of a saved controller ``state`` against ``fresh``, the state dict of the
+    controller its config and map build (None: it can be loaded): an entry missing, unknown, not
+    a tensor or of another dtype; a non-finite number; an entry rebuilt from the config and the
+    map that differs from it; a neuron count, option or region index out of range; an angle
+    beyond 2 pi; a count, temperature or epsilon below 0 (epsilon above 1)."""
+    missing = sorted(set(fresh) - set(state))
+    if missing:
+        return f"weights do not match its config and map ({missing[0]} is missing)"
+    for key, value in state.items():
+        if key not in fresh:
+            return f"weights do not match its config and map ({key} is unknown to them)"
+        if not isinstance(value, torch.Tensor):
+            return f"policy entry {key} is not a tensor ({type(value).__name__})"
+        want = fresh[key]
+        if value.dtype != want.dtype:
+            return (f"weights do not match its config and map ({key} has dtype {value.dtype}, "
+                    f"not {want.dtype})")  # fmt: skip
+        # best_total is -inf until a trial reaches the goal; nothing else may be non-finite
+        ok = torch.isfinite(value) | ((key == "best_total") & (value == -torch.inf))
+        if value.is_floating_point() and not bool(ok.all()):
+            return f"non-finite values in {key}"
+        if key.startswith(_DERIVED) and not (
+            value.shape == want.shape and bool(torch.equal(value, want))
+        ):
+            return f"weights do not match its config and map ({key} differs from theirs)"
+    for key, low in _AT_LEAST.items():
+        if key in state and state[key].numel() and float(state[key].min()) < low:
+            return f"policy entry {key} holds {float(state[key].min()):g}, below {low:g}"
+    epsilon = state.get("options.epsilon")
+    if epsilon is not None and epsilon.numel() and float(epsilon.max()) > 1.0:
+        return f"policy entry options.epsilon holds {float(epsilon.max()):g}, above 1"
+    for key in _ANGLES:
+        if key in state and state[key].numel():
+            big = float(state[key].abs().max())
+            if big > _MAX_ANGLE:
+                return f"policy entry {key} holds an angle of {big:g} rad, beyond 2 pi"
+    if "experts.count" in state and "experts.used" in state:
+        count, used = state["experts.count"], state["experts.used"]
+        capacity = used.shape[2] if used.dim() >= 3 else 0
+        if count.numel() and (int(count.min()) < 0 or int(count.max()) > capacity):
+            bad = int(count.min()) if int(count.min()) < 0 else int(count.max())
+            return (f"policy entry experts.count holds {bad} neurons, outside 0..{capacity} "
+                    "(the stored neurons)")  # fmt: skip
+    if "options.choice" in state and "options.q" in state:
+        options = state["options.q"].shape[-1]
+        choice = state["options.choice"]
+        if choice.numel() and (int(choice.min()) < -1 or int(choice.max()) >= options):
+            bad = int(choice.max()) if int(choice.max()) >= options else int(choice.min())
+            return f"policy entry options.choice holds {bad}, outside -1..{options - 1}"
+    if "options.visit" in state and "options.q" in state:
+        regions = state["options.q"].shape[-2]
+        visit = state["options.visit"]
+        if visit.numel() and (int(visit.min()) < -1 or int(visit.max()) >= regions):
+            bad = int(visit.max()) if int(visit.max()) >= regions else int(visit.min())
+            return f"policy entry options.visit holds region {bad}, outside -1..{regions - 1}"
+    return None
 
 
 def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
@@ -230,6 +333,10 @@ def load_checkpoint_world(path: str | Path) -> tuple[Any, RunConfig, Any]:
     from symrl.world.worldmap import MapError, load_map
 
     path = Path(path)
+    if path.is_dir():
+        raise CheckpointError(
+            f"checkpoint {str(path)!r}: is a folder; pass the checkpoint.pt file in it"
+        )
     if not path.is_file():
         raise CheckpointError(f"checkpoint {str(path)!r}: no such file")
     data = read_checkpoint_file(path, f"checkpoint {str(path)!r}")
@@ -256,13 +363,9 @@ def load_checkpoint_world(path: str | Path) -> tuple[Any, RunConfig, Any]:
         raise CheckpointError(f"checkpoint {str(path)!r}: {err}") from None
     policy = MixtureOfExpertsPolicy(config, world, [int(data.get("seed", config.run.seed))])
     state = data["policy"]
-    for key, value in state.items():
-        if not isinstance(value, torch.Tensor):
-            raise CheckpointError(f"checkpoint {str(path)!r}: {key} is not a tensor")
-        # best_total is -inf until a trial reaches the goal; nothing else may be non-finite
-        ok = torch.isfinite(value) | ((key == "best_total") & (value == -torch.inf))
-        if value.is_floating_point() and not bool(ok.all()):
-            raise CheckpointError(f"checkpoint {str(path)!r}: non-finite values in {key}")
+    fault = check_policy_state(state, policy.state_dict())
+    if fault:
+        raise CheckpointError(f"checkpoint {str(path)!r}: {fault}")
     try:
         policy.load_state_dict(state)
     except (RuntimeError, KeyError, TypeError) as err:
@@ -304,10 +407,20 @@ class RunWriter:
         self.dir = Path(logdir)
         if self.dir.exists() and not self.dir.is_dir():
             raise FileExistsError(f"--logdir {str(self.dir)!r}: exists and is not a folder")
+        try:
+            self.dir.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise FileExistsError(
+                f"--logdir {str(self.dir)!r}: cannot make it ({err.strerror})"
+            ) from None
+        self._lock = _lock_run_folder(self.dir)
+        for leftover in self.dir.glob("checkpoint.pt*.tmp"):  # a save cut short by SIGKILL
+            leftover.unlink()
         if resume_rows is not None:
             pass
         elif (self.dir / "config.yaml").exists():
             if not overwrite:
+                self.release()
                 raise FileExistsError(
                     f"--logdir {str(self.dir)!r}: already holds a run "
                     "(pass --overwrite to replace it)"
@@ -318,12 +431,6 @@ class RunWriter:
                     shutil.rmtree(old)
                 elif old.exists():
                     old.unlink()
-        try:
-            self.dir.mkdir(parents=True, exist_ok=True)
-        except OSError as err:
-            raise FileExistsError(
-                f"--logdir {str(self.dir)!r}: cannot make it ({err.strerror})"
-            ) from None
         self.config = config
         self.world = world
         self.expert_names = expert_names(config, world)
@@ -339,6 +446,8 @@ class RunWriter:
             self._writer.writerow({k: _fmt(row[k]) for k in self.columns if k in row})
         self._csv.flush()
         self.logger = TensorboardLogger(exp_name="tb", log_dir=str(self.dir))
+        if resume_rows is not None:
+            _purge_from(self.logger.experiment, len(resume_rows) + 1)
         rows = ["| key | value |", "| --- | --- |"]
         rows += [f"| {k} | {v} |" for k, v in _flat(self.settings).items()]
         self.logger.experiment.add_text("config", "\n".join(rows), 0)
@@ -408,6 +517,41 @@ class RunWriter:
             self._csv.close()
         self.logger.experiment.flush()
 
+    def release(self) -> None:
+        """Let another run write this folder (the lock taken when it was opened)."""
+        self._lock.release()
+
+
+def _lock_run_folder(folder: Path) -> Any:
+    """Hold ``folder/.lock`` while a run writes the folder: a second run into it (two
+    ``--overwrite`` at once) is refused instead of mixing its files with the first's. An OS
+    lock (flock): a killed run leaves no stale lock."""
+    from filelock import FileLock, Timeout
+
+    lock = FileLock(folder / ".lock")
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        raise FileExistsError(
+            f"--logdir {str(folder)!r}: another symrl run is writing it now (it holds "
+            f"{str(folder / '.lock')!r}); wait for it or choose another folder"
+        ) from None
+    except OSError as err:
+        raise FileExistsError(
+            f"--logdir {str(folder)!r}: cannot write in it ({err.strerror})"
+        ) from None
+    return lock
+
+
+def _purge_from(experiment: Any, step: int) -> None:
+    """Tell TensorBoard to drop the events of steps >= ``step`` written before (a resumed run
+    repeats the trial that was cut short); what ``SummaryWriter(purge_step=step)`` writes."""
+    from tensorboard.compat.proto.event_pb2 import Event, SessionLog
+
+    writer = experiment._get_file_writer()
+    writer.add_event(Event(step=step, file_version="brain.Event:2"))
+    writer.add_event(Event(step=step, session_log=SessionLog(status=SessionLog.START)))
+
 
 
 def _flat(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -468,17 +612,20 @@ def run_one(
             latest[1] = True
 
     try:
-        (result,) = train_batch(
-            config, [seed], progress=progress, on_trial=on_trial, world=world,
-            on_snapshot=on_snapshot, resume=resume, stop=stop,
-        )  # fmt: skip
+        try:
+            (result,) = train_batch(
+                config, [seed], progress=progress, on_trial=on_trial, world=world,
+                on_snapshot=on_snapshot, resume=resume, stop=stop,
+            )  # fmt: skip
+        finally:
+            writer.close()
+        if result.timings.get("stopped"):
+            if latest[0] is not None and not latest[1]:
+                writer.snapshot(None, seed, latest[0])
+            return result
+        writer.finish(result.policy, seed, state=latest[0])
     finally:
-        writer.close()
-    if result.timings.get("stopped"):
-        if latest[0] is not None and not latest[1]:
-            writer.snapshot(None, seed, latest[0])
-        return result
-    writer.finish(result.policy, seed, state=latest[0])
+        writer.release()
     return result
 
 

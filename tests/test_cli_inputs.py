@@ -80,3 +80,72 @@ def test_expert_storage_of_many_robots_is_refused_up_front(monkeypatch):
     with pytest.raises(ValueError, match=r"10 robot\(s\) would preallocate 6.0 GiB") as err:
         symrl.train.train_batch(config, list(range(10)), progress=False)
     assert "\n" not in str(err.value)
+
+
+def _train(argv, capsys):
+    code = main(["train", *argv])
+    return code, capsys.readouterr().err
+
+
+def test_a_run_folder_another_run_writes_is_refused(tmp_path, capsys):
+    from filelock import FileLock
+
+    run = tmp_path / "run"
+    run.mkdir()
+    with FileLock(run / ".lock"):
+        code, err = _train(["paper", "--trials", "1", "--logdir", str(run), "--overwrite"],
+                           capsys)  # fmt: skip
+    assert code == 2 and "another symrl run is writing it now" in err
+    assert not (run / "config.yaml").exists()  # nothing written
+    assert _train(["paper", "--trials", "1", "--logdir", str(run)], capsys)[0] == 0
+
+
+def test_resume_removes_a_killed_save_and_tensorboard_keeps_one_value_per_trial(tmp_path, capsys):
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+    from torch.utils.tensorboard import SummaryWriter
+
+    run = tmp_path / "run"
+    assert _train(["paper", "--trials", "1", "--logdir", str(run)], capsys)[0] == 0
+    (run / "checkpoint.ptk3j2.tmp").write_bytes(b"")  # a save cut short by SIGKILL
+    killed = SummaryWriter(str(run / "tb"))  # trial 2 logged, then the run was killed
+    killed.add_scalar("trial/steps", 999.0, 2)
+    killed.close()
+    assert _train(["--resume", str(run), "--trials", "2"], capsys)[0] == 0
+    assert not list(run.glob("*.tmp"))
+    events = EventAccumulator(str(run / "tb"))
+    events.Reload()
+    steps = [(e.step, e.value) for e in events.Scalars("trial/steps")]
+    assert [s for s, _ in steps] == [1, 2] and 999.0 not in [v for _, v in steps]
+
+
+def test_resume_adopts_a_foreign_checkpoint_only_when_asked(tmp_path, capsys):
+    import shutil
+
+    ours, theirs = tmp_path / "ours", tmp_path / "theirs"
+    assert _train(["paper", "--trials", "1", "--logdir", str(ours)], capsys)[0] == 0
+    assert _train(["reflex_only", "--trials", "1", "--logdir", str(theirs)], capsys)[0] == 0
+    shutil.copy(theirs / "checkpoint.pt", ours / "checkpoint.pt")
+    code, err = _train(["--resume", str(ours), "--trials", "2"], capsys)
+    assert code == 2 and "checkpoint.pt has recipe='reflex_only'" in err
+    assert "config.yaml recipe='paper'" in err and "--adopt-checkpoint" in err
+    assert _train(["--resume", str(ours), "--trials", "2", "--adopt-checkpoint"], capsys)[0] == 0
+    assert "recipe: reflex_only" in (ours / "config.yaml").read_text()
+
+
+def test_ctrl_c_in_a_command_is_one_line(monkeypatch, capsys):
+    import symrl.cli
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(symrl.cli, "_plan", interrupted)
+    assert main(["plan"]) == 130
+    assert capsys.readouterr().err == "symrl plan: stopped by Ctrl-C; what was finished is kept\n"
+
+
+def test_a_negative_start_reaches_the_command():
+    """argparse alone reads `--start -1.4,0,0` as a flag without its value."""
+    from symrl.cli import _negative_values
+
+    assert _negative_values(["drive", "--start", "-1.4,0,0", "--seed", "-1"]) == [
+        "drive", "--start=-1.4,0,0", "--seed", "-1"]  # fmt: skip

@@ -82,3 +82,31 @@ def test_the_study_figures_fixed_margins_keep_every_label_inside(tmp_path, monke
     for fig in kept:
         assert not _reaches_outside(fig)
         close(fig)
+
+
+def test_paths_panels_fill_their_grid_and_name_their_paths(tmp_path, monkeypatch):
+    """Three panels at two columns go in one row (no empty panel); a mapping of paths puts
+    their names in the legend."""
+    import matplotlib.image
+    import matplotlib.pyplot as plt
+
+    from symrl.figures import plot_paths
+    from symrl.world.worldmap import load_map
+
+    legends = []
+    real_close = plt.close
+
+    def spy(fig=None):
+        if fig is not None and hasattr(fig, "axes"):
+            legends.extend(t.get_text() for ax in fig.axes if ax.get_legend()
+                           for t in ax.get_legend().get_texts())  # fmt: skip
+        real_close(fig)
+
+    monkeypatch.setattr(plt, "close", spy)
+    path = [(0.0, 0.0), (1.0, 0.0), (2.0, -0.5)]
+    panels = [("a", {"trial 1": path, "trial 4": path[:2]}, []), ("b", [path], []),
+              ("c", [path], [])]
+    plot_paths(load_map("hailu2001"), panels, tmp_path / "p.png", columns=2)
+    height, width = matplotlib.image.imread(tmp_path / "p.png").shape[:2]
+    assert width > 2.5 * height  # one row of three
+    assert {"trial 1", "trial 4", "start"} <= set(legends)

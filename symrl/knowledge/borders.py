@@ -22,9 +22,6 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
-import numpy as np
-import torch
-
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.world.worldmap import Goal, RegionSpec
 
@@ -128,12 +125,4 @@ def border_subgoals(
                 continue
             cands.append((xy, f"{b.line}>{other}"))
         per_region.append(cands)
-    k = max(len(c) for c in per_region)
-    points = torch.zeros(len(per_region), k, 2)
-    valid = torch.zeros(len(per_region), k, dtype=torch.bool)
-    for r, cands in enumerate(per_region):
-        for j, (xy, _) in enumerate(cands):
-            points[r, j] = torch.from_numpy(np.asarray(xy, dtype=np.float32))
-            valid[r, j] = True
-    labels = [[name for _, name in cands] for cands in per_region]
-    return SubgoalTable(tuple(spec.names), points, valid, labels)
+    return SubgoalTable.of(tuple(spec.names), per_region)

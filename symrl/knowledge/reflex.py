@@ -141,9 +141,10 @@ class ReflexConfig:
             value = getattr(self, name)
             if not _finite(value) or value < 0:
                 raise ValueError(f"ReflexConfig.{name} must be a number >= 0, got {value!r}")
-        if self.d_a + self.d_g <= 0:
+        if self.d_a <= self.d_g:
             raise ValueError(
-                f"ReflexConfig.d_a + d_g must be positive, got d_a={self.d_a!r}, d_g={self.d_g!r}"
+                f"ReflexConfig.d_a={self.d_a!r} must exceed d_g={self.d_g!r}: with avoidance no "
+                "stronger than goal following the robot deadlocks in a concave corner"
             )
         if not _finite(self.goal_span) or self.goal_span <= 0:
             raise ValueError(
@@ -189,6 +190,8 @@ class ReflexConfig:
                 )
         if isinstance(self.rules, str) or not isinstance(self.rules, (tuple, list)):
             raise ValueError(f"ReflexConfig.rules must be a list of strings, got {self.rules!r}")
+        if not self.rules:
+            raise ValueError("ReflexConfig.rules must hold at least one rule, got []")
         for i, text in enumerate(self.rules):
             parse_rule(text, tuple(self.sectors), where=f"ReflexConfig.rules[{i}]")
         if not _finite(self.side_margin) or not 0 <= self.side_margin < 1:
@@ -197,6 +200,8 @@ class ReflexConfig:
             )
         if isinstance(self.side, str) or not isinstance(self.side, (tuple, list)):
             raise ValueError(f"ReflexConfig.side must be a list of keys, got {self.side!r}")
+        if not self.side:
+            raise ValueError("ReflexConfig.side must hold at least one key (e.g. 'goal'), got []")
         if len(set(self.side)) != len(self.side):
             raise ValueError(f"ReflexConfig.side: a key appears twice in {self.side!r}")
         for key in self.side:

@@ -341,6 +341,23 @@ class SubgoalTable:
     labels: list[list[str]]
     then: torch.Tensor | None = None
 
+    @classmethod
+    def of(
+        cls, region_names: tuple[str, ...],
+        per_region: list[list[tuple[tuple[float, float], str]]],
+    ) -> SubgoalTable:
+        """The table of ``per_region[r]``: region r's candidates ``(point, label)`` in order,
+        padded to the longest row."""
+        k = max(len(c) for c in per_region)
+        points = torch.zeros(len(per_region), k, 2)
+        valid = torch.zeros(len(per_region), k, dtype=torch.bool)
+        for r, cands in enumerate(per_region):
+            for j, (xy, _) in enumerate(cands):
+                points[r, j] = torch.tensor(xy)
+                valid[r, j] = True
+        labels = [[name for _, name in cands] for cands in per_region]
+        return cls(region_names, points, valid, labels)
+
     @property
     def counts(self) -> torch.Tensor:
         """Options per region ``(R,)``."""
@@ -408,12 +425,4 @@ def build_subgoals(world: WorldMap, config: SubgoalConfig | None = None) -> Subg
         if not cands:
             raise ValueError(f"build_subgoals: region {region!r} has no candidate sub-goal")
         per_region.append(cands)
-    k = max(len(c) for c in per_region)
-    points = torch.zeros(len(per_region), k, 2)
-    valid = torch.zeros(len(per_region), k, dtype=torch.bool)
-    for r, cands in enumerate(per_region):
-        for j, (xy, _) in enumerate(cands):
-            points[r, j] = torch.tensor(xy)
-            valid[r, j] = True
-    labels = [[name for _, name in cands] for cands in per_region]
-    return SubgoalTable(tuple(world.regions.names), points, valid, labels)
+    return SubgoalTable.of(tuple(world.regions.names), per_region)

@@ -22,11 +22,9 @@ import difflib
 import functools
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal, cast
+from typing import TYPE_CHECKING, Any, Literal, cast
 
 import yaml
-from omegaconf import DictConfig, ListConfig, OmegaConf
-from omegaconf.errors import OmegaConfBaseException
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -40,6 +38,9 @@ from pydantic import (
 from symrl.knowledge.reflex import ReflexConfig
 from symrl.knowledge.rungs import Rung, rung_at_least
 from symrl.world.robot import RobotConfig
+
+if TYPE_CHECKING:  # OmegaConf is imported where a recipe or an override is read (~40 ms)
+    from omegaconf import DictConfig
 
 __all__ = [
     "ConfigError",
@@ -359,6 +360,11 @@ class RunConfig(_Section):
                 f"reflex.sonar_range={self.reflex.sonar_range} must equal "
                 f"env.robot.sonar_range={robot.sonar_range} (the sonars are normalised by it)"
             )
+        if self.shield.margin >= robot.ir_range:
+            raise ValueError(
+                f"shield.margin={self.shield.margin} must be below env.robot.ir_range="
+                f"{robot.ir_range} (the shield sees walls only by their IR reflectance)"
+            )
         if self.experts.max_neurons < self.experts.capacity:
             raise ValueError(
                 f"experts.max_neurons={self.experts.max_neurons} must be >= "
@@ -368,8 +374,8 @@ class RunConfig(_Section):
 
 
 # ---------------------------------------------------------------------------------------------
-# Loading: OmegaConf reads the recipe file and the ``key=value`` overrides and merges them over the
-# defaults; pydantic validates the result. What is left here is the one-line error messages.
+# Loading: OmegaConf reads the recipe file and the ``key=value`` overrides and merges them;
+# pydantic fills in the defaults and validates. What is left here is the one-line error messages.
 
 
 def builtin_recipes() -> list[str]:
@@ -404,15 +410,21 @@ def _read_recipe(text: str, path: Path) -> DictConfig:
 def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictConfig:
     """Kept while the file is unchanged: studies and tests load the same recipes many times,
     and merging never changes its inputs."""
+    from omegaconf import DictConfig, ListConfig, OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
+
     try:
         data = OmegaConf.load(path)
     except yaml.MarkedYAMLError as err:
         where = f"line {err.problem_mark.line + 1}: " if err.problem_mark else ""
         problem = " ".join(str(err.problem or err).split())
         raise ConfigError(f"recipe {text!r}: not valid YAML ({where}{problem})") from None
-    except (yaml.YAMLError, UnicodeDecodeError, OmegaConfBaseException) as err:
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
         problem = " ".join(str(err).split())
         raise ConfigError(f"recipe {text!r}: not valid YAML ({problem})") from None
+    except OmegaConfBaseException as err:  # e.g. a malformed ${...}
+        key = getattr(err, "full_key", None) or "config"
+        raise ConfigError(f"recipe {text!r}: {key}: {_first_line(err)}") from None
     if not isinstance(data, DictConfig) or not data:
         shown = OmegaConf.to_container(data) if isinstance(data, ListConfig) else data
         raise ConfigError(f"recipe {text!r}: expected a non-empty mapping, got {shown!r}")
@@ -422,6 +434,9 @@ def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictCon
 def _overrides(overrides: list[str] | tuple[str, ...]) -> list[tuple[str, str, DictConfig]]:
     """Each ``key=value`` as (text, dotted key, nested config); the value is read as YAML. A key
     given twice (or inside another given key) and the recipe's name are refused."""
+    from omegaconf import OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
+
     out: list[tuple[str, str, DictConfig]] = []
     for text in overrides:
         if "=" not in text:
@@ -439,9 +454,11 @@ def _overrides(overrides: list[str] | tuple[str, ...]) -> list[tuple[str, str, D
                 raise ConfigError(f"{text}: {key} is already set by {other}; give each key once")
         try:
             out.append((text, key, OmegaConf.from_dotlist([f"{key}={value}"])))
-        except (yaml.YAMLError, OmegaConfBaseException) as err:
+        except yaml.YAMLError as err:
             problem = " ".join((getattr(err, "problem", None) or str(err)).split())
             raise ConfigError(f"{text}: not a valid YAML value ({problem})") from None
+        except OmegaConfBaseException as err:  # e.g. a malformed ${...}
+            raise ConfigError(f"{text}: {_first_line(err)}") from None
     return out
 
 
@@ -449,36 +466,77 @@ _ABSENT = object()
 
 
 @functools.cache
-def _mapping_defaults() -> DictConfig:
-    """The default entries of every mapping field (``reflex.near``, ``reflex.sectors``): pydantic
-    fills in a missing field but not a mapping's missing entries, so the layers are merged over
-    these (the rest of the defaults would only cost OmegaConf's time)."""
+def _mapping_fields() -> dict[str, dict[str, Any]]:
+    """Every mapping field (``reflex.near``, ``reflex.sectors``) by dotted key, with its default
+    entries: pydantic fills in a missing field but not a mapping's missing entries."""
 
-    def walk(section: Any) -> dict[str, Any]:
+    def walk(prefix: str, section: Any) -> dict[str, dict[str, Any]]:
         names = (
             [f.name for f in dataclasses.fields(section)]
             if dataclasses.is_dataclass(section)
             else list(type(section).model_fields)
         )
-        out: dict[str, Any] = {}
+        out: dict[str, dict[str, Any]] = {}
         for name in names:
             value = getattr(section, name)
             if isinstance(value, BaseModel) or dataclasses.is_dataclass(value):
-                if inner := walk(value):
-                    out[name] = inner
+                out |= walk(f"{prefix}{name}.", value)
             elif isinstance(value, dict):
-                out[name] = _plain(value)
+                out[f"{prefix}{name}"] = _plain(value)
         return out
 
-    return OmegaConf.create(walk(RunConfig()))
+    return walk("", RunConfig())
+
+
+@functools.cache
+def _mapping_defaults() -> DictConfig:
+    """What the layers are merged over: the mapping fields' default entries (the rest of the
+    defaults pydantic fills in; giving them to OmegaConf would only cost its time)."""
+    from omegaconf import OmegaConf
+
+    base = OmegaConf.create()
+    for key, entries in _mapping_fields().items():
+        OmegaConf.update(base, key, entries)
+    return base
+
+
+def _complete(data: dict[str, Any]) -> bool:
+    """Whether merging ``data`` over the defaults changes nothing pydantic would not fill in:
+    each mapping field it gives has every default entry (a checkpoint's config does), and no
+    string of it is an interpolation."""
+    for key, entries in _mapping_fields().items():
+        given = _at(data, key, _ABSENT)
+        if given is not _ABSENT and not (
+            isinstance(given, dict) and entries.keys() <= given.keys()
+        ):
+            return False
+    return "${" not in repr(data)
 
 
 def _merge(layers: list[tuple[str, Any]]) -> dict[str, Any]:
     """``layers`` (source, data) merged in order: mappings merge entry by entry, anything else
     replaces (``reflex.near.FL=[0.1, 0.3]`` keeps the other sectors); ``${key}`` interpolations
     are resolved. Keys no layer names take their defaults when pydantic validates."""
+    from omegaconf import OmegaConf
+    from omegaconf.errors import (
+        InterpolationKeyError,
+        InterpolationResolutionError,
+        OmegaConfBaseException,
+    )
+
+    datas = [data for _, data in layers]
     try:
-        merged = OmegaConf.merge(_mapping_defaults(), *(data for _, data in layers))
+        merged = OmegaConf.merge(_mapping_defaults(), *datas)
+        try:
+            out = OmegaConf.to_container(merged, resolve=True)
+        except InterpolationKeyError:  # it may name a key no layer sets: over every default
+            every = OmegaConf.create(config_to_dict(RunConfig()))
+            merged = OmegaConf.merge(_mapping_defaults(), every, *datas)
+            out = OmegaConf.to_container(merged, resolve=True)
+    except InterpolationResolutionError as err:
+        key = str(getattr(err, "full_key", "") or "")
+        value = _at(OmegaConf.to_container(merged), key)
+        raise ConfigError(f"{key or 'config'}={value!r}: {_first_line(err)}") from None
     except (OmegaConfBaseException, TypeError, ValueError):
         below: Any = OmegaConf.to_container(_mapping_defaults())
         for source, data in layers:  # which layer puts a list over a mapping or the reverse
@@ -491,17 +549,17 @@ def _merge(layers: list[tuple[str, Any]]) -> dict[str, Any]:
                 ) from None
             below = OmegaConf.to_container(OmegaConf.merge(below, data))
         raise
-    try:
-        out = OmegaConf.to_container(merged, resolve=True)
-    except OmegaConfBaseException as err:
-        key = str(getattr(err, "full_key", "") or "")
-        value = _at(OmegaConf.to_container(merged), key)
-        reason = str(err).splitlines()[0] if str(err) else type(err).__name__
-        raise ConfigError(f"{key or 'config'}={value!r}: {reason}") from None
     return cast("dict[str, Any]", out)
 
 
+def _first_line(err: Exception) -> str:
+    """OmegaConf's message without the lines of context it adds (``full_key: ...``)."""
+    return " ".join(str(err).splitlines()[0].split()) if str(err) else type(err).__name__
+
+
 def _container(data: Any) -> Any:
+    from omegaconf import DictConfig, ListConfig, OmegaConf
+
     return OmegaConf.to_container(data) if isinstance(data, (DictConfig, ListConfig)) else data
 
 
@@ -561,10 +619,13 @@ def _one_line(err: ValidationError) -> tuple[str, str]:
     return key, f"{key}={value!r}: {reason}"
 
 
-def _validate(layers: list[tuple[str, Any]], recipe: str | None) -> RunConfig:
-    """Merge ``layers`` over the defaults and validate; an error names the layer that set the
-    bad key when it is a recipe file (an override's message already shows its key and value)."""
-    merged = _merge(layers)
+def _validate(
+    layers: list[tuple[str, Any]], recipe: str | None, merged: dict[str, Any] | None = None
+) -> RunConfig:
+    """Merge ``layers`` over the defaults (unless ``merged`` is given) and validate; an error
+    names the layer that set the bad key when it is a recipe file (an override's message
+    already shows its key and value)."""
+    merged = _merge(layers) if merged is None else merged
     if recipe is not None:
         merged["recipe"] = recipe
     try:
@@ -583,6 +644,8 @@ def config_from_dict(data: dict[str, Any], recipe: str | None = None) -> RunConf
     """Build a validated RunConfig from a nested dict merged over the defaults."""
     if not isinstance(data, dict):
         raise ConfigError(f"config: expected a mapping of sections, got {data!r}")
+    if _complete(data):  # nothing to merge: pydantic fills in any missing field
+        return _validate([("config", data)], recipe, merged=dict(data))
     return _validate([("config", data)], recipe)
 
 

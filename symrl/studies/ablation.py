@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel
 
+from symrl.learner.config import load_config
 from symrl.runs import read_trials_csv
 from symrl.studies.repeatability import (
     PAPER_TABLE1,
@@ -316,7 +317,8 @@ def run_ablation(
                           [f"env.map={map}", *variant.overrides], starts, workers)  # fmt: skip
         rows = [r for s in sets_r for r in s.rows]
         table = table1(rows)
-        table.update(optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1])
+        table.update(optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1],
+                     knowledge=load_config(variant.recipe, list(variant.overrides)).knowledge)
         if variant.overrides:
             table["overrides"] = list(variant.overrides)
         if world.name == "hailu2001":  # the paper's numbers are of its world only
@@ -423,5 +425,6 @@ def ablate_command(args: argparse.Namespace) -> int:
     if changes:
         print((Path(args.out) / "changes.md").read_text())
         written = "changes.md, " + written
-    print(f"wrote {args.out}/ ({written}); wall time {summary['_wall_time_s']:.1f} s")
+    wall = time.perf_counter() - getattr(args, "started", time.perf_counter())
+    print(f"wrote {args.out}/ ({written}); wall time {wall:.1f} s")
     return 0

@@ -255,6 +255,11 @@ class BatchedWorldEnv(EnvBase):
         action = read(tensordict, "action")
         if action.requires_grad:
             action = action.detach()
+        if not action.is_floating_point() or action.numel() != self.size:
+            raise ValueError(
+                f"action: expected {self.size} float rotation(s) in radians, shape "
+                f"({self.size}, 1), got {action.dtype} of shape {tuple(action.shape)}"
+            )
         alpha = action.cpu().numpy().reshape(self.size)  # float32; widened exactly
         r = self.physics.step(alpha, self._rngs)
         out = self._arrays(r)

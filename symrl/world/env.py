@@ -12,7 +12,7 @@ from gymnasium import spaces
 
 from symrl.world.physics import Readings, RobotBatch
 from symrl.world.robot import RobotConfig
-from symrl.world.worldmap import WorldMap, load_map
+from symrl.world.worldmap import MAX_COORD, WorldMap, load_map
 
 __all__ = ["Hailu2001Env"]
 
@@ -56,7 +56,10 @@ class Hailu2001Env(gymnasium.Env):
     ## Action Space
 
     `Box(-pi, pi, (1,), float32)`: the rotation alpha (radians, counter-clockwise) applied before
-    the 0.20 m translation. Values outside are clipped; a non-finite action raises `ValueError`.
+    the 0.20 m translation. An action is a float array (or list of one float) of shape (1,);
+    any other shape or dtype (ints, bools, complex, strings) and a non-finite value raise
+    `ValueError` naming the action. Finite values outside [-pi, pi] are clipped to it (a turn
+    of more than half a revolution is the same turn the other way round, within noise).
 
     ## Transition Dynamics
 
@@ -85,7 +88,9 @@ class Hailu2001Env(gymnasium.Env):
 
     - Termination: the TRUE centre is within the goal radius (0.40 m) of the goal (4.0, -2.0).
     - Truncation: `max_actions` (200) actions without reaching the goal (a failed trial).
-    - After either, `step` raises `gymnasium.error.ResetNeeded` until `reset` is called.
+    - After either, `step` raises `gymnasium.error.ResetNeeded` until `reset` is called; so
+      does a `step` before the first `reset` (as under `gymnasium.make`'s order enforcing).
+    - After `close`, `reset`, `step` and `render` raise `gymnasium.error.ClosedEnvironmentError`.
 
     ## Arguments
 
@@ -165,7 +170,8 @@ class Hailu2001Env(gymnasium.Env):
         self.path: list[tuple[float, float]] = []
         self.odometry_path: list[tuple[float, float]] = []
         self._sensed = False  # a reading exists (render draws the sonar only after a reset)
-        self._ended = False  # the episode ended (terminated or truncated): step needs a reset
+        self._ended = True  # no episode runs (none yet, or it ended): step needs a reset
+        self._closed = False
         self._renderer: Any = None
 
     # --- public state ----------------------------------------------------------------------
@@ -200,6 +206,7 @@ class Hailu2001Env(gymnasium.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        self._check_open("reset")
         super().reset(seed=seed)
         start = self.world.start
         pose: Any = (start.x, start.y, start.heading)
@@ -224,9 +231,11 @@ class Hailu2001Env(gymnasium.Env):
         return self._observation(r), info
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        self._check_open("step")
         if self._ended:
             raise gymnasium.error.ResetNeeded(
-                "step() after the episode ended (terminated or truncated); call reset() first"
+                "step() before reset() or after the episode ended (terminated or truncated); "
+                "call reset() first"
             )
         alpha = self._parse_action(action)
         r = self._batch.step(np.array([alpha]), (self.np_random,))
@@ -241,6 +250,7 @@ class Hailu2001Env(gymnasium.Env):
         return obs, float(r.reward[0]), bool(r.reached_goal[0]), bool(r.truncated[0]), info
 
     def render(self) -> np.ndarray | None:
+        self._check_open("render")
         if self.render_mode is None:
             gymnasium.logger.warn(
                 "render() called without a render_mode; pass render_mode='rgb_array' or 'human'"
@@ -258,6 +268,13 @@ class Hailu2001Env(gymnasium.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+        self._closed = True
+
+    def _check_open(self, call: str) -> None:
+        if self._closed:
+            raise gymnasium.error.ClosedEnvironmentError(
+                f"{call}() after close(); make a new env"
+            )
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
@@ -268,14 +285,24 @@ class Hailu2001Env(gymnasium.Env):
 
     def _check_pose(self, pose: Any) -> tuple[float, float, float]:
         try:
-            values = [float(v) for v in pose]
-        except (TypeError, ValueError):
+            items = list(pose)
+        except TypeError:
             raise ValueError(f"reset: pose must be (x, y, heading), got {pose!r}") from None
+        if not all(
+            isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+            for v in items
+        ):
+            raise ValueError(f"reset: pose must be numbers (x, y, heading), got {pose!r}")
+        values = [float(v) for v in items]
         if len(values) == 2:
             values.append(0.0)
         if len(values) != 3 or not all(math.isfinite(v) for v in values):
             raise ValueError(f"reset: pose must be 3 finite numbers (x, y, heading), got {pose!r}")
         x, y, h = values
+        if abs(h) > MAX_COORD:
+            raise ValueError(
+                f"reset: pose {pose!r}: heading {h:g} rad is beyond +-{MAX_COORD:g} (radians)"
+            )
         if not bool(self.world.in_free_area(x, y)):
             raise ValueError(
                 f"reset: pose {pose!r} is not in the free area of map {self.world.name!r}"
@@ -289,12 +316,19 @@ class Hailu2001Env(gymnasium.Env):
         return x, y, h  # RobotBatch.reset wraps the heading (once: wrapping twice may round)
 
     def _parse_action(self, action: Any) -> float:
-        arr = np.asarray(action, dtype=np.float64)
-        if arr.size != 1:
-            raise ValueError(f"action must be a single rotation angle, got {action!r}")
-        alpha = arr.item()
+        try:
+            arr = np.asarray(action)
+        except (TypeError, ValueError):
+            arr = np.asarray(None)
+        if arr.dtype.kind != "f" or arr.shape != (1,):
+            kind = arr.dtype.name if arr.dtype.kind != "O" else type(action).__name__
+            raise ValueError(
+                f"action {_show(action)}: expected a float array of shape (1,), the rotation "
+                f"in radians (e.g. np.array([0.3], np.float32)), got {kind} of shape {arr.shape}"
+            )
+        alpha = float(arr[0])
         if not math.isfinite(alpha):
-            raise ValueError(f"action must be finite, got {action!r}")
+            raise ValueError(f"action {_show(action)}: must be finite")
         return -_PI if alpha < -_PI else (_PI if alpha > _PI else alpha)
 
     def _observation(self, r: Readings) -> dict[str, np.ndarray]:
@@ -312,3 +346,9 @@ class Hailu2001Env(gymnasium.Env):
             "f2": r.f2[0] if stepped else np.float64(0.0),
             "reached_goal": r.reached_goal[0],
         }
+
+
+def _show(value: Any, limit: int = 60) -> str:
+    """``repr`` cut to one short line."""
+    text = " ".join(repr(value).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -98,7 +98,10 @@ def draw_regions(ax: Any, world: WorldMap, color: str = "tab:blue", names: bool 
             ax.text(xmin, value, f"{name} ", color=color, fontsize=8, va="center", ha="right")
     if names:
         for region, (x, y) in region_label_points(world).items():
-            ax.text(x, y, region, color=color, fontsize=8, alpha=0.8, ha="center", va="center")
+            # above the paths, on a light box: a path through a label never hides it
+            ax.text(x, y, region, color=color, fontsize=8, ha="center", va="center", zorder=6,
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
+                          "alpha": 0.7})  # fmt: skip
 
 
 def region_label_points(world: WorldMap, grid: int = 40) -> dict[str, tuple[float, float]]:

@@ -42,11 +42,43 @@ __all__ = [
     "load_map",
     "builtin_maps",
     "reaches_goal",
+    "check_plannable",
+    "planning_note",
+    "MAX_PLAN_CORNERS",
+    "MAX_PLAN_AREA",
 ]
 
 YAML_LOADER: type = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 """PyYAML's safe loader, on libyaml where PyYAML was built with it (the wheels are): the
 pure-Python parser took most of a map's load, about 8 ms of a study worker's start."""
+
+class _UniqueKeyLoader(YAML_LOADER):  # type: ignore[misc,valid-type]
+    """The safe loader, refusing a key given twice in one mapping (PyYAML keeps the last)."""
+
+
+def _no_duplicate_keys(loader: Any, node: yaml.MappingNode, deep: bool = False) -> Any:
+    seen: set[Any] = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r}", key_node.start_mark
+            )
+        seen.add(key)
+    return loader.construct_mapping(node, deep)
+
+
+_UniqueKeyLoader.add_constructor(
+    yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _no_duplicate_keys
+)
+
+MAX_PLAN_CORNERS = 400
+"""Most wall corners (polygon vertices, two per thin wall) a map the planner and the sub-goal
+table work on may have: their time grows with its square (a 200-corner ring: 3.5 s, 500: 20 s;
+``benchmarks/big_maps.py``)."""
+MAX_PLAN_AREA = 250_000.0
+"""Largest bounding box (m^2) of a map the sub-goal table works on: its look-out grid (one
+point per 0.2 m) grows with the area (a 400 m square: 1 s and 0.5 GB; 2 km: 32 s and 3.5 GB)."""
 
 _COND = re.compile(r"^\s*([xy])\s*([<>])\s*([A-Za-z_][A-Za-z0-9_]*)\s*$")
 _TOP_KEYS = {"name", "boundary", "obstacles", "segments", "start", "goal", "regions", "starts"}
@@ -271,7 +303,7 @@ def load_map(source: str | Path | dict[str, Any] = "hailu2001") -> WorldMap:
             f"map file {str(path)!r} is not UTF-8 text (byte {err.start}: {raw[err.start]:#04x})"
         ) from None
     try:
-        data = yaml.load(text, Loader=YAML_LOADER)
+        data = yaml.load(text, Loader=_UniqueKeyLoader)
     except yaml.YAMLError as err:
         reason = " ".join(str(err).split())
         raise MapError(f"map file {str(path)!r} is not valid YAML: {reason}") from None
@@ -558,6 +590,43 @@ def _check_meaning(world: WorldMap, source: str) -> None:
                 "on the way is too narrow or closed"
             )
     _check_regions(world, source, outer)
+
+
+def _corners_and_area(world: WorldMap) -> tuple[int, float]:
+    xmin, xmax, ymin, ymax = world.bounds
+    return len(world.segments) + len(world.extra_segments), (xmax - xmin) * (ymax - ymin)
+
+
+def check_plannable(world: WorldMap) -> None:
+    """Refuse, in one line naming the limit, a map too big for the planner and the sub-goal
+    table (:data:`MAX_PLAN_CORNERS`, :data:`MAX_PLAN_AREA`), before they start: beyond them
+    they take minutes and gigabytes. The simulator and the reflex have no such limit."""
+    corners, area = _corners_and_area(world)
+    if corners > MAX_PLAN_CORNERS:
+        raise MapError(
+            f"map {world.name!r}: {corners} wall corners, more than the {MAX_PLAN_CORNERS} the "
+            "planner and the sub-goal table work on (their time grows with its square); "
+            "simplify the walls"
+        )
+    if area > MAX_PLAN_AREA:
+        raise MapError(
+            f"map {world.name!r}: a bounding box of {area:.4g} m^2, more than the "
+            f"{MAX_PLAN_AREA:.4g} m^2 the sub-goal table works on (its memory grows with the "
+            "area); use a smaller map"
+        )
+
+
+def planning_note(world: WorldMap) -> str | None:
+    """One line saying that preparing ``world`` for the planner and the sub-goal table will
+    take more than a second (an estimate from the corners and the area), else None."""
+    corners, area = _corners_and_area(world)
+    seconds = 3.5 * (corners / 200) ** 2 + area / 160_000
+    if seconds <= 1.0:
+        return None
+    return (
+        f"map {world.name!r}: {corners} wall corners, {area:.4g} m^2; preparing its sub-goals "
+        f"and paths takes about {seconds:.0f} s"
+    )
 
 
 def reaches_goal(world: WorldMap, start: tuple[float, float] | None = None) -> bool:

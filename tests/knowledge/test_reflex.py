@@ -291,7 +291,10 @@ def test_no_goal_following_and_free_space_goes_straight():
     ("changes", "message"),
     [
         ({"d_a": -0.1}, r"d_a must be a number >= 0, got -0.1"),
-        ({"d_a": 0.0, "d_g": 0.0}, "d_a \\+ d_g must be positive"),
+        ({"d_a": 0.0, "d_g": 0.0}, "d_a=0.0 must exceed d_g=0.0"),
+        ({"d_a": 0.3, "d_g": 0.7}, "d_a=0.3 must exceed d_g=0.7"),
+        ({"rules": ()}, "rules must hold at least one rule"),
+        ({"side": ()}, "side must hold at least one key"),
         ({"sonar_range": 0.0}, "sonar_range must be a positive number, got 0.0"),
         ({"goal_span": float("nan")}, "goal_span"),
         ({"peaks": (1.0, 0.0)}, "peaks must be 3 numbers"),

@@ -220,6 +220,19 @@ def test_round_trip_through_yaml():
     assert config_from_dict(yaml.safe_load(text)) == c
 
 
+def test_config_from_dict_merges_a_partial_dict_over_the_defaults():
+    c = config_from_dict({"reflex": {"near": {"FL": [0.1, 0.3]}}, "run": {"seed": 4}})
+    assert c.reflex.near["FL"] == (0.1, 0.3) and c.reflex.near["F"] == ReflexConfig().near["F"]
+    assert c.run.seed == 4 and c.run.trials == RunConfig().run.trials
+    assert config_from_dict({"options": {"reach": "${shield.margin}"}}).options.reach == 0.06
+    # a checkpoint's config that lacks a later field: its default
+    old = config_to_dict(load_config("paper"))
+    del old["update"]["gamma"], old["trial_gradient"]
+    c = config_from_dict(old)
+    assert c.update.gamma == 0.95 and c.trial_gradient == RunConfig().trial_gradient
+    assert c.update.temperature0 == load_config("paper").update.temperature0
+
+
 def test_config_from_dict_rejects_a_non_mapping():
     with pytest.raises(ConfigError, match="mapping"):
         config_from_dict([1, 2])  # type: ignore[arg-type]
@@ -323,6 +336,13 @@ def test_apply_overrides_equals_loading_with_them():
 def test_overrides_may_refer_to_other_keys():
     c = load_config("paper", ["options.reach=${shield.margin}"])
     assert c.options.reach == c.shield.margin == 0.06
+    # a key the recipe does not set: its default
+    c = load_config(
+        "paper_literal", ["options.reach=${shield.margin}", "update.eta=${update.beta}"]
+    )
+    assert (c.options.reach, c.update.eta) == (0.06, 0.2)
+    assert "options.reach=${nope: " in _error(["options.reach=${nope"])
+    assert "Recursive" in _error(["options.reach=${options.reach}"])
 
 
 def test_help_keys_show_the_recipes_values_and_every_keys_meaning():
@@ -350,7 +370,7 @@ def test_train_help_keys_with_a_recipe(capsys):
 
     assert main(["train", "paper_map", "--help-keys"]) == 0
     out = capsys.readouterr().out
-    assert "localize.enabled = True  (default False)" in out
-    assert "Discount of the TD error" in out
+    assert out == describe_keys(load_config("paper_map")) + "\n"
+    assert "update.temperature0 = 0.1  (default 0.3)" in out
     assert main(["train", "paper", "update.gama=1", "--help-keys"]) == 2
     assert "update.gama=1: unknown key" in capsys.readouterr().err

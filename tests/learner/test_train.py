@@ -269,6 +269,9 @@ def test_train_command_writes_the_run_folder(tmp_path, capsys):
     assert "paper_map (seed 1)" in capsys.readouterr().out
     policy, config = load_checkpoint(out / "checkpoint.pt")
     assert config.run.seed == 1 and config.run.trials == 2
+    # what the robot was told, in the checkpoint, config.yaml and the agent it rebuilds
+    assert config.knowledge == "map" and policy.knowledge.rung == "map"
+    assert "knowledge: map" in (out / "config.yaml").read_text()
     assert int(policy.neurons().sum()) == int(rows[-1]["neurons"])
     # the folder holds a run: refused unless --overwrite
     assert main(args) == 2

@@ -65,7 +65,7 @@ def test_plan_command_writes_json_and_png(tmp_path):
 
 def test_bad_sizes_give_a_clear_error(capsys):
     assert main(["study", "reflex_only", "--sets", "0"]) == 2
-    assert "at least 1 set" in capsys.readouterr().err
+    assert "--sets 0: must be >= 1" in capsys.readouterr().err
 
 
 def test_set_k_of_a_study_is_train_with_seed_plus_k():

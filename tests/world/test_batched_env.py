@@ -242,3 +242,18 @@ def test_collector_restarts_each_robot_on_its_own():
             np.testing.assert_array_equal(poses[2, t], START)
         else:
             assert not np.array_equal(poses[1, t], START)
+
+
+@pytest.mark.parametrize(
+    ("action", "message"),
+    [
+        (torch.zeros(2, 1, dtype=torch.long), "torch.int64 of shape \\(2, 1\\)"),
+        (torch.zeros(2, 1, dtype=torch.bool), "expected 2 float rotation"),
+        (torch.tensor([[0.1], [math.nan]]), "robot 1 must be finite"),
+    ],
+)
+def test_a_bad_action_is_named(action, message):
+    env = BatchedWorldEnv(size=2, seeds=[0, 1])
+    td = env.reset()
+    with pytest.raises(ValueError, match=message):
+        env.step(td.set("action", action))
