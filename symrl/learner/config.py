@@ -428,7 +428,26 @@ def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictCon
     if not isinstance(data, DictConfig) or not data:
         shown = OmegaConf.to_container(data) if isinstance(data, ListConfig) else data
         raise ConfigError(f"recipe {text!r}: expected a non-empty mapping, got {shown!r}")
+    empty = _empty_mapping(data, "")
+    if empty is not None:
+        raise ConfigError(
+            f"recipe {text!r}: {empty}: an empty mapping changes nothing (mappings merge entry "
+            "by entry); set its entries or leave it out"
+        )
     return data
+
+
+def _empty_mapping(data: Any, prefix: str) -> str | None:
+    """The dotted key of the first empty mapping in ``data`` (None: there is none)."""
+    for key, value in data.items():
+        name = f"{prefix}{key}"
+        if hasattr(value, "items"):
+            if not value:
+                return name
+            inner = _empty_mapping(value, f"{name}.")
+            if inner is not None:
+                return inner
+    return None
 
 
 def _overrides(overrides: list[str] | tuple[str, ...]) -> list[tuple[str, str, DictConfig]]:

@@ -33,8 +33,9 @@ RECIPE_ORDER = ("paper", "paper_map", "paper_literal", "no_partition", "reflex_o
 STUDIED = ("paper", "paper_map")
 """Recipes whose whole study (Table 1 and Figs 5-9) the report shows."""
 
-GENERALISE_RECIPES = ("paper", "reflex_only")
-"""The recipes of the generalisation section: the paper's learner and the reflex it starts from."""
+GENERALISE_RECIPES = ("reflex_only", "paper", "paper_map")
+"""The recipes of the generalisation section, one per rung of knowledge: the reflex alone
+(sensors), the paper's learner (regions), the learner told the whole map (map)."""
 
 INTERPRETATION = Path(__file__).with_name("results_discussion.md")
 """Hand-written discussion appended to the generated report (what reproduces and what not)."""
@@ -433,7 +434,10 @@ def _section_baselines(results: Path, figures: Path) -> list[str]:
 
 
 def _section_generalise(results: Path, figures: Path) -> list[str]:
-    out = ["## Generalisation (`symrl generalise`)", ""]
+    out = ["## Generalisation (`symrl generalise`)", "",
+           "One recipe per rung of what the robot is told: `reflex_only` (its sensors), `paper` "
+           "(+ the region rules), `paper_map` (+ the map). The new obstacle is in the env's "
+           "world only, never in what the robot is told.", ""]  # fmt: skip
     for recipe in GENERALISE_RECIPES:
         folder = results / f"generalise-{recipe}"
         out += [f"### `{recipe}`", "", f"Command: `{COMMANDS['generalise'].format(recipe=recipe)}`",

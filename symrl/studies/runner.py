@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import RunConfig, config_from_dict, config_to_dict, load_config
 
 __all__ = [
@@ -88,13 +89,15 @@ def evaluation_batch(
 ) -> tuple[Any, Any]:
     """The policy of controllers ``states`` and the env their robots drive in, from ``starts``.
 
-    The agent (region mapper, sub-goal table, planner, localiser) is built from ``world``, the
-    map it learned in; the env holds ``env_world`` (default ``world``), e.g. the same map with a
-    new obstacle that the agent is not told of."""
+    The agent is told ``world``, the map it learned in, at its rung (``config.knowledge``: at
+    ``map`` its sub-goal table, planner and localiser are built from it); the env holds
+    ``env_world`` (default ``world``), e.g. the same map with a new obstacle the agent is not
+    told of."""
     from symrl.learner.policy import MixtureOfExpertsPolicy
     from symrl.train import make_env
 
-    policy = MixtureOfExpertsPolicy.from_robot_states(config, world, list(states), list(seeds))
+    told = Knowledge.told(world, config.knowledge)
+    policy = MixtureOfExpertsPolicy.from_robot_states(config, told, list(states), list(seeds))
     env = make_env(config, list(seeds), world=world if env_world is None else env_world,
                    starts=np.asarray(starts, dtype=np.float64))  # fmt: skip
     return policy, env
