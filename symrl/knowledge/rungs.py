@@ -25,6 +25,7 @@ The rungs, each adding to the one below:
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Literal, get_args
 
@@ -68,9 +69,8 @@ class Knowledge:
     start: Pose
     goal: Goal
     regions: RegionSpec
-    passages: tuple[Border, ...] | None = None
-    """From ``passages`` up: the stretches of the region lines where two regions connect
-    through free space (oriented as ``Border``s); None below."""
+    doors: tuple[Border, ...] | None = None
+    """At ``passages``: the passages handed over (read them as :attr:`passages`)."""
     world: WorldMap | None = None
 
     @classmethod
@@ -84,9 +84,18 @@ class Knowledge:
             start=world.start,
             goal=world.goal,
             regions=world.regions if rung_at_least(rung, "regions") else _ONE_REGION,
-            passages=passages_of(world) if rung_at_least(rung, "passages") else None,
+            doors=passages_of(world) if rung == "passages" else None,
             world=world if rung == "map" else None,
         )
+
+    @functools.cached_property
+    def passages(self) -> tuple[Border, ...] | None:
+        """From ``passages`` up: the stretches of the region lines where two regions connect
+        through free space (oriented as ``Border``s); None below. At ``map`` they are found
+        in the world when first asked for (tens of milliseconds)."""
+        if self.doors is not None:
+            return self.doors
+        return passages_of(self.world) if self.world is not None else None
 
     def geometry(self, what: str) -> WorldMap:
         """The world's geometry, for ``what`` (a part of the agent); an error below ``map``."""
