@@ -177,12 +177,14 @@ class OptionsConfig(_Section):
 
     enabled: StrictBool = False
     """False: the reflex always steers at the goal (the paper)."""
-    source: Literal["map", "rules"] = "map"
+    source: Literal["map", "passages", "rules"] = "map"
     """Where the sub-goal points come from. ``map`` (needs ``knowledge: map``): the passages
     the region lines cross in the free-space polygon, and the settings below that use the
     walls or the planner. ``rules`` (needs ``knowledge: regions``): the region rules alone,
     per region the goal and a point of each border with a region no farther from the goal's
-    (``symrl.knowledge.borders``); the map-only settings must then be off."""
+    (``symrl.knowledge.borders``); the map-only settings must then be off. ``passages`` (needs
+    ``knowledge: passages``): the same from the passages the robot is told of (where the
+    regions really connect) instead of the rules' borders."""
     epsilon: float = Field(0.3, ge=0, le=1)
     """Probability of a random option at a region's first entry, first trial."""
     epsilon_decay: float = Field(0.8, ge=0, le=1)
@@ -252,6 +254,9 @@ class OptionsConfig(_Section):
     measured against the goal's bearing, so heading at the goal while the sub-goal is nearly in
     line earns it at little cost to the route. 0: at the sub-goal from the region's entry."""
 
+
+_SOURCE_RUNG = {"rules": "regions", "passages": "passages", "map": "map"}
+"""The knowledge each ``options.source`` needs."""
 
 _MAP_ONLY_OPTIONS = (
     "subgoal_min_clearance", "subgoal_planner", "subgoal_planner_first", "subgoal_way_out",
@@ -331,7 +336,7 @@ class RunConfig(_Section):
         o = self.options
         for key, on, needed in (
             ("gate.partition", self.gate.partition, "regions"),
-            ("options.enabled", o.enabled, "map" if o.source == "map" else "regions"),
+            ("options.enabled", o.enabled, _SOURCE_RUNG[o.source]),
             ("localize.enabled", self.localize.enabled, "map"),
         ):
             if on and not rung_at_least(self.knowledge, needed):
@@ -339,7 +344,7 @@ class RunConfig(_Section):
                     f"{key}=true needs knowledge={needed} or higher, but the recipe declares "
                     f"knowledge={self.knowledge}"
                 )
-        if o.enabled and o.source == "rules":
+        if o.enabled and o.source != "map":
             for key in _MAP_ONLY_OPTIONS:
                 value = getattr(o, key)
                 if value not in (None, False, 0.0):

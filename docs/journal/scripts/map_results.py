@@ -42,6 +42,7 @@ once each by then on the paper's world)."""
 VARIANTS = {
     "reflex": ("reflex alone", "reflex_only"),
     "rules": ("`paper` (regions rung), hand regions", "paper"),
+    "passages": ("`paper_passages` (passages rung), hand regions", "paper_passages"),
     "hand": ("`paper_map`, hand regions", "paper_map"),
     "auto": ("`paper_map`, `regions: auto`", "paper_map"),
 }
