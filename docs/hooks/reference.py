@@ -118,7 +118,7 @@ def recipes_markdown() -> str:
 
     out = ["| recipe | knowledge | what it is |", "| --- | --- | --- |"]
     for name in builtin_recipes():
-        text = (resources.files("symrl") / "recipes" / f"{name}.yaml").read_text()
+        text = (resources.files("symrl.recipes") / f"{name}.yaml").read_text()
         comment = []
         for line in text.splitlines():
             if not line.startswith("#"):

@@ -1,6 +1,6 @@
 """Typed run configuration: read and merged by OmegaConf, validated by pydantic.
 
-A recipe (``symrl/recipes/<name>.yaml``) sets a few fields of :class:`RunConfig`; the defaults
+A recipe (``recipes/<name>.yaml``) sets a few fields of :class:`RunConfig`; the defaults
 are the literal rules of the paper (``docs/ALGORITHM.md``), so a recipe lists only what it
 changes. ``key=value`` overrides (``update.gamma=0.9``, each key once) are merged on top;
 mappings merge entry by entry (``reflex.near`` keeps the sectors a recipe does not name), anything
@@ -384,8 +384,9 @@ class RunConfig(_Section):
 
 
 def builtin_recipes() -> list[str]:
-    """Names of the recipes shipped in ``symrl/recipes``."""
-    folder = resources.files("symrl") / "recipes"
+    """Names of the recipes shipped in the top-level ``recipes/`` (the package
+    ``symrl.recipes``)."""
+    folder = resources.files("symrl.recipes")
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
 
 
@@ -396,7 +397,7 @@ def _recipe_path(recipe: str | Path) -> tuple[str, Path]:
         if not path.is_file():
             raise ConfigError(f"recipe {text!r}: no such file")
         return path.stem, path
-    path = Path(str(resources.files("symrl") / "recipes" / f"{text}.yaml"))
+    path = Path(str(resources.files("symrl.recipes") / f"{text}.yaml"))
     if not path.is_file():
         raise ConfigError(
             f"recipe {text!r}: unknown; built-in recipes are {', '.join(builtin_recipes())} "
