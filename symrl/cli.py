@@ -551,7 +551,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(paired differences over the sets)")
     p.add_argument("--ladder", action="store_true",
                    help="the knowledge ladder: the best recipe of each rung (reflex_only, "
-                   "paper_literal, paper, paper_map) on the same seeds; writes ladder.md")
+                   "paper_literal, paper, paper_passages, paper_map) on the same seeds; writes "
+                   "ladder.md")
     p.add_argument("--base", default="paper_literal",
                    help="the recipe --changes-of puts settings back to (default paper_literal)")
     p.add_argument("--map", default="hailu2001",

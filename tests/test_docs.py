@@ -4,6 +4,7 @@ that imports, so `mkdocs build --strict` in CI fails only on real problems."""
 from __future__ import annotations
 
 import importlib
+import json
 import re
 from pathlib import Path
 
@@ -35,11 +36,15 @@ def _directives() -> dict[str, str]:
     return found
 
 
+def _config() -> dict:
+    return yaml.safe_load((ROOT / "mkdocs.yml").read_text())
+
+
 def test_every_page_in_the_navigation_exists():
-    config = yaml.safe_load((ROOT / "mkdocs.yml").read_text())
+    config = _config()
     assert config["docs_dir"] == "docs"
     pages = _nav_pages(config["nav"])
-    assert {"index.md", "ARCHITECTURE.md", "LEARNING.md"} <= set(pages)
+    assert {"index.md", "ARCHITECTURE.md", "ALGORITHM.md", "MAPS.md"} <= set(pages)
     for page in pages:
         assert (DOCS / page).is_file(), page
     in_api = {f"api/{p.name}" for p in (DOCS / "api").glob("*.md")}
@@ -68,3 +73,112 @@ def test_docstrings_parsed_as_google_without_style_warnings():
     assert options["docstring_style"] == "google"
     assert options["docstring_options"]["warnings"] is False
     assert options["show_submodules"] is True
+
+
+JOURNAL = [DOCS / "LEARNING.md", *sorted((DOCS / "journal").glob("*.md"))]
+"""The lab notebook: history, kept out of the navigation."""
+
+
+def test_the_navigation_is_sorted_by_purpose():
+    sections = [next(iter(item)) for item in _config()["nav"]]
+    assert sections == ["Home", "Tutorials", "How-to guides", "Reference", "Explanation"]
+
+
+def test_the_journal_is_outside_the_navigation_and_marked_as_history():
+    config = _config()
+    pages = set(_nav_pages(config["nav"]))
+    hidden = config["not_in_nav"].split()
+    assert hidden == ["/journal/", "/LEARNING.md"]
+    assert len(JOURNAL) >= 4
+    for page in JOURNAL:
+        name = page.relative_to(DOCS).as_posix()
+        assert name not in pages, name
+        opening = page.read_text()[:600]
+        assert "history, not documentation" in opening.lower(), name
+
+
+def test_user_pages_do_not_read_as_a_work_log():
+    """Pages in the navigation explain the current code; how it was reached is the journal's."""
+    log = re.compile(
+        r"throw-away patch|a checkout before|compare a checkout|this session|the last session"
+        r"|issue \d+|#\d{2,}",
+        flags=re.I,
+    )
+    for page in _nav_pages(_config()["nav"]):
+        text = (DOCS / page).read_text()
+        assert not log.search(text), (page, log.search(text))
+
+
+def _hook():
+    """The mkdocs hook that generates the reference tables (docs/hooks/reference.py)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("docs_reference", DOCS / "hooks" / "reference.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _paths(data: dict, prefix: str = "") -> list[str]:
+    out = []
+    for key, value in data.items():
+        path = f"{prefix}{key}"
+        out += _paths(value, path + ".") if isinstance(value, dict) and value else [path]
+    return out
+
+
+def test_the_config_reference_lists_every_key_with_its_default():
+    from symrl.learner.config import RunConfig, config_to_dict
+
+    defaults = config_to_dict(RunConfig())
+    rows = {key: (default, doc) for _, section in _hook().config_rows()
+            for key, default, doc in section}  # fmt: skip
+    for path in _paths(defaults):  # every key is a row, or inside a mapping-valued row
+        assert any(path == key or path.startswith(key + ".") for key in rows), path
+    for key, (default, _doc) in rows.items():
+        value = defaults
+        for part in key.split("."):
+            value = value[part]
+        assert default == json.dumps(value), key
+    assert rows["update.gamma"] == ("0.95", rows["update.gamma"][1])
+    assert "discount" in rows["update.gamma"][1].lower()
+    assert rows["knowledge"][0] == '"regions"'
+    markdown = _hook().config_markdown()
+    assert "| `options.enabled` | `false` |" in markdown
+
+
+def test_the_cli_reference_has_every_command_and_the_recipes_table_every_recipe():
+    from symrl.learner.config import builtin_recipes
+
+    hook = _hook()
+    cli = hook.cli_markdown()
+    for command in ("drive", "train", "evaluate", "study", "ablate", "plan", "baseline",
+                    "generalise", "sweep"):  # fmt: skip
+        assert f"## `symrl {command}`" in cli
+    assert "--help-keys" in cli
+    recipes = hook.recipes_markdown()
+    for name in builtin_recipes():
+        assert f"| `{name}` |" in recipes
+    assert "| `paper_map` | `map` |" in recipes
+
+
+def test_the_hook_replaces_its_markers():
+    hook = _hook()
+    page = "before\n<!-- generated: recipes -->\nafter"
+    out = hook.on_page_markdown(page, page=None, config=None, files=None)
+    assert "<!-- generated" not in out and "| `paper_literal` |" in out
+    for name in hook.GENERATORS:
+        assert any(hook.MARKER.format(name) in p.read_text()
+                   for p in (DOCS / "reference").glob("*.md")), name  # fmt: skip
+
+
+def test_the_readme_is_an_overview_with_the_command_ci_runs():
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.splitlines()) <= 150
+    ci = (ROOT / ".ci" / "run").read_text().strip().splitlines()[-1]
+    assert ci == "pytest -n 2 tests && pytest --nbmake notebooks"
+    assert f'pip install -e ".[dev]" && {ci}\n' in readme
+    assert "## What each piece of knowledge buys" in readme
+    for recipe in ("reflex_only", "paper_literal", "paper", "paper_map"):
+        assert f"`{recipe}`" in readme

@@ -20,12 +20,13 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 
-from symrl.knowledge.subgoals import SubgoalTable
-from symrl.world.worldmap import Goal, RegionSpec
+from symrl.knowledge.subgoals import SubgoalTable, find_passages
+from symrl.world.worldmap import Goal, RegionSpec, WorldMap
 
-__all__ = ["Border", "region_borders", "region_hops", "border_subgoals"]
+__all__ = ["Border", "region_borders", "passages_of", "region_hops", "border_subgoals"]
 
 
 @dataclass(frozen=True)
@@ -80,7 +81,18 @@ def region_borders(spec: RegionSpec, eps: float = 1e-6) -> list[Border]:
     return out
 
 
-def region_hops(spec: RegionSpec, borders: list[Border], goal: Goal) -> dict[str, int]:
+def passages_of(world: WorldMap) -> tuple[Border, ...]:
+    """The map tool of the ``passages`` rung: where the region lines cross free space between
+    two regions (``symrl.knowledge.subgoals.find_passages``, which reads the walls), as
+    ``Border``s that hold no geometry but the line, the stretch and the two regions."""
+    out = []
+    for p in find_passages(world):
+        low, high = (p.before, p.after) if p.normal > 0 else (p.after, p.before)
+        out.append(Border(p.line, p.axis, p.intercept, p.lo, p.hi, low, high))
+    return tuple(out)
+
+
+def region_hops(spec: RegionSpec, borders: Sequence[Border], goal: Goal) -> dict[str, int]:
     """Each region's distance from the goal's region in the region graph, in borders crossed
     (a region with no way there is left out)."""
     target = spec.region_of(goal.x, goal.y)
@@ -97,12 +109,14 @@ def region_hops(spec: RegionSpec, borders: list[Border], goal: Goal) -> dict[str
 
 
 def border_subgoals(
-    spec: RegionSpec, goal: Goal, inset: float = 0.5, beyond: float = 0.4, merge: float = 0.3
+    spec: RegionSpec, goal: Goal, borders: Sequence[Border] | None = None, inset: float = 0.5,
+    beyond: float = 0.4, merge: float = 0.3,
 ) -> SubgoalTable:
     """Per region (in the order of ``spec.names``): the goal, then one point of each border
-    with a neighbour no farther from the goal's region (see the module docstring). Points
-    closer than ``merge`` to an earlier option of the region are dropped."""
-    borders = region_borders(spec)
+    with a neighbour no farther from the goal's region (see the module docstring). ``borders``:
+    the region rules' (default), or the passages a robot is told of. Points closer than
+    ``merge`` to an earlier option of the region are dropped."""
+    borders = list(region_borders(spec) if borders is None else borders)
     hops = region_hops(spec, borders, goal)
     g = (float(goal.x), float(goal.y))
     per_region: list[list[tuple[tuple[float, float], str]]] = []

@@ -14,6 +14,10 @@ The rungs, each adding to the one below:
 ``regions``
     + the symbolic region rules (names, lines, first-match rules, and what follows from them
     alone): the paper's robot (Hailu 2001, sections 3.2 and 6).
+``passages``
+    + where the regions really connect: the passages (doors) between regions as symbolic
+    segments of the region lines, found in the map by a map tool (``find_passages``) and handed
+    over without the walls: a topological map.
 ``map``
     + the full geometry: walls, the free-space polygon, the passages found in it, shortest paths
     (the planner) and map localisation.
@@ -21,20 +25,23 @@ The rungs, each adding to the one below:
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Literal, get_args
 
+from symrl.knowledge.borders import Border, passages_of
 from symrl.world.worldmap import Goal, Pose, RegionRule, RegionSpec, WorldMap
 
 __all__ = ["Rung", "RUNGS", "Knowledge", "rung_at_least", "TOLD"]
 
-Rung = Literal["sensors", "regions", "map"]
+Rung = Literal["sensors", "regions", "passages", "map"]
 RUNGS: tuple[Rung, ...] = get_args(Rung)
 """The rungs in order, each told everything the one before it is."""
 
 TOLD: dict[str, str] = {
     "sensors": "reflex, own sensors and odometry, start and goal",
     "regions": "+ the region rules (the paper's robot)",
+    "passages": "+ the passages between regions (a topological map, no walls)",
     "map": "+ walls, free-space polygon, planner, map localisation",
 }
 """What a robot on each rung is told, in a few words (tables and ``--help``)."""
@@ -62,6 +69,8 @@ class Knowledge:
     start: Pose
     goal: Goal
     regions: RegionSpec
+    doors: tuple[Border, ...] | None = None
+    """At ``passages``: the passages handed over (read them as :attr:`passages`)."""
     world: WorldMap | None = None
 
     @classmethod
@@ -75,8 +84,18 @@ class Knowledge:
             start=world.start,
             goal=world.goal,
             regions=world.regions if rung_at_least(rung, "regions") else _ONE_REGION,
+            doors=passages_of(world) if rung == "passages" else None,
             world=world if rung == "map" else None,
         )
+
+    @functools.cached_property
+    def passages(self) -> tuple[Border, ...] | None:
+        """From ``passages`` up: the stretches of the region lines where two regions connect
+        through free space (oriented as ``Border``s); None below. At ``map`` they are found
+        in the world when first asked for (tens of milliseconds)."""
+        if self.doors is not None:
+            return self.doors
+        return passages_of(self.world) if self.world is not None else None
 
     def geometry(self, what: str) -> WorldMap:
         """The world's geometry, for ``what`` (a part of the agent); an error below ``map``."""

@@ -1,6 +1,6 @@
 """Typed run configuration: read and merged by OmegaConf, validated by pydantic.
 
-A recipe (``symrl/recipes/<name>.yaml``) sets a few fields of :class:`RunConfig`; the defaults
+A recipe (``recipes/<name>.yaml``) sets a few fields of :class:`RunConfig`; the defaults
 are the literal rules of the paper (``docs/ALGORITHM.md``), so a recipe lists only what it
 changes. ``key=value`` overrides (``update.gamma=0.9``, each key once) are merged on top;
 mappings merge entry by entry (``reflex.near`` keeps the sectors a recipe does not name), anything
@@ -177,12 +177,14 @@ class OptionsConfig(_Section):
 
     enabled: StrictBool = False
     """False: the reflex always steers at the goal (the paper)."""
-    source: Literal["map", "rules"] = "map"
+    source: Literal["map", "passages", "rules"] = "map"
     """Where the sub-goal points come from. ``map`` (needs ``knowledge: map``): the passages
     the region lines cross in the free-space polygon, and the settings below that use the
     walls or the planner. ``rules`` (needs ``knowledge: regions``): the region rules alone,
     per region the goal and a point of each border with a region no farther from the goal's
-    (``symrl.knowledge.borders``); the map-only settings must then be off."""
+    (``symrl.knowledge.borders``); the map-only settings must then be off. ``passages`` (needs
+    ``knowledge: passages``): the same from the passages the robot is told of (where the
+    regions really connect) instead of the rules' borders."""
     epsilon: float = Field(0.3, ge=0, le=1)
     """Probability of a random option at a region's first entry, first trial."""
     epsilon_decay: float = Field(0.8, ge=0, le=1)
@@ -252,6 +254,9 @@ class OptionsConfig(_Section):
     measured against the goal's bearing, so heading at the goal while the sub-goal is nearly in
     line earns it at little cost to the route. 0: at the sub-goal from the region's entry."""
 
+
+_SOURCE_RUNG = {"rules": "regions", "passages": "passages", "map": "map"}
+"""The knowledge each ``options.source`` needs."""
 
 _MAP_ONLY_OPTIONS = (
     "subgoal_min_clearance", "subgoal_planner", "subgoal_planner_first", "subgoal_way_out",
@@ -331,7 +336,7 @@ class RunConfig(_Section):
         o = self.options
         for key, on, needed in (
             ("gate.partition", self.gate.partition, "regions"),
-            ("options.enabled", o.enabled, "map" if o.source == "map" else "regions"),
+            ("options.enabled", o.enabled, _SOURCE_RUNG[o.source]),
             ("localize.enabled", self.localize.enabled, "map"),
         ):
             if on and not rung_at_least(self.knowledge, needed):
@@ -339,7 +344,7 @@ class RunConfig(_Section):
                     f"{key}=true needs knowledge={needed} or higher, but the recipe declares "
                     f"knowledge={self.knowledge}"
                 )
-        if o.enabled and o.source == "rules":
+        if o.enabled and o.source != "map":
             for key in _MAP_ONLY_OPTIONS:
                 value = getattr(o, key)
                 if value not in (None, False, 0.0):
@@ -379,8 +384,9 @@ class RunConfig(_Section):
 
 
 def builtin_recipes() -> list[str]:
-    """Names of the recipes shipped in ``symrl/recipes``."""
-    folder = resources.files("symrl") / "recipes"
+    """Names of the recipes shipped in the top-level ``recipes/`` (the package
+    ``symrl.recipes``)."""
+    folder = resources.files("symrl.recipes")
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
 
 
@@ -391,7 +397,7 @@ def _recipe_path(recipe: str | Path) -> tuple[str, Path]:
         if not path.is_file():
             raise ConfigError(f"recipe {text!r}: no such file")
         return path.stem, path
-    path = Path(str(resources.files("symrl") / "recipes" / f"{text}.yaml"))
+    path = Path(str(resources.files("symrl.recipes") / f"{text}.yaml"))
     if not path.is_file():
         raise ConfigError(
             f"recipe {text!r}: unknown; built-in recipes are {', '.join(builtin_recipes())} "
@@ -428,7 +434,26 @@ def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictCon
     if not isinstance(data, DictConfig) or not data:
         shown = OmegaConf.to_container(data) if isinstance(data, ListConfig) else data
         raise ConfigError(f"recipe {text!r}: expected a non-empty mapping, got {shown!r}")
+    empty = _empty_mapping(data, "")
+    if empty is not None:
+        raise ConfigError(
+            f"recipe {text!r}: {empty}: an empty mapping changes nothing (mappings merge entry "
+            "by entry); set its entries or leave it out"
+        )
     return data
+
+
+def _empty_mapping(data: Any, prefix: str) -> str | None:
+    """The dotted key of the first empty mapping in ``data`` (None: there is none)."""
+    for key, value in data.items():
+        name = f"{prefix}{key}"
+        if hasattr(value, "items"):
+            if not value:
+                return name
+            inner = _empty_mapping(value, f"{name}.")
+            if inner is not None:
+                return inner
+    return None
 
 
 def _overrides(overrides: list[str] | tuple[str, ...]) -> list[tuple[str, str, DictConfig]]:

@@ -150,8 +150,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             names=self.expert_names,
         )  # fmt: skip
         self.options = None
-        if config.options.enabled and config.options.source == "rules":
-            table = subgoals or border_subgoals(knowledge.regions, knowledge.goal)
+        if config.options.enabled and config.options.source != "map":
+            # the borders of the region rules, or the passages the robot is told of
+            told = knowledge.passages if config.options.source == "passages" else None
+            table = subgoals or border_subgoals(knowledge.regions, knowledge.goal, told)
             self.options = SubgoalOptions(knowledge, batch, config.options, self.seeds, table,
                                           step=robot.step)  # fmt: skip
         elif config.options.enabled:

@@ -58,12 +58,13 @@ __all__ = [
     "ablate_command",
 ]
 
-LADDER = ("reflex_only", "paper_literal", "paper", "paper_map")
+LADDER = ("reflex_only", "paper_literal", "paper", "paper_passages", "paper_map")
 """``symrl ablate --ladder``: the best recipe of each knowledge rung, and the paper's literal
 learner, on the same seeds."""
 
 RECIPES = (
-    "paper", "paper_map", "paper_literal", "no_partition", "no_reflex", "plain", "reflex_only",
+    "paper", "paper_passages", "paper_map", "paper_literal", "no_partition", "no_reflex", "plain",
+    "reflex_only",
 )
 
 # what a change ablation leaves alone: the recipe's name, and the budget, seed and logging

@@ -1,10 +1,11 @@
 """Regenerate RESULTS.md from the results folders the study commands wrote.
 
-Run the commands in ``COMMANDS`` (they write under ``results/``, which git ignores), then
-``python -m symrl.studies.report``: it copies the figures to ``docs/figures/`` and writes
-``RESULTS.md`` with every table, the command that made it, its wall time and the paper's numbers
-beside ours. A section whose results folder is missing says so instead of failing, so a partial
-re-run (e.g. only ``symrl study paper`` after the recipe changed) just refreshes its numbers.
+Run the commands in ``COMMANDS`` and ``BASELINE_VARIANTS`` (they write under ``results/``, which
+git ignores), then ``python -m symrl.studies.report``: it copies the figures to ``docs/figures/``
+and writes ``RESULTS.md`` with every table, the command that made it, the commit its numbers
+were measured at, and the paper's numbers beside ours. A section whose results folder is
+missing keeps its text from the previous ``RESULTS.md`` (with the commit it names) and says it
+was not re-run; without a previous text it says "Not run yet" instead of failing.
 """
 
 from __future__ import annotations
@@ -18,11 +19,19 @@ from typing import Any
 
 COMMANDS = {
     "plan": "symrl plan --out results/plan",
-    "study": "symrl ablate --recipes paper --sets 10 --trials 20 --seed 100 --out results/ablate",
     "ablate": "symrl ablate --sets 10 --trials 20 --seed 100 --out results/ablate",
+    "changes": "symrl ablate --changes-of paper_map --recipes paper_literal,reflex_only "
+    "--sets 10 --trials 20 --seed 100 --out results/changes-s100",
     "generalise": "symrl generalise --recipe {recipe} --out results/generalise-{recipe}",
 }
 """The commands whose folders this report reads (the baselines': ``BASELINE_VARIANTS``)."""
+
+RECIPE_ORDER = ("paper", "paper_map", "paper_literal", "no_partition", "reflex_only",
+                "no_reflex", "plain")  # fmt: skip
+"""The order of the recipes in the tables: the headline learners first."""
+
+STUDIED = ("paper", "paper_map")
+"""Recipes whose whole study (Table 1 and Figs 5-9) the report shows."""
 
 GENERALISE_RECIPES = ("reflex_only", "paper", "paper_map")
 """The recipes of the generalisation section, one per rung of knowledge: the reflex alone
@@ -30,6 +39,11 @@ GENERALISE_RECIPES = ("reflex_only", "paper", "paper_map")
 
 INTERPRETATION = Path(__file__).with_name("results_discussion.md")
 """Hand-written discussion appended to the generated report (what reproduces and what not)."""
+
+NOT_RERUN = (
+    "*Not re-run in this build (its results folder is missing): the text below is the previous "
+    "RESULTS.md's, measured at the commit it names.*"
+)
 
 
 def _load(path: Path) -> Any | None:
@@ -45,6 +59,23 @@ def _fig(src: Path, figures: Path, name: str) -> str:
     return f"![{name}](docs/figures/{name})"
 
 
+def measured_at(*records: dict[str, Any] | None) -> str:
+    """The commit (and version) the numbers of a section were measured at, from the
+    ``provenance`` its result files record; every distinct one when they differ."""
+    seen: list[str] = []
+    for record in records:
+        info = (record or {}).get("provenance") or {}
+        if not info.get("revision"):
+            continue
+        text = f"`{info['revision']}`" + (" with uncommitted changes" if info.get("dirty") else "")
+        text += f" (symrl {info['symrl']})" if info.get("symrl") else ""
+        if text not in seen:
+            seen.append(text)
+    if not seen:
+        return "Measured at: the result files record no commit."
+    return "Measured at commit " + ", ".join(seen) + "."
+
+
 def _section_plan(results: Path, figures: Path) -> list[str]:
     plan = _load(results / "plan" / "plan.json")
     out = ["## The optimum (`symrl plan`)", "", f"Command: `{COMMANDS['plan']}`", ""]
@@ -52,10 +83,12 @@ def _section_plan(results: Path, figures: Path) -> list[str]:
         return out + ["*Not run yet.*", ""]
     lb, walk, replay = plan["lower_bound"], plan["chord_walk"], plan["env_replay_noise_free"]
     out += [
+        "The planner is exact and deterministic (no seeds): the numbers are those of the code "
+        "this report was built from.",
+        "",
         f"- Method: {plan['method']}; length error bound {plan['length_error_bound_m']:g} m.",
         f"- Shortest path keeping {plan['clearance_m']:.3f} m (body 0.26 + IR 0.056) from every "
-        f"wall: **{plan['length_m']:.3f} m = {plan['actions']} actions** of 0.20 m "
-        "(docs/ALGORITHM.md: 25 actions, 4.91 m).",
+        f"wall: **{plan['length_m']:.3f} m = {plan['actions']} actions** of 0.20 m.",
         "- Lower bound with the body radius only (a sweep between poses may pass closer than an "
         f"end pose): {lb['length_m']:.3f} m = {lb['actions']} actions; a walk of {walk['moves']} "
         f"0.20 m moves along the path has {walk['sweep_contacts']} sweep contacts and "
@@ -65,7 +98,6 @@ def _section_plan(results: Path, figures: Path) -> list[str]:
         f"- Replayed in the env without noise: {replay}. The shortest path hugs the door post, so "
         "its total reinforcement (f1 near walls) is far from the best reachable total: steps and "
         "reinforcement are optimised by different paths." if replay else "- (no env replay)",
-        f"- Wall time {plan['wall_time_s']} s.",
         "",
         _fig(results / "plan" / "plan.png", figures, "plan.png"),
         "",
@@ -73,50 +105,133 @@ def _section_plan(results: Path, figures: Path) -> list[str]:
     return out
 
 
-def _section_study(results: Path, figures: Path) -> list[str]:
-    folder = results / "ablate" / "paper_map"
-    out = ["## Table 1 and Figs 5-9: the `paper` recipe (`symrl study paper`)", "",
-           f"Command: `{COMMANDS['study']}` (the same runs as `symrl study paper --sets 10 "
-           "--trials 20 --seed 100`; its folder is `results/ablate/paper`)", ""]
-    table = _load(folder / "table1.json")
-    if table is None:
+def _recipes_in(folder: Path) -> list[str]:
+    """The recipes with a study under ``folder``, headline learners first."""
+    found = [p.parent.name for p in folder.glob("*/table1.json")]
+    return sorted(found, key=lambda r: (RECIPE_ORDER.index(r) if r in RECIPE_ORDER else 99, r))
+
+
+def _inputs(recipe: str) -> tuple[str, str, bool]:
+    """(knowledge rung, what the experts read, whether its neurons compare with the paper's):
+    only experts that grow on the paper's input (the sonars and goal codes) do."""
+    from symrl.learner.config import load_config
+
+    config = load_config(recipe)
+    if not config.experts.learning:
+        return config.knowledge, "no experts", False
+    return config.knowledge, config.experts.input, config.experts.input == "sensors"
+
+
+def _at_last(table: dict[str, Any], key: str, digits: int) -> str:
+    """A measure at the last trial: mean (sample variance over the sets)."""
+    t = table[key]
+    return f"{t['mean']:.{digits}f} ({t['variance']:.{digits + 1}f})"
+
+
+def _last5(summary: dict[str, Any], key: str, digits: int) -> str:
+    """A measure's last-5-trial mean per set: mean ± sd over the sets."""
+    t = summary.get(f"{key}_last5")
+    return f"{t['mean']:.{digits}f} ± {t['std']:.{digits}f}" if t else "-"
+
+
+def table1_comparison(results: Path) -> str:
+    """The paper's Table 1 on its own measure (the last trial's mean and variance over sets)
+    for every recipe of the ablation, with the last-5 mean beside it."""
+    from symrl.studies.repeatability import PAPER_TABLE1
+
+    folder = results / "ablate"
+    summary = _load(folder / "summary.json") or {}
+    paper = PAPER_TABLE1
+    lines = [
+        "| recipe | knowledge | experts read | steps, last trial: mean (var) | steps, last 5 "
+        "| total reinf., last trial: mean (var) | total reinf., last 5 | neurons, last trial: "
+        "mean (var) |",
+        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: |",
+        f"| *the paper's robot (Table 1)* | regions | sensors | {paper['steps']['mean']} "
+        f"({paper['steps']['variance']}) | - | {paper['total_reinforcement']['mean']} "
+        f"({paper['total_reinforcement']['variance']}) | - | {paper['neurons']['mean']} "
+        f"({paper['neurons']['variance']}) |",
+    ]
+    for recipe in _recipes_in(folder):
+        table = _load(folder / recipe / "table1.json") or {}
+        rung, reads, comparable = _inputs(recipe)
+        last5 = summary.get(recipe, {})
+        neurons = _at_last(table, "neurons", 1) if comparable else f"not comparable ({reads})"
+        lines.append(
+            f"| `{recipe}` | {rung} | {reads} | {_at_last(table, 'steps', 1)} "
+            f"| {_last5(last5, 'steps', 1)} | {_at_last(table, 'total_reinforcement', 2)} "
+            f"| {_last5(last5, 'total_reinforcement', 2)} | {neurons} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _section_table1(results: Path, figures: Path) -> list[str]:
+    folder = results / "ablate"
+    out = ["## Table 1 on the paper's measures", "",
+           f"Command: `{COMMANDS['ablate']}` (one study per recipe, the same seeds)", ""]
+    recipes = _recipes_in(folder)
+    if not recipes:
         return out + ["*Not run yet.*", ""]
+    tables = [_load(folder / r / "table1.json") for r in recipes]
     out += [
-        (folder / "table1.md").read_text(),
-        f"CPU time {table.get('wall_time_s')} s (wall, 2 "
-        f"shared cores); seeds {table['seeds'][0]}-{table['seeds'][1]}.",
+        measured_at(*tables),
         "",
-        _study_check(results, table),
+        "The paper's Table 1 gives, over its 10 sets of 20 trials on the real robot, the mean "
+        "and the variance of each measure at the **last trial**; the same columns come first "
+        "here, with the mean ± sd over the sets of each set's last-5-trial mean beside them. "
+        "Variances are sample variances over the sets (ddof 1; the paper does not say which it "
+        "used). **Neurons are compared only where the inputs match**: the paper's experts grow "
+        "on the sonars and goal codes, as `experts.input: sensors` does; a recipe whose experts "
+        "read the odometry pose grows a neuron per 0.5 m of pose instead, a different count.",
         "",
-        "Learning curves (Figs 7-9; mean over sets, bars min-max):",
-        "",
-        _fig(folder / "curves.png", figures, "study-paper-curves.png"),
-        "",
-        "First and final trajectories of set 0 (Fig 6):",
-        "",
-        _fig(folder / "trajectories.png", figures, "study-paper-trajectories.png"),
-        "",
-        "Paths with neuron-toggle ghosts, and the final controller from four other starts (Fig 5):",
-        "",
-        _fig(folder / "ghosts.png", figures, "study-paper-ghosts.png"),
-        "",
+        table1_comparison(results),
     ]
     return out
 
 
-def _study_check(results: Path, table: dict[str, Any]) -> str:
-    """Was `symrl study paper` also run on its own, and did it give the same Table 1?"""
-    alone = _load(results / "study-paper" / "table1.json")
-    if alone is None:
-        return "(`symrl study paper` was not run on its own.)"
-    keys = ("neurons", "steps", "total_reinforcement", "collisions", "path_length")
-    same = all(alone.get(k) == table.get(k) for k in keys) and alone["seeds"] == table["seeds"]
-    return (
-        f"`symrl study paper --sets 10 --trials 20 --seed 100 --workers 2` run on its own: wall "
-        f"time {alone['wall_time_s']} s, code `{alone.get('code', '?')}`; its Table 1 is "
-        + ("identical to the one above." if same else "DIFFERENT from the one above (see "
-           "results/study-paper/table1.md).")
-    )
+def _section_study(results: Path, figures: Path) -> list[str]:
+    out: list[str] = []
+    for recipe in STUDIED:
+        folder = results / "ablate" / recipe
+        table = _load(folder / "table1.json")
+        if table is None:
+            continue
+        out += [
+            f"## Table 1 and Figs 5-9: `{recipe}` (`symrl study {recipe}`)", "",
+            f"Command: `{COMMANDS['ablate']}` (its `{recipe}` folder holds the same runs as "
+            f"`symrl study {recipe} --sets 10 --trials 20 --seed 100`)", "",
+            measured_at(table), "",
+            (folder / "table1.md").read_text(),
+            f"Wall time {table.get('wall_time_s')} s (2 shared cores); seeds "
+            f"{table['seeds'][0]}-{table['seeds'][1]}.",
+            "",
+            "Learning curves (Figs 7-9; mean over sets, bars min-max):", "",
+            _fig(folder / "curves.png", figures, f"study-{recipe}-curves.png"), "",
+            "First and final trajectories of set 0 (Fig 6):", "",
+            _fig(folder / "trajectories.png", figures, f"study-{recipe}-trajectories.png"), "",
+            "Paths with neuron-toggle ghosts, and the final controller from four other starts "
+            "(Fig 5):", "",
+            _fig(folder / "ghosts.png", figures, f"study-{recipe}-ghosts.png"), "",
+        ]  # fmt: skip
+    return out
+
+
+def _section_changes(results: Path, figures: Path) -> list[str]:
+    folder = results / "changes-s100"
+    out = ["## Which setting of `paper_map` buys what (`symrl ablate --changes-of paper_map`)", "",
+           f"Command: `{COMMANDS['changes']}`", ""]
+    changes = folder / "changes.md"
+    if not changes.is_file():
+        return out + ["*Not run yet.*", ""]
+    tables = [_load(p) for p in sorted(folder.glob("*/table1.json"))]
+    out += [
+        measured_at(*tables), "",
+        "Each setting in which `paper_map` differs from `paper_literal`, put back in turn; Δ is "
+        "the paired difference over the sets (mean ± standard error), positive: `paper_map` is "
+        "better with its setting.", "",
+        changes.read_text(),
+    ]  # fmt: skip
+    return out
 
 
 def _section_ablate(results: Path, figures: Path) -> list[str]:
@@ -128,6 +243,7 @@ def _section_ablate(results: Path, figures: Path) -> list[str]:
     summary = _load(folder / "summary.json")
     if summary is None:
         return out + ["*Not run yet.*", ""]
+    out += [measured_at(*(_load(folder / r / "table1.json") for r in _recipes_in(folder))), ""]
     cpu = ", ".join(
         f"{r} {s['wall_time_s']:.0f} s" for r, s in summary.items() if not r.startswith("_")
     )
@@ -155,10 +271,10 @@ def _section_ablate(results: Path, figures: Path) -> list[str]:
 
 
 BASELINE_VARIANTS = (
-    ("paper-20", "paper learner (`paper`)", "symrl sweep --recipes paper --seeds 100-104 "
+    ("paper-20", "paper learner (`paper_map`)", "symrl sweep --recipes paper_map --seeds 100-104 "
      "--trials 20 --out results/baselines/paper-20"),
     ("reflex-20", "reference: the shielded reflex alone (no learning)", "symrl sweep --recipes "
-     "paper --seeds 100-104 --trials 20 --out results/baselines/reflex-20 "
+     "paper_map --seeds 100-104 --trials 20 --out results/baselines/reflex-20 "
      "experts.learning=false options.enabled=false "
      "'reflex.peaks=[1.5707963267948966,0.0,-1.5707963267948966]'"),
     ("sac-scratch", "SAC from scratch", "symrl baseline sac --episodes {n} --seeds 100-104 "
@@ -331,6 +447,8 @@ def _section_generalise(results: Path, figures: Path) -> list[str]:
             out += ["*Not run yet.*", ""]
             continue
         out += [
+            measured_at(data),
+            "",
             (folder / "generalise.md").read_text(),
             f"Wall time {data['wall_time_s']} s.",
             "",
@@ -342,39 +460,74 @@ def _section_generalise(results: Path, figures: Path) -> list[str]:
     return out
 
 
-def _provenance() -> str:
-    """Which code made the numbers: the commit, and the last commit of the `paper` recipe."""
+def _built_from() -> str:
+    """The commit of the code this report was built with."""
     import subprocess
 
-    def git(*args: str) -> str:
-        try:
-            return subprocess.run(["git", *args], capture_output=True, text=True,
-                                  check=True).stdout.strip()
-        except (OSError, subprocess.CalledProcessError):
-            return "unknown"
-
-    recipe = git("log", "-1", "--format=%h %s", "--", "symrl/recipes/paper.yaml")
-    return (f"Code at commit `{git('rev-parse', '--short', 'HEAD')}`; "
-            f"`symrl/recipes/paper.yaml` last changed in `{recipe}`.")
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                              text=True, check=True).stdout.strip()  # fmt: skip
+    except (OSError, subprocess.CalledProcessError):
+        head = "unknown"
+    return f"Built with the code at commit `{head}`."
 
 
-def build(results: Path = Path("results"), figures: Path = Path("docs/figures")) -> str:
-    """The whole RESULTS.md text (copies figures as a side effect)."""
+SECTIONS = (_section_plan, _section_table1, _section_study, _section_ablate, _section_changes,
+            _section_baselines, _section_generalise)  # fmt: skip
+"""The report's sections, in order; each returns its Markdown lines, headed by ``## ``."""
+
+
+def split_sections(text: str) -> dict[str, str]:
+    """A RESULTS.md text as {``## `` heading line: the section's text up to the next one}."""
+    parts = re.split(r"(?m)^(?=## )", text)
+    return {part.splitlines()[0]: part for part in parts if part.startswith("## ")}
+
+
+def carry_over(fresh: list[str], previous: dict[str, str]) -> list[str]:
+    """``fresh`` (one section's lines), or the previous RESULTS.md's text of the same section
+    when this build has no results for it and that text has some."""
+    text = "\n".join(fresh)
+    if not fresh or "*Not run yet.*" not in text:
+        return fresh
+    old = previous.get(fresh[0])
+    if old is None or "*Not run yet.*" in old:
+        return fresh
+    head, _, body = old.partition("\n")
+    body = body.lstrip("\n")
+    if not body.startswith(NOT_RERUN):
+        body = f"{NOT_RERUN}\n\n{body}"
+    return [head, "", body.rstrip("\n"), ""]
+
+
+def build(results: Path = Path("results"), figures: Path = Path("docs/figures"),
+          previous: str = "") -> str:
+    """The whole RESULTS.md text (copies figures as a side effect); ``previous`` is the
+    RESULTS.md it replaces, whose sections stand in for those not re-run."""
+    from symrl.studies.repeatability import PAPER_TABLE1 as paper
+
+    old = split_sections(previous)
     lines = [
         "# Results",
         "",
-        "Generated by `python -m symrl.studies.report` from the folders the commands below wrote "
-        "(`results/`, git-ignored); figures are copied to `docs/figures/`. All runs: noise on, "
-        "seeds 100-109 (set k uses seed 100 + k), 2 CPU cores shared with other jobs, so wall "
-        "times are upper bounds. The paper's numbers: Hailu (2001), Table 1 (real robot, 10 sets "
-        "x 20 trials, last trial): neurons 82.5 (var 4.73), steps 27.7 (var 1.90), total "
-        "reinforcement -6.24 (var 0.875).",
+        "<!-- Generated by `python -m symrl.studies.report`: edit the report or the "
+        "discussion files in symrl/studies/, not this file. -->",
+        "",
+        "**Generated** by `python -m symrl.studies.report` from the folders the commands of "
+        "each section wrote (`results/`, git-ignored); figures are copied to `docs/figures/`. "
+        "Each section names its command and the commit its numbers were measured at. All runs: "
+        "noise on, seeds 100-109 (set k uses seed 100 + k; never used for tuning), 2 CPU cores "
+        "shared with other jobs, so wall times are upper bounds. The paper's numbers: Hailu "
+        "(2001), Table 1 (real robot, 10 sets x 20 trials, last trial): "
+        f"neurons {paper['neurons']['mean']} (var {paper['neurons']['variance']}), "
+        f"steps {paper['steps']['mean']} (var {paper['steps']['variance']}), "
+        f"total reinforcement {paper['total_reinforcement']['mean']} "
+        f"(var {paper['total_reinforcement']['variance']}).",
+        "",
+        _built_from(),
         "",
     ]
-    lines += [_provenance(), ""]
-    for section in (_section_plan, _section_study, _section_ablate, _section_baselines,
-                    _section_generalise):
-        lines += section(results, figures)
+    for section in SECTIONS:
+        lines += carry_over(section(results, figures), old)
     if INTERPRETATION.is_file():
         lines += [INTERPRETATION.read_text()]
     return "\n".join(lines)
@@ -392,8 +545,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.only == "baselines":
         print("\n".join(_section_baselines(Path(args.results), Path(args.figures))))
         return 0
-    text = build(Path(args.results), Path(args.figures))
-    Path(args.out).write_text(text)
+    out = Path(args.out)
+    previous = out.read_text() if out.is_file() else ""
+    text = build(Path(args.results), Path(args.figures), previous)
+    out.write_text(text)
     print(f"wrote {args.out} ({len(text.splitlines())} lines), figures in {args.figures}/")
     return 0
 

@@ -250,6 +250,28 @@ def builtin_maps() -> list[str]:
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
 
 
+SUITES = ("tuning", "check")
+"""Named suites of benchmark worlds shipped beside the maps (``maps/<suite>/``): ``tuning``, the
+worlds the route rules were tuned on; ``check``, worlds written to check them, never tuned on.
+``load_map("tuning/long_wall")`` and ``--map tuning/long_wall`` take a suite's world."""
+
+
+def suite_maps(suite: str) -> list[str]:
+    """Names (``suite/world``) of the worlds of a shipped suite."""
+    if suite not in SUITES:
+        raise MapError(f"suite {suite!r}: unknown; the suites are {', '.join(SUITES)}")
+    folder = resources.files("symrl.world") / "maps" / suite
+    return sorted(f"{suite}/{p.name[:-5]}" for p in folder.iterdir() if p.name.endswith(".yaml"))
+
+
+def _shipped(name: str) -> bool:
+    """A built-in map's name, or a suite's world's (``suite/world``)."""
+    suite, _, _ = name.rpartition("/")
+    if suite:
+        return suite in SUITES and name in suite_maps(suite)
+    return name in builtin_maps()
+
+
 def load_map(source: str | Path | dict[str, Any] = "hailu2001") -> WorldMap:
     """Load a map by built-in name, file path, or an already-parsed dict, and validate it."""
     if isinstance(source, dict):
@@ -257,10 +279,11 @@ def load_map(source: str | Path | dict[str, Any] = "hailu2001") -> WorldMap:
     text_source = str(source)
     path = Path(text_source)
     if not path.suffix and not path.exists():
-        if text_source not in builtin_maps():
+        if not _shipped(text_source):
             raise MapError(
                 f"map {text_source!r}: not a file and not a built-in map "
-                f"(built-in: {', '.join(builtin_maps())})"
+                f"(built-in: {', '.join(builtin_maps())}; suites: "
+                + ", ".join(f"{s}/NAME" for s in SUITES) + ")"
             )
         path = Path(str(resources.files("symrl.world") / "maps" / f"{text_source}.yaml"))
     if not path.exists():

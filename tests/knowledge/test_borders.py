@@ -114,3 +114,19 @@ def test_without_the_map_the_options_need_their_table():
     told = Knowledge.told(load_map("hailu2001"), "regions")
     with pytest.raises(ValueError, match="without the map, pass the table"):
         SubgoalOptions(told, 1, load_config("paper").options, [0])
+
+
+def test_told_the_passages_the_options_are_the_doors():
+    """office: the rules make the west office border the middle one (through a wall) and the
+    door band along its whole width; the passages say where the doors are and that the offices
+    connect only through the corridor."""
+    world = load_map("office")
+    told = Knowledge.told(world, "passages")
+    assert told.world is None and told.passages is not None
+    rules = border_subgoals(told.regions, told.goal)
+    doors = border_subgoals(told.regions, told.goal, told.passages)
+    west = told.regions.names.index("west_office")
+    assert "wc>middle_office" in rules.labels[west]
+    assert doors.labels[west] == ["goal", "offices>west_door"]
+    x, y = doors.point(west, 1)
+    assert 1.5 < x < 2.5 and y == pytest.approx(2.05 - 0.4)  # through the west door

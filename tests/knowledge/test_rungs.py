@@ -19,20 +19,25 @@ BOX = [[1.0, 1.0], [2.0, 1.0], [2.0, 1.8], [1.0, 1.8]]
 
 
 def test_the_rungs_are_ordered():
-    assert RUNGS == ("sensors", "regions", "map")
-    assert rung_at_least("map", "regions") and rung_at_least("regions", "regions")
-    assert not rung_at_least("sensors", "regions")
+    assert RUNGS == ("sensors", "regions", "passages", "map")
+    assert rung_at_least("map", "passages") and rung_at_least("regions", "regions")
+    assert not rung_at_least("sensors", "regions") and not rung_at_least("passages", "map")
 
 
 def test_below_map_the_knowledge_holds_no_geometry():
     world = load_map("hailu2001")
-    for rung in ("sensors", "regions"):
+    for rung in ("sensors", "regions", "passages"):
         told = Knowledge.told(world, rung)
         assert told.world is None
         assert (told.start, told.goal) == (world.start, world.goal)
         with pytest.raises(ValueError, match=f"localize needs knowledge=map .* knowledge={rung}"):
             told.geometry("localize")
     assert Knowledge.told(world, "regions").regions == world.regions
+    assert Knowledge.told(world, "regions").passages is None
+    # the passages rung: the door's stretch of l2 and l3 and the room | concave line, no walls
+    doors = {(b.line, round(b.lo, 6), round(b.hi, 6))
+             for b in Knowledge.told(world, "passages").passages or ()}
+    assert doors == {("l1", -1.5, 3.5), ("l2", -1.0, 0.0), ("l3", -1.0, 0.0)}
     assert Knowledge.told(world, "sensors").regions.names == ("all",)
     assert Knowledge.told(world, "map").geometry("options") is world
     with pytest.raises(ValueError, match="knowledge='walls': unknown"):
@@ -64,6 +69,9 @@ def test_every_recipe_declares_a_rung_its_settings_fit():
     assert load_config("paper").knowledge == "regions"
     assert load_config("paper_literal").knowledge == "regions"
     assert load_config("paper_map").knowledge == "map"
+    assert load_config("paper_passages").knowledge == "passages"
+    with pytest.raises(ConfigError, match="options.enabled=true needs knowledge=passages"):
+        load_config("paper", ["options.source=passages"])
 
 
 def test_an_agent_is_refused_knowledge_of_another_rung_than_its_config():

@@ -297,7 +297,7 @@ def _leaves(data: dict, prefix: str = "") -> dict:
 def test_a_recipe_is_its_file_merged_over_the_defaults_entry_by_entry(name):
     """Every value the recipe file names, and the defaults for everything else (inside a mapping
     such as ``reflex.near`` too)."""
-    text = (resources.files("symrl") / "recipes" / f"{name}.yaml").read_text()
+    text = (resources.files("symrl.recipes") / f"{name}.yaml").read_text()
     expected = _leaves(config_to_dict(RunConfig())) | _leaves(yaml.safe_load(text))
     expected["recipe"] = name
     assert _leaves(config_to_dict(load_config(name))) == expected

@@ -289,7 +289,7 @@ def test_planner_waypoint_rounds_the_partition_that_no_region_line_marks():
     assert "path" not in plain.labels[corridor]
 
 
-# long_wall of benchmarks/worlds: a long thin wall at y = 2.5 between the start (south) and the
+# the tuning world long_wall: a long thin wall at y = 2.5 between the start (south) and the
 # goal (north), two lips hanging from it make a bay right above the start; the short way round
 # is east (past x = 7.8), the long one west (past x = 2)
 LONG_WALL = {
@@ -364,7 +364,7 @@ def test_detour_drops_subgoals_off_the_short_way_and_unseen_from_it():
 
 
 def test_detour_keeps_a_subgoal_the_path_sees_though_its_start_does_not():
-    # side_pocket of benchmarks/worlds: a pocket of thin walls opening west, start low in the
+    # the tuning world side_pocket: a pocket of thin walls opening west, start low in the
     # west, goal high in the east. West's points by the pocket's north-east corner lie behind
     # the pocket from everywhere on the short way (below it): dropped, whatever the margin.
     # A point behind a wall seen from the start but in sight further along the path is kept

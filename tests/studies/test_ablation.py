@@ -116,9 +116,10 @@ def test_the_ladder_runs_each_rungs_recipe_on_the_same_seeds(tmp_path, capsys):
     assert main(argv) == 0
     table = (out / "ladder.md").read_text()
     rows = [line for line in table.splitlines() if line.startswith("| ") and "`" in line]
-    assert [r.split("|")[1].strip() for r in rows] == ["sensors", "regions", "regions", "map"]
+    assert [r.split("|")[1].strip() for r in rows] == ["sensors", "regions", "regions",
+                                                       "passages", "map"]
     assert [r.split("`")[1] for r in rows] == ["reflex_only", "paper_literal", "paper",
-                                               "paper_map"]
+                                               "paper_passages", "paper_map"]
     assert "real robot" in table and table in capsys.readouterr().out
     assert main(["ablate", "--ladder", "--recipes", "paper", "--out", str(out)]) != 0
     assert "--ladder runs its own recipes" in capsys.readouterr().err

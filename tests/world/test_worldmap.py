@@ -11,7 +11,7 @@ import yaml
 
 from symrl.world import MapError, load_map
 from symrl.world.env import Hailu2001Env
-from symrl.world.worldmap import builtin_maps
+from symrl.world.worldmap import SUITES, builtin_maps, suite_maps
 
 MAP_FILE = Path(str(resources.files("symrl.world") / "maps" / "hailu2001.yaml"))
 
@@ -307,14 +307,26 @@ def test_regions_of_many_points_equals_region_of_each(name):
     assert one_by_one == expected[:50]
 
 
-BENCHMARK_WORLDS = sorted((Path(__file__).parents[2] / "benchmarks" / "worlds").rglob("*.yaml"))
+SUITE_WORLDS = [name for suite in SUITES for name in suite_maps(suite)]
 
 
-@pytest.mark.parametrize("path", BENCHMARK_WORLDS, ids=lambda p: p.stem)
-def test_every_benchmark_world_loads_says_what_it_tests_and_its_goal_can_be_reached(path):
+def test_the_suites_ship_their_worlds_and_a_bad_suite_is_named():
+    assert len(suite_maps("tuning")) >= 19 and len(suite_maps("check")) >= 25
+    assert "tuning/long_wall" in suite_maps("tuning") and "check/pillars" in suite_maps("check")
+    assert load_map("tuning/long_wall").name == "long_wall"
+    assert not set(builtin_maps()) & {n.split("/")[1] for n in SUITE_WORLDS}  # names stay apart
+    with pytest.raises(MapError, match="suite 'tunings': unknown; the suites are tuning, check"):
+        suite_maps("tunings")
+    with pytest.raises(MapError, match=r"map 'tuning/nope': not a file .* suites: tuning/NAME"):
+        load_map("tuning/nope")
+
+
+@pytest.mark.parametrize("name", SUITE_WORLDS)
+def test_every_suite_world_loads_says_what_it_tests_and_its_goal_can_be_reached(name):
     from symrl.knowledge.planner import shortest_path
 
-    assert path.read_text().startswith("# "), "a header comment: what the world tests"
-    world = load_map(path)
+    text = (resources.files("symrl.world") / "maps" / f"{name}.yaml").read_text()
+    assert text.startswith("# "), "a header comment: what the world tests"
+    world = load_map(name)
     plan = shortest_path(world)
     assert plan.length > 0 and math.dist(plan.points[-1], (world.goal.x, world.goal.y)) <= 0.5

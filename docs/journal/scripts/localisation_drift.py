@@ -1,0 +1,130 @@
+"""How far the odometry drifts along a trial, and how far the map localisation's pose is from
+the true one (a script, not a test: the numbers behind docs/LEARNING.md, "Map localisation").
+
+For each map, ``drives`` robots (noise seeds ``seed`` ...) start at the map's start, and the
+shielded reflex drives them toward the goal by their odometry, as ``reflex_only`` does. At every
+step the localiser (``symrl.knowledge.localize.PoseTracker``, the settings of ``paper``) turns
+the odometry pose and the sonar scan into a believed pose, which is only recorded: the reflex
+keeps steering by the odometry, so the drift is the one the learner would face without it.
+Prints the position error of the odometry and of the belief over all steps and at each
+trial's end; ``--figure PATH`` draws one robot's true, odometry and believed paths per map.
+
+    python docs/journal/scripts/localisation_drift.py [--maps hailu2001,l_corridor,maze]
+        [--drives 30]
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import torch
+
+from symrl.knowledge.localize import MapLocalizer, PoseTracker
+from symrl.knowledge.reflex import FuzzyReflex
+from symrl.knowledge.shield import IRShield, ShieldConfig
+from symrl.learner.config import load_config
+from symrl.world import load_map
+from symrl.world.physics import RobotBatch
+
+
+def drift(name: str, drives: int, seed: int) -> dict[str, np.ndarray]:
+    """True, odometry and believed poses (T + 1, B, 3) and the steps each robot was driving."""
+    config = load_config("paper_map", [f"env.map={name}"])
+    world, robot = load_map(name), config.env.robot
+    physics = RobotBatch(world, robot, drives, noise=True, max_actions=config.env.max_actions)
+    rngs = [np.random.default_rng(seed + b) for b in range(drives)]
+    start = np.tile([world.start.x, world.start.y, world.start.heading], (drives, 1))
+    r = physics.reset(np.arange(drives), start, rngs)
+    lc = config.localize
+    tracker = PoseTracker(MapLocalizer(physics.walls, robot, lc.iterations, lc.prior_xy,
+                                       lc.prior_heading, max_move=lc.max_move),
+                          drives)  # fmt: skip
+    reflex, shield = FuzzyReflex(config.reflex), IRShield(ShieldConfig(), robot)
+    true, odometry, belief, alive = [], [], [], []
+    driving = np.ones(drives, dtype=bool)
+    with torch.no_grad():
+        while driving.any():
+            true.append(r.true_pose.copy())
+            odometry.append(r.odometry.astype(np.float64))
+            belief.append(tracker(r.odometry, r.sonar))
+            alive.append(driving.copy())
+            sonar = torch.from_numpy(r.sonar.astype(np.float64))
+            action = reflex(sonar, torch.from_numpy(r.goal[:, 1].astype(np.float64)))
+            action, _ = shield(torch.from_numpy(r.ir), action)
+            r = physics.step(action.numpy().astype(np.float32), rngs)
+            driving &= ~(r.reached_goal | r.truncated)
+    runs = {"true": true, "odometry": odometry, "belief": belief, "alive": alive}
+    return {key: np.stack(value) for key, value in runs.items()}
+
+
+def summary(name: str, d: dict[str, np.ndarray]) -> str:
+    alive = d["alive"]
+    last = alive.sum(0) - 1  # each robot's last recorded step
+
+    def err(key: str) -> tuple[np.ndarray, np.ndarray]:
+        e = np.hypot(*(d[key][..., :2] - d["true"][..., :2]).transpose(2, 0, 1))
+        return e[alive], e[last, np.arange(e.shape[1])]
+
+    (_, odo_end), (bel, bel_end) = err("odometry"), err("belief")
+    return (f"| `{name}` | {alive.sum(0).mean():.1f} | {odo_end.mean():.3f} | {odo_end.max():.3f} "
+            f"| {bel.mean() * 1000:.1f} | {np.quantile(bel, 0.99) * 1000:.1f} "
+            f"| {bel.max() * 1000:.1f} | {bel_end.mean() * 1000:.1f} |")  # fmt: skip
+
+
+def figure(runs: dict[str, dict[str, np.ndarray]], path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from symrl.world.render import draw_world
+
+    fig, axes = plt.subplots(1, len(runs), figsize=(5.0 * len(runs), 4.8), squeeze=False)
+    for ax, (name, d) in zip(axes[0], runs.items(), strict=True):
+        draw_world(ax, load_map(name), regions=False)
+        ends = d["alive"].sum(0)
+        last = d["true"][ends - 1, np.arange(len(ends))]
+        drift = np.hypot(*(d["odometry"][ends - 1, np.arange(len(ends)), :2] - last[:, :2]).T)
+        # the drive with the most drift at its end, among those that reached the goal if any
+        arrived = ends < len(d["alive"])
+        b = int(np.argmax(np.where(arrived, drift, -1.0) if arrived.any() else drift))
+        n = int(ends[b])
+        for key, color, label in (("true", "black", "true path"),
+                                  ("odometry", "tab:red", "odometry"),
+                                  ("belief", "tab:blue", "map localisation")):  # fmt: skip
+            xy = d[key][:n, b, :2]
+            ax.plot(xy[:, 0], xy[:, 1], color=color, lw=1.2, label=label,
+                    ls="--" if key == "belief" else "-")  # fmt: skip
+        ax.plot(*d["true"][0, b, :2], "o", mfc="white", mec="black", label="start")
+        ax.set_title(f"{name}: {n} actions, odometry {drift[b]:.2f} m off at the end", fontsize=9)
+        ax.set_aspect("equal")
+        ax.legend(loc="best", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--maps", default="hailu2001,l_corridor,maze")
+    ap.add_argument("--drives", type=int, default=30)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--figure", default=None, metavar="PATH")
+    args = ap.parse_args()
+    torch.set_num_threads(1)
+    runs = {name: drift(name, args.drives, args.seed) for name in args.maps.split(",")}
+    print(f"{args.drives} drives per map of the shielded reflex, noise seeds {args.seed}-"
+          f"{args.seed + args.drives - 1}; position errors against the true pose")  # fmt: skip
+    print("| world | actions | odometry at the end, mean (m) | max (m) "
+          "| belief, every step: mean (mm) | 99 % (mm) | max (mm) | belief at the end (mm) |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for name, d in runs.items():
+        print(summary(name, d))
+    if args.figure:
+        figure(runs, args.figure)
+        print(f"wrote {args.figure}")
+
+
+if __name__ == "__main__":
+    main()

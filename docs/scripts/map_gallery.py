@@ -1,0 +1,63 @@
+"""The shipped worlds in one go: a picture of each, its planner optimum and its sub-goal tables.
+
+Run from the repository root: ``python docs/scripts/map_gallery.py`` writes
+``docs/figures/maps/<name>.png`` (hand regions) and ``<name>_auto.png`` (regions found from the
+walls, ``regions: auto``) and prints the Markdown tables used in ``docs/MAPS.md``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import yaml
+
+from symrl.knowledge.planner import shortest_path
+from symrl.knowledge.subgoals import SubgoalConfig, build_subgoals
+from symrl.world.autoregions import auto_regions
+from symrl.world.render import save_map_figure
+from symrl.world.worldmap import builtin_maps, load_map
+
+OUT = Path("docs/figures/maps")
+PAPER = SubgoalConfig(past=True, beyond=(0.4,), min_clearance=0.45)
+
+
+def main() -> None:
+    OUT.mkdir(parents=True, exist_ok=True)
+    print("| map | shortest path (m) | actions of 0.20 m |")
+    print("|---|---|---|")
+    tables = []
+    for name in builtin_maps():
+        world = load_map(name)
+        plan = shortest_path(world)
+        table = build_subgoals(world, PAPER)
+        points = table.points[table.valid].tolist()
+        save_map_figure(world, OUT / f"{name}.png", plan.points, subgoals=points)
+        print(f"| `{name}` | {plan.length:.3f} | {plan.actions} |")
+        tables.append((name, table))
+        found = auto_regions(world.boundary, world.obstacles, world.extra_segments)
+        doc = yaml.safe_load(Path(world.source).read_text()) | {"regions": "auto"}
+        auto = load_map(doc)
+        auto_table = build_subgoals(auto, PAPER)
+        auto_points = auto_table.points[auto_table.valid].tolist()
+        save_map_figure(
+            auto, OUT / f"{name}_auto.png", title=f"{name}, regions: auto", subgoals=auto_points
+        )
+        if name == "hailu2001":
+            tables.append((f"{name}, regions: auto", auto_table))
+            print("\n" + yaml.safe_dump({"regions": found}, default_flow_style=None, width=99))
+    for name, table in tables:
+        print(f"\n`{name}` (paper configuration):\n")
+        print("| region | options |")
+        print("|---|---|")
+        for r, region in enumerate(table.region_names):
+            opts = ", ".join(
+                f"{label} ({x:.2f}, {y:.2f})"
+                for label, (x, y) in zip(
+                    table.labels[r], table.points[r][table.valid[r]].tolist(), strict=True
+                )
+            )
+            print(f"| {region} | {opts} |")
+
+
+if __name__ == "__main__":
+    main()
