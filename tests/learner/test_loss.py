@@ -196,12 +196,15 @@ def test_first_transition_into_an_empty_bank():
 def test_set_keys_renames_what_the_update_reads():
     p = _two_neurons()
     loss = TeseoLoss(p)
-    loss.set_keys(xi="noise", reward="r2")
+    loss.set_keys(xi="noise", reward="r2", x="features")
     assert "noise" in loss.in_keys and ("next", "r2") in loss.in_keys
     assert "xi" not in loss.in_keys and ("next", "reward") not in loss.in_keys
+    assert ("next", "features") in loss.in_keys and ("next", "x") not in loss.in_keys
     td = transition(p, A, B, -0.4, xi=0.35)
     td.rename_key_("xi", "noise")
     td.rename_key_(("next", "reward"), ("next", "r2"))
+    td.rename_key_("x", "features")  # the perception's key, on the root and on next
+    td.rename_key_(("next", "x"), ("next", "features"))
     loss(td)
     u = p.config.update
     u_new, mu_new, _ = _oracle(-1.0, -0.5, 0.1, 0.2, 0.35, -0.4, u.gamma, u.eta, u.beta)
