@@ -19,15 +19,15 @@ def main() -> None:
     args = parser.parse_args()
     reflex = train(load_config("reflex_only", ["run.trials=1", f"run.seed={args.seed}"]),
                    progress=False).trials[0]  # fmt: skip
-    learned = train(load_config("paper_map", ["run.trials=20", f"run.seed={args.seed}"]),
+    learned = train(load_config("paper", ["run.trials=20", f"run.seed={args.seed}"]),
                     progress=False)  # fmt: skip
     last = learned.trials[-1]
     plot_paths(
-        learned.policy.world,
+        learned.world,
         [
             (f"the fuzzy reflex alone: {reflex['steps']} actions, "
              f"total {reflex['total_reinforcement']:.1f}", [reflex["path"]], []),
-            (f"paper, trial {last['trial']}: {last['steps']} actions, "
+            (f"paper (told the region rules), trial {last['trial']}: {last['steps']} actions, "
              f"total {last['total_reinforcement']:.1f}", [last["path"]], []),
         ],
         args.out,

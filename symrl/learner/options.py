@@ -252,7 +252,6 @@ class SubgoalOptions(BufferViews):
     def _replan(self, xy: np.ndarray) -> np.ndarray:
         """The first turn of the planner's shortest path from ``xy`` more than ``reach`` away,
         pushed out to 0.45 m from its wall (the goal if the way is straight or unknown)."""
-
         reach = float(self.config.reach)  # type: ignore[attr-defined]
         start = (float(xy[0]), float(xy[1]))
         assert self._world is not None  # the region limit with the map, the only caller

@@ -234,6 +234,25 @@ def _section_changes(results: Path, figures: Path) -> list[str]:
     return out
 
 
+def _section_ladder(results: Path, figures: Path) -> list[str]:
+    """What each rung of knowledge buys: the ladder's recipes out of the ablation's folder."""
+    from symrl.studies.ablation import LADDER, ladder_markdown
+
+    folder = results / "ablate"
+    out = ["## The knowledge ladder (`symrl ablate --ladder`)", "",
+           f"From the ablation's folder (command: `{COMMANDS['ablate']}`; "
+           "`symrl ablate --ladder` runs these recipes alone).", ""]  # fmt: skip
+    summary = _load(folder / "summary.json")
+    if summary is None or not all(r in summary for r in LADDER):
+        return out + ["*Not run yet.*", ""]
+    rows = {r: summary[r] for r in LADDER}
+    rows.update({k: v for k, v in summary.items() if k.startswith("_")})
+    out += [measured_at(*(_load(folder / r / "table1.json") for r in LADDER)), ""]
+    return out + [ladder_markdown(rows), "Mean ± std over sets of each set's last-5-trial mean "
+                  "(trial 1: its first trial); the paper's row is its own measure, the last "
+                  "trial.", ""]
+
+
 def _section_ablate(results: Path, figures: Path) -> list[str]:
     from symrl.studies.ablation import summary_markdown
 
@@ -472,8 +491,8 @@ def _built_from() -> str:
     return f"Built with the code at commit `{head}`."
 
 
-SECTIONS = (_section_plan, _section_table1, _section_study, _section_ablate, _section_changes,
-            _section_baselines, _section_generalise)  # fmt: skip
+SECTIONS = (_section_plan, _section_table1, _section_ladder, _section_study, _section_ablate,
+            _section_changes, _section_baselines, _section_generalise)  # fmt: skip
 """The report's sections, in order; each returns its Markdown lines, headed by ``## ``."""
 
 
