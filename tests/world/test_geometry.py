@@ -46,7 +46,7 @@ def reference_cast(segments: np.ndarray, x: float, y: float, angle: float, cap: 
     for ax, ay, bx, by in segments.tolist():
         dx, dy = bx - ax, by - ay
         denom = ux * dy - uy * dx
-        if abs(denom) < 1e-300:  # parallel
+        if denom == 0.0:  # parallel (a wall a denormal off parallel still meets the ray)
             continue
         wx, wy = ax - x, ay - y
         t = (wx * dy - wy * dx) / denom
@@ -54,6 +54,14 @@ def reference_cast(segments: np.ndarray, x: float, y: float, angle: float, cap: 
         if t > 0 and -1e-9 <= s <= 1 + 1e-9:
             best = min(best, t)
     return best
+
+
+def test_a_wall_that_touches_the_ray_at_its_end_is_hit_there():
+    """A wall from (1, 0) up to (0.5, 2.2e-308), a denormal off the ray along +x: the ray meets
+    it at its end point, 1 m out (Hypothesis found the reference missing it as 'parallel')."""
+    segs = np.array([[1.0, 0.0, 0.5, 2.2e-308]])
+    assert Walls(segs).cast(0.0, 0.0, np.array([0.0]), 5.0)[0] == pytest.approx(1.0)
+    assert reference_cast(segs, 0.0, 0.0, 0.0, 5.0) == pytest.approx(1.0)
 
 
 @settings(max_examples=40, deadline=None)
