@@ -263,6 +263,15 @@ _AT_LEAST = {"progress.trials_done": 0, "options.critic.n": 0, "options.critic.t
              "options.critic.epsilon": 0.0}  # fmt: skip
 
 
+
+def _outside(values: torch.Tensor, low: int, high: int) -> int | None:
+    """A value of the integer tensor ``values`` outside ``low..high`` (its largest when that is
+    too high, else its smallest), or None when all are within."""
+    if not values.numel():
+        return None
+    smallest, largest = int(values.min()), int(values.max())
+    return largest if largest > high else smallest if smallest < low else None
+
 def check_policy_state(state: dict[str, Any], fresh: dict[str, torch.Tensor]) -> str | None:
     """The first fault of a saved controller ``state`` against ``fresh``, the state dict of the
     controller its config and map build (None: it can be loaded): an entry missing, unknown, not
@@ -303,21 +312,21 @@ def check_policy_state(state: dict[str, Any], fresh: dict[str, torch.Tensor]) ->
     if "experts.count" in state and "experts.used" in state:
         count, used = state["experts.count"], state["experts.used"]
         capacity = used.shape[2] if used.dim() >= 3 else 0
-        if count.numel() and (int(count.min()) < 0 or int(count.max()) > capacity):
-            bad = int(count.min()) if int(count.min()) < 0 else int(count.max())
+        bad = _outside(count, 0, capacity)
+        if bad is not None:
             return (f"policy entry experts.count holds {bad} neurons, outside 0..{capacity} "
                     "(the stored neurons)")  # fmt: skip
     if "options.choice" in state and "options.critic.q" in state:
         options = state["options.critic.q"].shape[-1]
         choice = state["options.choice"]
-        if choice.numel() and (int(choice.min()) < -1 or int(choice.max()) >= options):
-            bad = int(choice.max()) if int(choice.max()) >= options else int(choice.min())
+        bad = _outside(choice, -1, options - 1)
+        if bad is not None:
             return f"policy entry options.choice holds {bad}, outside -1..{options - 1}"
     if "options.visit" in state and "options.critic.q" in state:
         regions = state["options.critic.q"].shape[-2]
         visit = state["options.visit"]
-        if visit.numel() and (int(visit.min()) < -1 or int(visit.max()) >= regions):
-            bad = int(visit.max()) if int(visit.max()) >= regions else int(visit.min())
+        bad = _outside(visit, -1, regions - 1)
+        if bad is not None:
             return f"policy entry options.visit holds region {bad}, outside -1..{regions - 1}"
     return None
 
