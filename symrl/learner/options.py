@@ -174,7 +174,7 @@ class SubgoalOptions(BufferViews):
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
         start_turn = self._zero_turn
         if self._start_turn is not None:
-            start_turn = starting & (np.abs(angle) > self._start_turn)
+            start_turn = (starting | on_route) & (np.abs(angle) > self._start_turn)
         return (torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered),
                 torch.from_numpy(aim), start_turn)
 

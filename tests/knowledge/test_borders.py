@@ -10,7 +10,10 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from symrl.knowledge.borders import Border, border_subgoals, region_borders, region_hops
+from symrl.knowledge.borders import (
+    Border, border_subgoals, option_table, region_borders, region_hops,
+)  # fmt: skip
+from symrl.knowledge.route import ROUTE
 from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import load_config
 from symrl.learner.options import SubgoalOptions
@@ -110,10 +113,21 @@ def test_without_the_map_an_option_timed_out_gives_way_to_the_best_one_left():
         assert int(option[0]) == 2
 
 
-def test_without_the_map_the_options_need_their_table():
-    told = Knowledge.told(load_map("hailu2001"), "regions")
-    with pytest.raises(ValueError, match="without the map, pass the table"):
-        SubgoalOptions(told, 1, load_config("paper").options, [0])
+def test_below_the_map_nothing_builds_the_route():
+    """The route needs the planner: an agent told less than the map gets the same table it
+    would without the route, and asking for the route option below the map is an error."""
+    world = load_map("hailu2001")
+    for rung, source in (("regions", "rules"), ("passages", "passages")):
+        told = Knowledge.told(world, rung)
+        opt = SubgoalOptions(told, 1, load_config("paper", [f"options.source={source}"]
+                                                    + [f"knowledge={rung}"]).options, [0])
+        assert opt.route is None and all(ROUTE not in row for row in opt.labels)
+        with pytest.raises(ValueError, match=f"route option needs knowledge=map .* knowledge={rung}$"):
+            option_table(told, "map")
+    mapped = option_table(Knowledge.told(world, "map"), "map")
+    doors = option_table(Knowledge.told(world, "passages"), "passages")
+    assert mapped.labels == [[ROUTE, *row] for row in doors.labels]
+    torch.testing.assert_close(mapped.points[:, 1:], doors.points)
 
 
 def test_told_the_passages_the_options_are_the_doors():

@@ -230,11 +230,11 @@ def test_options_choose_at_the_first_entry_of_a_region_per_trial():
 
 def test_options_steer_the_reflex_at_the_chosen_subgoal():
     # (no goal lead: the sub-goal from the region's first step)
-    p = policy("paper_map", "shield.enabled=false", "options.try_untried=false",
+    p = policy("paper_map", "shield.enabled=false", "option_critic.try_untried=false",
                "options.goal_lead_deg=0")  # fmt: skip
     r = p.region_names.index("room")
     labels = p.options.labels[r]
-    k = next(i for i, name in enumerate(labels) if name != "goal")
+    k = next(i for i, name in enumerate(labels) if name not in ("goal", "route"))
     p.options.critic.n[0, r] = 1  # everything tried: greedy on q
     p.options.critic.q[0, r] = -5.0
     p.options.critic.q[0, r, k] = -1.0

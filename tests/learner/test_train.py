@@ -295,7 +295,7 @@ def test_train_command_errors_and_help_keys(tmp_path, capsys):
     assert "RECIPE" in capsys.readouterr().err
     assert main(["train", "--help-keys"]) == 0
     text = capsys.readouterr().out
-    assert "update.gamma = 0.95" in text and "options.critic" in text
+    assert "update.gamma = 0.95" in text and "option_critic.critic" in text
 
 
 def test_evaluate_command(checkpoint, tmp_path, capsys):
