@@ -205,7 +205,7 @@ class OptionsConfig(_Section):
     reach: float = Field(0.25, ge=0)
     """A sub-goal nearer than this (m, believed pose) is reached: aim at the goal for the visit.
     The route re-plans when no point of its path up to the aim lies this near."""
-    ahead: float = Field(0.6, gt=0)
+    ahead: float = Field(0.8, gt=0)
     """How far along the route's path (m) from the robot's nearest point it aims (``map``)."""
     region_limit: StrictInt | None = Field(None, ge=1)
     """A timeout: an option in force for this many actions of a trial in its region (its

@@ -11,8 +11,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from symrl.knowledge.borders import (
-    Border, border_subgoals, option_table, region_borders, region_hops,
-)  # fmt: skip
+    Border,
+    border_subgoals,
+    option_table,
+    region_borders,
+    region_hops,
+)
 from symrl.knowledge.route import ROUTE
 from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import load_config
@@ -122,7 +126,8 @@ def test_below_the_map_nothing_builds_the_route():
         opt = SubgoalOptions(told, 1, load_config("paper", [f"options.source={source}"]
                                                     + [f"knowledge={rung}"]).options, [0])
         assert opt.route is None and all(ROUTE not in row for row in opt.labels)
-        with pytest.raises(ValueError, match=f"route option needs knowledge=map .* knowledge={rung}$"):
+        refused = f"route option needs knowledge=map .* knowledge={rung}$"
+        with pytest.raises(ValueError, match=refused):
             option_table(told, "map")
     mapped = option_table(Knowledge.told(world, "map"), "map")
     doors = option_table(Knowledge.told(world, "passages"), "passages")

@@ -343,7 +343,9 @@ def test_cooling_down_to_the_floor():
 def _option_policy(*overrides: str):
     """Options on, greedy choices (untried ones are not tried first): the first option of a
     region until another one has a better critic."""
-    return policy("paper_map", "option_critic.try_untried=false", "option_critic.epsilon=0", *overrides)
+    return policy(
+        "paper_map", "option_critic.try_untried=false", "option_critic.epsilon=0", *overrides
+    )
 
 
 def _act(p, loss, obs, nxt, reward):

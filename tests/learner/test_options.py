@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import torch
 
-from symrl.knowledge.subgoals import SubgoalTable
 from symrl.knowledge.route import ROUTE
 from symrl.knowledge.rungs import Knowledge
+from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import OptionCriticConfig, OptionsConfig, load_config
 from symrl.learner.options import SubgoalOptions
 from symrl.world.worldmap import load_map, parse_map
