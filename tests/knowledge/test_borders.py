@@ -149,3 +149,20 @@ def test_told_the_passages_the_options_are_the_doors():
     assert doors.labels[west] == ["goal", "offices>west_door"]
     x, y = doors.point(west, 1)
     assert 1.5 < x < 2.5 and y == pytest.approx(2.05 - 0.4)  # through the west door
+
+
+def test_the_paper_worlds_table_told_the_map_is_pinned():
+    """``paper_map``'s options on the paper's world (docs/MAPS.md): the route, the goal, and
+    the point 0.4 m past the passage toward the goal's region."""
+    table = option_table(Knowledge.told(load_map("hailu2001"), "map"), "map")
+    assert table.region_names == ("room", "concave", "door", "corridor")
+    assert table.labels == [
+        [ROUTE, "goal", "l2>door"],
+        [ROUTE, "goal", "l1>room"],
+        [ROUTE, "goal", "l3>corridor"],
+        [ROUTE, "goal"],
+    ]
+    assert table.point(0, 2) == pytest.approx((3.9, -0.5))
+    assert table.point(1, 2) == pytest.approx((3.0, -0.6))
+    assert table.point(2, 2) == pytest.approx((4.15, -0.5))
+    assert table.valid.sum(dim=1).tolist() == [3, 3, 3, 2]

@@ -14,7 +14,9 @@ import yaml
 from shapely.geometry import Polygon, box
 from shapely.ops import unary_union
 
-from symrl.knowledge.subgoals import build_subgoals, find_passages
+from symrl.knowledge.borders import option_table
+from symrl.knowledge.rungs import Knowledge
+from symrl.knowledge.subgoals import find_passages
 from symrl.world import load_map
 from symrl.world.autoregions import auto_regions
 
@@ -192,12 +194,10 @@ def test_auto_regions_give_the_paper_door_as_sub_goals():
     world = load_map(_auto("hailu2001"))
     passages = {(p.line, p.before, p.after) for p in find_passages(world)}
     assert passages == {("x1", "room2", "door1"), ("x2", "door1", "room1")}
-    table = build_subgoals(world)
+    table = option_table(Knowledge.told(world, "map"), "map")
     room = table.region_names.index("room2")
-    assert any(
-        abs(x - 3.5) < 1e-6 and abs(y + 0.5) < 1e-6
-        for x, y in table.points[room][table.valid[room]].tolist()
-    )
+    assert table.labels[room] == ["route", "goal", "x1>door1"]
+    assert table.point(room, 2) == pytest.approx((3.9, -0.5))  # 0.4 m past the door's line
 
 
 def test_bad_regions_value_names_auto():
