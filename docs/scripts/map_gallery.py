@@ -11,9 +11,8 @@ from pathlib import Path
 
 import yaml
 
-from symrl.knowledge.borders import option_table
 from symrl.knowledge.planner import shortest_path
-from symrl.knowledge.route import ROUTE
+from symrl.knowledge.route import ROUTE, option_table
 from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.world.autoregions import auto_regions

@@ -22,18 +22,11 @@ import math
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
-from symrl.knowledge.route import ROUTE
 from symrl.knowledge.subgoals import SubgoalTable, find_passages
 from symrl.world.worldmap import Goal, RegionSpec, WorldMap
 
-if TYPE_CHECKING:  # the knowledge object is built from the borders' module
-    from symrl.knowledge.rungs import Knowledge
-
-__all__ = [
-    "Border", "region_borders", "passages_of", "region_hops", "border_subgoals", "option_table",
-]  # fmt: skip
+__all__ = ["Border", "region_borders", "passages_of", "region_hops", "border_subgoals"]
 
 
 @dataclass(frozen=True)
@@ -147,23 +140,3 @@ def border_subgoals(
             cands.append((xy, f"{b.line}>{other}"))
         per_region.append(cands)
     return SubgoalTable.of(tuple(spec.names), per_region)
-
-
-def option_table(knowledge: Knowledge, source: str) -> SubgoalTable:
-    """The options a robot told ``knowledge`` chooses among per region (``options.source``):
-    the border points of the region rules (``rules``) or of the passages it is told of
-    (``passages``); at ``map`` the passages' points behind a first option, the route (its
-    point, the goal here, is re-planned as the robot goes: ``symrl.knowledge.route``)."""
-    told = knowledge.passages if source in ("passages", "map") else None
-    table = border_subgoals(knowledge.regions, knowledge.goal, told)
-    if source != "map":
-        return table
-    knowledge.geometry("the route option")
-    goal = (float(knowledge.goal.x), float(knowledge.goal.y))
-    per_region = [
-        [(goal, ROUTE)] + [((float(x), float(y)), label) for (x, y), label, ok in
-                           zip(table.points[i].tolist(), labels, table.valid[i].tolist(),
-                               strict=False) if ok]
-        for i, labels in enumerate(table.labels)
-    ]  # fmt: skip
-    return SubgoalTable.of(table.region_names, per_region)

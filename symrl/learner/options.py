@@ -28,8 +28,7 @@ import torch
 
 from symrl.buffers import BufferViews
 from symrl.grad import no_grad
-from symrl.knowledge.borders import option_table
-from symrl.knowledge.route import ROUTE, Route
+from symrl.knowledge.route import ROUTE, Route, option_table
 from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import OptionCriticConfig, OptionsConfig

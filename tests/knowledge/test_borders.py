@@ -10,14 +10,8 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from symrl.knowledge.borders import (
-    Border,
-    border_subgoals,
-    option_table,
-    region_borders,
-    region_hops,
-)
-from symrl.knowledge.route import ROUTE
+from symrl.knowledge.borders import Border, border_subgoals, region_borders, region_hops
+from symrl.knowledge.route import ROUTE, option_table
 from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import load_config
 from symrl.learner.options import SubgoalOptions

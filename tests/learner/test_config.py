@@ -58,7 +58,7 @@ def test_paper_sets_its_switches_and_keeps_the_budget():
     o = paper.options
     assert o.enabled and o.source == "map" and o.region_limit == 20
     assert paper.option_critic.critic == "mean" and paper.option_critic.try_untried
-    assert o.goal_lead_deg == 20.0 and literal.options.goal_lead_deg == 0.0
+    assert o.goal_lead_deg == 0.0 and load_config("paper").options.goal_lead_deg == 20.0
     assert literal.options.region_limit is None
     assert paper.shield.enabled and paper.shield.margin == 0.06
     # softer avoidance behind the shield; the rules and the other sectors unchanged

@@ -9,8 +9,8 @@ import torch
 from shapely.geometry import Point, Polygon
 
 from symrl.cli import main
-from symrl.knowledge.borders import option_table
 from symrl.knowledge.planner import shortest_path
+from symrl.knowledge.route import option_table
 from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import load_config
 from symrl.learner.policy import MixtureOfExpertsPolicy

@@ -14,7 +14,7 @@ import yaml
 from shapely.geometry import Polygon, box
 from shapely.ops import unary_union
 
-from symrl.knowledge.borders import option_table
+from symrl.knowledge.route import option_table
 from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import find_passages
 from symrl.world import load_map
