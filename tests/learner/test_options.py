@@ -329,3 +329,21 @@ def test_a_timed_out_option_gives_way_and_the_route_does_not_time_out():
     for _ in range(10):  # re-planned, never given up
         assert _aim(opt, WEST, -1.0, -1.0)[0] == 0
     assert opt.trial_choices(np.array([0]))[0].tolist() == [[0, -1]]
+
+
+def test_on_the_route_the_start_turn_applies_at_every_step():
+    """The reflex turns at most 45 degrees an action: on the route a robot whose aim lies more
+    than start_turn_deg off its heading turns straight at it, not only on the trial's first
+    step; on another option only on the first step."""
+    opt = _route_options(start_turn_deg=90.0)
+    region = torch.tensor([WEST])
+
+    def turn(heading: float) -> bool:
+        return bool(opt.steer(region, _odometry((-1.5, -1.5, heading)), False)[4][0])
+
+    assert turn(0.6) is False  # the aim (up and right) lies within 90 degrees
+    assert turn(math.pi + 1.0) is True  # a later step, the aim behind: on the route, turn
+    opt.begin_trial(torch.tensor([0]))
+    opt.choice[0, WEST] = 1  # the goal, as the option of the region
+    assert turn(math.pi) is True  # the trial's first step
+    assert turn(math.pi) is False  # a later step: the reflex turns
