@@ -38,14 +38,8 @@ class Route:
     """Per robot of a batch, its current path (None: not planned yet in this trial) and how far
     along it the robot has come."""
 
-    def __init__(
-        self, world: WorldMap, batch: int, ahead: float, reach: float, clearance: float = 0.0
-    ) -> None:
+    def __init__(self, world: WorldMap, batch: int, ahead: float, reach: float) -> None:
         self.world = world
-        # the clearances to plan with, widest first: the wanted one where the way is that wide,
-        # the planner's collision clearance, and pressed against a wall the body radius only
-        radius, ir, _ = robot_clearances()
-        self.clearances = sorted({max(clearance, radius + ir), radius + ir, radius}, reverse=True)
         self.ahead = max(1, round(ahead / _SPACING))  # the aim, in path points past the robot
         self.reach = reach
         self.paths: list[np.ndarray | None] = [None] * batch
@@ -89,10 +83,11 @@ class Route:
         return start + i if d[i] <= self.reach else None
 
     def _replan(self, here: np.ndarray) -> np.ndarray | None:
-        """The path from ``here`` (its first point), resampled every 5 cm, keeping the first of
-        :attr:`clearances` from the walls that leaves a way; None where none does."""
+        """The path from ``here`` (its first point), resampled every 5 cm; nearer a wall than
+        the planner's clearance, planned keeping the body radius only; None where there is no
+        way even so."""
         start = (float(here[0]), float(here[1]))
-        for clearance in self.clearances:
+        for clearance in (None, robot_clearances()[0]):
             try:
                 points = shortest_path(self.world, start=start, clearance=clearance).points
             except ValueError:

@@ -207,9 +207,6 @@ class OptionsConfig(_Section):
     The route re-plans when no point of its path up to the aim lies this near."""
     ahead: float = Field(0.8, gt=0)
     """How far along the route's path (m) from the robot's nearest point it aims (``map``)."""
-    clearance: float = Field(0.0, ge=0)
-    """The route keeps this far (m, robot centre to wall) from the walls where the way is that
-    wide, else the planner's collision clearance (body radius + IR collision distance)."""
     region_limit: StrictInt | None = Field(None, ge=1)
     """A timeout: an option in force for this many actions of a trial in its region (its
     visits added up) is given up for the best option left, and not chosen again (the route is

@@ -91,8 +91,7 @@ class SubgoalOptions(BufferViews):
             [row.index(ROUTE) if ROUTE in row else -1 for row in self.labels], dtype=np.int64
         )
         self.route = (
-            Route(knowledge.geometry("the route option"), batch, config.ahead, config.reach,
-                  config.clearance)
+            Route(knowledge.geometry("the route option"), batch, config.ahead, config.reach)
             if (self._route_option >= 0).any() else None
         )  # fmt: skip
         slack = config.region_limit

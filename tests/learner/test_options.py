@@ -347,22 +347,3 @@ def test_on_the_route_the_start_turn_applies_at_every_step():
     opt.choice[0, WEST] = 1  # the goal, as the option of the region
     assert turn(math.pi) is True  # the trial's first step
     assert turn(math.pi) is False  # a later step: the reflex turns
-
-
-def test_the_route_keeps_its_clearance_where_the_way_is_wide_enough():
-    """The route keeps ``options.clearance`` from the walls where it can (the reward's f1
-    costs near a wall), else the planner's collision clearance (0.316 m)."""
-    from symrl.world.geometry import Walls
-
-    walls = Walls(WALL.segments)
-
-    def nearest_wall(clearance: float, start: tuple[float, float]) -> float:
-        opt = _route_options(clearance=clearance)
-        _aim(opt, WEST, *start)
-        assert opt.route is not None and opt.route.paths[0] is not None
-        return min(walls.point_clearance(x, y) for x, y in opt.route.paths[0])
-
-    assert nearest_wall(0.0, (-1.5, -1.5)) == pytest.approx(0.316, abs=0.01)
-    assert nearest_wall(0.45, (-1.5, -1.5)) == pytest.approx(0.45, abs=0.01)
-    # a robot 0.4 m from the west wall: planned at the collision clearance
-    assert nearest_wall(0.45, (-1.6, -1.0)) == pytest.approx(0.316, abs=0.01)
