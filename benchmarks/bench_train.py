@@ -95,6 +95,7 @@ class _Learner:
         for j, b in enumerate(ended.tolist()):
             if len(self.steps[b]) < self.trials:
                 self.steps[b].append(records[j]["steps"])
+        # (a policy that reads is_init begins the trials itself; a second call changes nothing)
         self.policy.begin_trial(rows)
         return all(len(s) >= self.trials for s in self.steps)
 

@@ -9,7 +9,7 @@ Readable top to bottom, as TorchRL's own recipes read:
     loss = TeseoLoss(policy)                                        learns (TESEO update)
     for batch in collector:
         loss(batch)                                                 per-transition update
-        for robots whose trial ended: loss.end_trial, policy.begin_trial, record the trial
+        for robots whose trial ended: loss.end_trial, record the trial
 
 The collector (:class:`symrl.collector.StepCollector`, a TorchRL collector) steps the env with
 ``step_and_maybe_reset``, restarting the robots whose trial ended (partial resets); why it is
@@ -340,7 +340,6 @@ def train_batch(
                     on_trial(b, record, policy)
                 if len(trials[b]) == n_trials:
                     finals[b] = policy.robot_state(b)
-            policy.begin_trial(rows)
             if on_snapshot is not None:
                 on_snapshot(run_snapshot(collector, policy, loss, trials[0]))
             if all(f is not None for f in finals):
