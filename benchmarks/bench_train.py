@@ -11,6 +11,8 @@ Rows, all in robot-steps per CPU second of this process, and as a ratio to the r
   documented options that keep the trials: ``use_buffers=False`` (its buffers are sized by a
   policy call that draws exploration noise), ``return_same_td=True``, ``device="cpu"``,
   ``track_traj_ids=False``, ``trust_policy=True``;
+- StepCollector: the same loop driven by the collector train.py uses
+  (``symrl.collector.StepCollector``), the bare loop's bookkeeping;
 - train.py loop: ``symrl.train.train_batch`` itself (``symrl train`` at B = 1, ``symrl
   study`` with one robot per set at B = 10, 100), its collector ``symrl.collector.StepCollector``.
 Every loop trains ``--trials`` trials of robots seeded 0..B-1; the "same trials" column says
@@ -143,6 +145,27 @@ def torchrl_collector_loop(recipe: str, size: int, trials: int) -> tuple[float, 
     return frames / cpu, learner.steps
 
 
+def step_collector_loop(recipe: str, size: int, trials: int) -> tuple[float, list[list[int]]]:
+    """The same loop driven by train.py's collector, ``symrl.collector.StepCollector``, with
+    the bare loop's bookkeeping: robot-steps per CPU second, trial steps."""
+    from torchrl.envs.utils import ExplorationType
+
+    from symrl.collector import StepCollector
+
+    learner = _Learner(recipe, size, trials)
+    collector = StepCollector(learner.env, learner.policy,
+                              exploration_type=ExplorationType.RANDOM)  # fmt: skip
+    frames, t0 = 0, time.process_time()
+    with torch.inference_mode():
+        for batch in collector:
+            frames += size
+            if learner.learn(batch):
+                break
+    cpu = time.process_time() - t0
+    collector.shutdown()
+    return frames / cpu, learner.steps
+
+
 def train_loop(recipe: str, size: int, trials: int) -> tuple[float, list[list[int]]]:
     """``symrl.train.train_batch``: robot-steps per CPU second of its loop, trial steps."""
     from symrl.learner.config import load_config
@@ -157,7 +180,7 @@ def train_loop(recipe: str, size: int, trials: int) -> tuple[float, list[list[in
 
 
 LOOPS = {"bare loop": bare_loop, "TorchRL Collector": torchrl_collector_loop,
-         "train.py loop": train_loop}  # fmt: skip
+         "StepCollector": step_collector_loop, "train.py loop": train_loop}  # fmt: skip
 
 
 def one_round(recipe: str, sizes: list[int], trials: int, loops: list[str]) -> dict[str, Any]:
