@@ -263,7 +263,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         xc = self.config.experts
         greedy = is_greedy()
         sonar = read(td, "sonar")
-        if read(td, "x", None) is None:  # driven without its env transform
+        if self.perception.container is None:  # driven without its env transform
             self.perception(td)
         init = read(td, INIT_KEY, None)  # a trial's first state: forget the last trial's
         starting = None if init is None else init.numpy().reshape(-1)  # decisions there
