@@ -53,8 +53,6 @@ class Perception(Transform):
                          out_keys=[*PERCEPTION_KEYS, INIT_KEY])  # fmt: skip
         robot, xc, lc = config.env.robot, config.experts, config.localize
         self.batch = batch
-        self._stepped = torch.zeros(batch, 1, dtype=torch.bool)  # is_init after a step (shared,
-        # never written in place)
         self.goal = (float(knowledge.goal.x), float(knowledge.goal.y))
         self.tracker = (
             PoseTracker(MapLocalizer(Walls(knowledge.geometry("localize").segments), robot,
@@ -128,7 +126,9 @@ class Perception(Transform):
         return self._write(tensordict)
 
     def _call(self, next_tensordict: TensorDictBase) -> TensorDictBase:
-        return write(self._write(next_tensordict), {INIT_KEY: self._stepped})
+        # a tensor of its own every step: a masked reset may fill the old one in place
+        stepped = torch.from_numpy(np.zeros((self.batch, 1), dtype=bool))
+        return write(self._write(next_tensordict), {INIT_KEY: stepped})
 
     def _reset(
         self, tensordict: TensorDictBase | None, tensordict_reset: TensorDictBase
