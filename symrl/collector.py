@@ -124,12 +124,19 @@ class StepCollector(BaseCollector):
         self, policy_or_weights: Any = None, **kwargs: Any
     ) -> None:
         """The policy is the training loop's own module (the update steps it in place), so
-        its weights are current; given a module or a state dict, load it into the policy."""
-        if policy_or_weights is None:
+        its weights are current and a call without weights does nothing. Given a module
+        (positional or ``policy=``), a state dict or a TensorDict of one (positional or
+        ``weights=``), load it into the policy."""
+        weights = policy_or_weights
+        if weights is None:
+            weights = kwargs.get("weights", kwargs.get("policy"))
+        if weights is None:
             return
-        if isinstance(policy_or_weights, torch.nn.Module):
-            policy_or_weights = policy_or_weights.state_dict()
-        self.policy.load_state_dict(dict(policy_or_weights))
+        if isinstance(weights, torch.nn.Module):
+            weights = weights.state_dict()
+        elif isinstance(weights, TensorDictBase):
+            weights = weights.flatten_keys(".").to_dict()
+        self.policy.load_state_dict(dict(weights))
 
     def set_seed(self, seed: int, static_seed: bool = False) -> int:
         """Seed the env (TorchRL's ``env.set_seed``)."""

@@ -82,6 +82,10 @@ def test_update_policy_weights_loads_a_module_or_a_state_dict():
     assert torch.equal(collector.policy.progress.temperature, other.policy.progress.temperature)
     collector.update_policy_weights_()  # in-process: nothing to fetch
     assert float(collector.policy.progress.temperature[0]) == 0.25
+    other.policy.progress.temperature.fill_(0.5)
+    weights = TensorDict(other.policy.state_dict(), batch_size=[]).unflatten_keys(".")
+    collector.update_policy_weights_(weights=weights)
+    assert float(collector.policy.progress.temperature[0]) == 0.5
 
 
 def test_shutdown_closes_the_env_once():
