@@ -119,16 +119,20 @@ class Perception(Transform):
             self.tracker.begin_trial(rows)
 
     # -- the transform ----------------------------------------------------------------------
-    def _write(self, td: TensorDictBase) -> TensorDictBase:
-        return write(td, self.perceive(read(td, "sonar"), read(td, "odometry"), read(td, "goal")))
+    def _write(self, td: TensorDictBase, init: np.ndarray | None = None) -> TensorDictBase:
+        """The perception keys of ``td``'s observations written into it, and ``is_init`` if
+        ``init`` (B, 1) is given."""
+        seen = self.perceive(read(td, "sonar"), read(td, "odometry"), read(td, "goal"))
+        if init is not None:
+            seen[INIT_KEY] = torch.from_numpy(init)
+        return write(td, seen)
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         return self._write(tensordict)
 
     def _call(self, next_tensordict: TensorDictBase) -> TensorDictBase:
         # a tensor of its own every step: a masked reset may fill the old one in place
-        stepped = torch.from_numpy(np.zeros((self.batch, 1), dtype=bool))
-        return write(self._write(next_tensordict), {INIT_KEY: stepped})
+        return self._write(next_tensordict, np.zeros((self.batch, 1), dtype=bool))
 
     def _reset(
         self, tensordict: TensorDictBase | None, tensordict_reset: TensorDictBase
@@ -139,7 +143,7 @@ class Perception(Transform):
         self.begin_trial(rows)
         init = np.zeros((self.batch, 1), dtype=bool)
         init[rows] = True
-        return write(self._write(tensordict_reset), {INIT_KEY: torch.from_numpy(init)})
+        return self._write(tensordict_reset, init)
 
     def transform_observation_spec(self, observation_spec: Composite) -> Composite:
         shape = observation_spec.shape
