@@ -1,28 +1,23 @@
 """Online training of B independent robots in one TorchRL loop (``symrl train``).
 
-Readable top to bottom:
+Readable top to bottom, as TorchRL's own recipes read:
 
-    env  = BatchedWorldEnv(B robots, robot b seeded seeds[b])      the world, batch [B]
+    env = BatchedWorldEnv(B robots, robot b seeded seeds[b])       the world, batch [B]
     policy = MixtureOfExpertsPolicy(config, seeds)                  acts (gate, experts, reflex)
     env = env.append_transform(policy.perception_transform())      what the robot perceives
+    collector = StepCollector(env, policy)                          one step of B robots a batch
     loss = TeseoLoss(policy)                                        learns (TESEO update)
-    td = env.reset()
-    loop:
-        policy(td)                                                  every robot acts
-        td, next_td = env.step_and_maybe_reset(td)                  step; restart ended trials
-        loss(td)                                                    per-transition update
-        for robots whose trial ended: loss.end_trial, policy.begin_trial, record the trial
-        td = next_td
+    for batch in collector:
+        loss(batch)                                                 per-transition update
+        for robots whose trial ended: loss.end_trial, record the trial
 
-``step_and_maybe_reset`` is the primitive TorchRL's own Collector and ``env.rollout`` step
-with (partial resets of the robots that are done). The Collector around it (one batch of B
-robots per step, without its preallocated buffers, whose sizing run of the policy would draw
-exploration noise) gives the same trials, but its stacking, copies and checks of every
-transition, which an online update that consumes each transition once does not need, halve
-the loop's steps per CPU second at B = 1 and 10 (0.46-0.57 of this loop) and cost a fifth at
-B = 100 (0.78; recipe paper, measured side by side in one run). The update of a transition
-runs before the policy acts on its next state: the paper's "adapt the previous winner before
-acting".
+The collector (:class:`symrl.collector.StepCollector`, a TorchRL collector) steps the env with
+``step_and_maybe_reset``, restarting the robots whose trial ended (partial resets); why it is
+not TorchRL's ``Collector`` itself (which gives the same trials at two thirds of the speed at
+B = 10) is measured in its module docstring. The perception transform marks each trial's first
+state (``is_init``), where the policy forgets the last trial's decisions: the loop makes no
+call into the policy. The update of a transition runs before the policy acts on its next
+state: the paper's "adapt the previous winner before acting".
 
 Robot b is the same run as ``symrl train RECIPE --seed seeds[b]`` alone: its world, its
 exploration and its option choices draw from its own streams, and every batched operation
@@ -267,9 +262,10 @@ def train_batch(
     step; when it answers True the loop ends there and the result holds the finished trials
     (``TrainResult.timings["stopped"]`` is 1).
     """
-    from torchrl.envs.utils import ExplorationType, set_exploration_type
+    from torchrl.envs.utils import ExplorationType
     from tqdm.auto import tqdm
 
+    from symrl.collector import StepCollector
     from symrl.learner.loss import TeseoLoss
     from symrl.learner.policy import MixtureOfExpertsPolicy
 
@@ -282,12 +278,14 @@ def train_batch(
     policy = MixtureOfExpertsPolicy(config, env.world, seeds)  # cut to config.knowledge
     # what the robot makes of each observation, written once on reset and step
     env = env.append_transform(policy.perception_transform())
+    # one step of the B robots per batch; the policy draws its exploration noise
+    collector = StepCollector(env, policy, exploration_type=ExplorationType.RANDOM)
     loss = TeseoLoss(policy)
     recorder = TrialRecorder(batch)
     trials: list[list[dict[str, Any]]] = [[] for _ in seeds]
     finals: list[dict[str, torch.Tensor] | None] = [None] * batch
     if resume is not None:
-        td = restore_snapshot(resume, env, policy, loss)
+        restore_snapshot(resume, collector, policy, loss)
         trials[0] = [dict(r) for r in resume["trials"]]
         if len(trials[0]) >= n_trials:
             raise ValueError(
@@ -299,25 +297,17 @@ def train_batch(
                initial=sum(len(t) for t in trials))  # fmt: skip
     started, cpu_started = time.perf_counter(), time.process_time()
     frames, stopped = 0, False
-    with ExitStack() as contexts:
-        contexts.callback(env.close)
+    # nothing in the loop needs autograd: inference mode skips the version counters and the
+    # autograd dispatch of every op (about a sixth of the learner's per-op cost, measured with
+    # benchmarks/bench_train.py); tensors created here are inference tensors, which later code
+    # only reads or clones
+    with torch.inference_mode(), ExitStack() as contexts:
+        contexts.callback(collector.shutdown)
         contexts.callback(bar.close)
-        # the policy draws its noise
-        contexts.enter_context(set_exploration_type(ExplorationType.RANDOM))
-        # nothing in the loop needs autograd: inference mode skips the version counters and the
-        # autograd dispatch of every op (about a sixth of the learner's per-op cost, measured
-        # with benchmarks/bench_train.py); tensors created here are inference tensors, which
-        # later code only reads or clones
-        contexts.enter_context(torch.inference_mode())
-        if resume is None:
-            td = env.reset()
-        while True:
-            policy(td)
-            td, next_td = env.step_and_maybe_reset(td)
+        for td in collector:
             stats = loss(td)
             frames += batch
             done = recorder.step(td, read(stats, "td_error"))
-            td = next_td
             if not done.any():
                 if stop is not None and stop():
                     stopped = True
@@ -352,9 +342,8 @@ def train_batch(
                     on_trial(b, record, policy)
                 if len(trials[b]) == n_trials:
                     finals[b] = policy.robot_state(b)
-            policy.begin_trial(rows)
             if on_snapshot is not None:
-                on_snapshot(run_snapshot(env, policy, loss, trials[0], td))
+                on_snapshot(run_snapshot(collector, policy, loss, trials[0]))
             if all(f is not None for f in finals):
                 break
             if stop is not None and stop():
@@ -397,23 +386,25 @@ SNAPSHOT_FORMAT = 2
 _ROW_SKIP = ("path", "ghosts")
 
 
-def run_snapshot(env, policy, loss, trials: list[dict[str, Any]], td) -> dict[str, Any]:
+def run_snapshot(collector, policy, loss, trials: list[dict[str, Any]]) -> dict[str, Any]:
     """Everything a one-robot run needs to go on from a trial boundary: the controller and
     the update's buffers, every random stream (the policy's exploration and option generators
     and its pre-drawn noise blocks, the robot's world generator), the robot's physics state and
-    the observation of its next trial's start (its reset already drew from the world stream:
-    the resumed run must not draw it again), and the trial rows so far (scalars; the last row
-    keeps its path for the trajectory figure). Tensors and plain Python values only."""
+    the observation of its next trial's start (the collector's state: its reset already drew
+    from the world stream, the resumed run must not draw it again), and the trial rows so far
+    (scalars; the last row keeps its path for the trajectory figure). Tensors and plain Python
+    values only."""
     rows = [{k: v for k, v in r.items() if k not in _ROW_SKIP} for r in trials[:-1]]
     rows += [dict(r) for r in trials[-1:]]
+    collected = collector.state_dict()
     return {
         "format": SNAPSHOT_FORMAT,
         "trials": rows,
         "policy": _trimmed(policy.state_dict(), int(policy.experts.count.max())),
         "loss": {k: v.clone() for k, v in loss.state_dict().items()},
         **policy.random_state(),
-        **env_state(env),
-        "td": td.clone().to_dict(),
+        **collected["env_state_dict"],
+        "td": collected["carrier"],
     }
 
 
@@ -439,17 +430,18 @@ def _trimmed(state: dict[str, torch.Tensor], neurons: int) -> dict[str, torch.Te
     }
 
 
-def restore_snapshot(state: dict[str, Any], env, policy, loss):
-    """Put ``env``, ``policy`` and ``loss`` (fresh, same config and seed) into the state of
-    :func:`run_snapshot`; returns the observation the next trial starts from."""
+def restore_snapshot(state: dict[str, Any], collector, policy, loss) -> None:
+    """Put ``collector`` (its env), ``policy`` and ``loss`` (fresh, same config and seed) into
+    the state of :func:`run_snapshot`."""
     from tensordict import TensorDict
 
     policy.load_state_dict(state["policy"])
     loss.load_state_dict(state["loss"])
     policy.load_random_state(state)
-    restore_env_state(env, state)
-    td = TensorDict(state["td"], batch_size=env.batch_size).clone()
+    td = TensorDict(state["td"], batch_size=collector.env.batch_size).clone()
     # the perception of the trial's first observation again: its localisation starts afresh
     # there, as in the uninterrupted run, and the next one is warm-started from it
-    return policy.perception_transform()(td)
-
+    td = policy.perception_transform()(td)
+    env_keys = ("env_rngs", "physics", "last")
+    collector.load_state_dict({"env_state_dict": {k: state[k] for k in env_keys},
+                               "carrier": td.to_dict(), "frames": 0, "iter": -1})  # fmt: skip

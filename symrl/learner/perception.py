@@ -8,7 +8,11 @@ told (its :class:`~symrl.knowledge.rungs.Knowledge`) and its config:
 - ``belief_goal`` (B, 2): the goal's (distance, angle) from that pose;
 - ``region`` (B,): the map region of that pose by the region rules; ``expert`` (B,): the
   expert it gates to (the region with partition, else 0);
-- ``x`` (B, D): the experts' input, (sonars, goal-distance codes) (Eq. 2) or the pose input.
+- ``x`` (B, D): the experts' input, (sonars, goal-distance codes) (Eq. 2) or the pose input;
+- ``is_init`` (B, 1) bool, as TorchRL's ``InitTracker`` writes it: True on the first
+  observation of a trial (the robots a reset restarted), False after a step. The policy
+  forgets a robot's per-trial decisions there, so the loop needs no call into it between two
+  trials. Written by the env transform only (a direct call does not know a trial's start).
 
 The transform is part of the agent, not of the world: the policy builds it
 (``policy.perception_transform()``) and the training loop appends it to the batched env; the
@@ -22,7 +26,7 @@ import math
 import numpy as np
 import torch
 from tensordict import TensorDictBase
-from torchrl.data import Composite, Unbounded
+from torchrl.data import Categorical, Composite, Unbounded
 from torchrl.envs.transforms import Transform
 
 from symrl.knowledge.localize import MapLocalizer, PoseTracker
@@ -33,9 +37,10 @@ from symrl.tensordicts import read, write
 from symrl.world.geometry import Walls
 from symrl.world.physics import goal_reading
 
-__all__ = ["Perception", "PERCEPTION_KEYS"]
+__all__ = ["Perception", "PERCEPTION_KEYS", "INIT_KEY"]
 
 PERCEPTION_KEYS = ("pose", "belief_goal", "region", "expert", "x")
+INIT_KEY = "is_init"
 
 
 class Perception(Transform):
@@ -44,7 +49,8 @@ class Perception(Transform):
     (``perception(td)``, for a policy driven without it)."""
 
     def __init__(self, knowledge: Knowledge, config: RunConfig, batch: int) -> None:
-        super().__init__(in_keys=["sonar", "odometry", "goal"], out_keys=list(PERCEPTION_KEYS))
+        super().__init__(in_keys=["sonar", "odometry", "goal"],
+                         out_keys=[*PERCEPTION_KEYS, INIT_KEY])  # fmt: skip
         robot, xc, lc = config.env.robot, config.experts, config.localize
         self.batch = batch
         self.goal = (float(knowledge.goal.x), float(knowledge.goal.y))
@@ -113,14 +119,20 @@ class Perception(Transform):
             self.tracker.begin_trial(rows)
 
     # -- the transform ----------------------------------------------------------------------
-    def _write(self, td: TensorDictBase) -> TensorDictBase:
-        return write(td, self.perceive(read(td, "sonar"), read(td, "odometry"), read(td, "goal")))
+    def _write(self, td: TensorDictBase, init: np.ndarray | None = None) -> TensorDictBase:
+        """The perception keys of ``td``'s observations written into it, and ``is_init`` if
+        ``init`` (B, 1) is given."""
+        seen = self.perceive(read(td, "sonar"), read(td, "odometry"), read(td, "goal"))
+        if init is not None:
+            seen[INIT_KEY] = torch.from_numpy(init)
+        return write(td, seen)
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         return self._write(tensordict)
 
     def _call(self, next_tensordict: TensorDictBase) -> TensorDictBase:
-        return self._write(next_tensordict)
+        # a tensor of its own every step: a masked reset may fill the old one in place
+        return self._write(next_tensordict, np.zeros((self.batch, 1), dtype=bool))
 
     def _reset(
         self, tensordict: TensorDictBase | None, tensordict_reset: TensorDictBase
@@ -129,7 +141,9 @@ class Perception(Transform):
         rows = (np.arange(self.batch) if mask is None
                 else np.flatnonzero(mask.reshape(self.batch).numpy()))  # fmt: skip
         self.begin_trial(rows)
-        return self._write(tensordict_reset)
+        init = np.zeros((self.batch, 1), dtype=bool)
+        init[rows] = True
+        return self._write(tensordict_reset, init)
 
     def transform_observation_spec(self, observation_spec: Composite) -> Composite:
         shape = observation_spec.shape
@@ -138,4 +152,5 @@ class Perception(Transform):
         observation_spec["region"] = Unbounded(shape, dtype=torch.long)
         observation_spec["expert"] = Unbounded(shape, dtype=torch.long)
         observation_spec["x"] = Unbounded((*shape, self.input_dim), dtype=torch.float32)
+        observation_spec[INIT_KEY] = Categorical(2, (*shape, 1), dtype=torch.bool)
         return observation_spec

@@ -51,7 +51,7 @@ from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
-from symrl.learner.perception import PERCEPTION_KEYS, Perception
+from symrl.learner.perception import INIT_KEY, PERCEPTION_KEYS, Perception
 from symrl.learner.progress import TrialProgress
 from symrl.tensordicts import read, write
 from symrl.world.worldmap import WorldMap, load_map
@@ -93,7 +93,9 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     Reads ``sonar``, ``ir``, ``state_reward`` of a batch [B] and what its perception
     transform (:meth:`perception_transform`) made of them: ``pose`` (the pose it believes),
     ``belief_goal``, ``region``, ``expert``, ``x`` (without them, as on a bare env, it perceives
-    ``sonar``, ``odometry``, ``goal`` itself and writes them). Writes ``action`` (B, 1) and the
+    ``sonar``, ``odometry``, ``goal`` itself and writes them) and, where the transform marks a
+    trial's first state, ``is_init``: it forgets those robots' per-trial decisions
+    (:meth:`begin_trial`) before acting. Writes ``action`` (B, 1) and the
     decision: ``winner`` (-1 when novel), ``novel``, ``proto`` (the action a new neuron here
     gets), ``xi`` (exploration draw), ``sigma``, ``taken`` (the action relative to its base,
     remembered for action replacement), ``shielded``, ``aim`` (B, 2) (the point the reflex
@@ -256,6 +258,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         sonar = read(td, "sonar")
         if self.perception.container is None:  # driven without its env transform
             self.perception(td)
+        init = read(td, INIT_KEY, None)  # a trial's first state: forget the last trial's
+        starting = None if init is None else init.numpy().reshape(-1)  # decisions there
+        if starting is not None and starting.any():
+            self.begin_trial(torch.from_numpy(np.flatnonzero(starting)))
         pose, goal = read(td, "pose"), read(td, "belief_goal")
         region, expert, x = read(td, "region"), read(td, "expert"), read(td, "x")
         winner, novel = self._winners(expert, x)
@@ -333,7 +339,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
 
     @no_grad
     def begin_trial(self, rows: torch.Tensor) -> None:
-        """Forget the per-trial decisions of robots ``rows`` (they start a new trial)."""
+        """Forget the per-trial decisions of robots ``rows`` (they start a new trial); called
+        by :meth:`forward` where ``is_init`` marks a trial's first state."""
         if self.options is not None:
             self.options.begin_trial(rows)
 

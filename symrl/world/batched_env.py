@@ -219,6 +219,13 @@ class BatchedWorldEnv(EnvBase):
         root = tensordict_items(tensordict, self.batch_size)
         if root is None or "next" in root or "_step" in root:
             return super().step_and_maybe_reset(tensordict)
+        return self._step_and_reset(tensordict, root)
+
+    def _step_and_reset(
+        self, tensordict: TensorDictBase, root: dict[str, torch.Tensor]
+    ) -> tuple[TensorDictBase, TensorDictBase]:
+        """:meth:`step_and_maybe_reset` of a TensorDict checked for its fast path (``root``:
+        its entries)."""
         nxt = self._step(tensordict)
         write(tensordict, {"next": nxt})
         carried = {key: value for key, value in root.items() if key not in self._dropped_keys}
@@ -339,29 +346,39 @@ class BatchedTransformedEnv(TransformedEnv):
     def step_and_maybe_reset(
         self, tensordict: TensorDictBase
     ) -> tuple[TensorDictBase, TensorDictBase]:
-        base = self.base_env
-        root = tensordict_items(tensordict, self.batch_size)
-        added = self._added_keys()
+        base, transform, batch, added = self._fast_path()
+        root = tensordict_items(tensordict, batch)
         if (not isinstance(base, BatchedWorldEnv) or root is None or "next" in root
                 or "_step" in root or added is None):  # fmt: skip
             return super().step_and_maybe_reset(tensordict)
-        tensordict, following = base.step_and_maybe_reset(tensordict)
-        nxt = read(tensordict, "next")
-        nxt = self.transform._step(tensordict, nxt)
+        tensordict, following = base._step_and_reset(tensordict, root)
+        nxt = transform._step(tensordict, read(tensordict, "next"))
         write(tensordict, {"next": nxt})
         write(following, {key: read(nxt, key) for key in added})
         done = read(nxt, "done")
-        if done.any():
-            marked = TensorDict._new_unsafe({"_reset": done}, batch_size=self.batch_size)
-            following = self.transform._reset(marked, following)
+        if done.numpy().any():
+            marked = TensorDict._new_unsafe({"_reset": done}, batch_size=batch)
+            following = transform._reset(marked, following)
         return tensordict, following
+
+    def _fast_path(self) -> tuple[Any, Any, torch.Size, list[str] | None]:
+        """The base env, the transform, the batch size and :meth:`_added_keys`, kept after the
+        first call (read through TorchRL's properties and ``nn.Module`` lookups, they cost
+        about as much as the rest of the step's glue)."""
+        known = self.__dict__.get("_fast")
+        if known is None:
+            known = self.__dict__["_fast"] = (self.base_env, self.transform, self.batch_size,
+                                              self._added_keys())  # fmt: skip
+        return known
 
     def append_transform(self, transform: Any) -> BatchedTransformedEnv:
         self.__dict__.pop("_added", None)  # the keys are read again
+        self.__dict__.pop("_fast", None)
         return super().append_transform(transform)
 
     def insert_transform(self, index: int, transform: Any) -> BatchedTransformedEnv:
         self.__dict__.pop("_added", None)
+        self.__dict__.pop("_fast", None)
         return super().insert_transform(index, transform)
 
     def _added_keys(self) -> list[str] | None:

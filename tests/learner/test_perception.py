@@ -107,3 +107,27 @@ def test_perception_keys_are_in_the_transformed_specs():
     spec = _env(p).observation_spec
     assert spec["x"].shape == (3, 4) and spec["pose"].shape == (3, 3)
     assert spec["region"].dtype == torch.long
+
+
+def test_is_init_marks_the_first_state_of_each_trial_and_the_policy_begins_it():
+    """The transform writes is_init True on the robots a reset restarted (all at the first
+    reset, robot 1 alone when its trial ends first), False after a step; the policy forgets
+    the per-trial option choices of those robots before acting, and only theirs."""
+    p = policy("paper", "env.max_actions=3", seeds=SEEDS)
+    assert p.options is not None
+    env = _env(p)
+    td = env.reset()
+    assert td["is_init"].reshape(-1).tolist() == [True] * 3
+    env.physics.actions_taken[1] += 1
+    for _ in range(2):
+        p(td)
+        td, td_next = env.step_and_maybe_reset(td)
+        assert not td["next", "is_init"].any()
+        td = td_next
+    assert td["is_init"].reshape(-1).tolist() == [False, True, False]
+    p.options.choice.fill_(0)
+    p(td)
+    choice = p.options.choice
+    # robot 1 forgot its choices (it may choose again in the region it starts in)
+    assert int((choice[1] == -1).sum()) >= choice.shape[1] - 1
+    assert (choice[[0, 2]] == 0).all()
