@@ -18,6 +18,7 @@ _EXPORTS = {
     "ExpertsConfig": "config",
     "UpdateConfig": "config",
     "OptionsConfig": "config",
+    "OptionCriticConfig": "config",
     "ShieldSection": "config",
     "RunSection": "config",
     "load_config": "config",

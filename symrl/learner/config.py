@@ -50,6 +50,7 @@ __all__ = [
     "UpdateConfig",
     "TrialGradientConfig",
     "OptionsConfig",
+    "OptionCriticConfig",
     "LocalizeSection",
     "ShieldSection",
     "RunSection",
@@ -170,21 +171,10 @@ class TrialGradientConfig(_Section):
     price of arriving later)."""
 
 
-class OptionsConfig(_Section):
-    """Sub-goal options: per region, where the reflex's goal following steers (the goal or a
-    point of a passage from the map), chosen at the region's first entry in a trial by an
-    averaging critic and an epsilon-greedy actor (``symrl.learner.options``)."""
+class OptionCriticConfig(_Section):
+    """How the option critic's actor explores: which option a region gets at its first entry in
+    a trial (``symrl.learner.option_critic``). What it chooses among is ``options``."""
 
-    enabled: StrictBool = False
-    """False: the reflex always steers at the goal (the paper)."""
-    source: Literal["map", "passages", "rules"] = "map"
-    """Where the sub-goal points come from. ``map`` (needs ``knowledge: map``): the passages
-    the region lines cross in the free-space polygon, and the settings below that use the
-    walls or the planner. ``rules`` (needs ``knowledge: regions``): the region rules alone,
-    per region the goal and a point of each border with a region no farther from the goal's
-    (``symrl.knowledge.borders``); the map-only settings must then be off. ``passages`` (needs
-    ``knowledge: passages``): the same from the passages the robot is told of (where the
-    regions really connect) instead of the rules' borders."""
     epsilon: float = Field(0.3, ge=0, le=1)
     """Probability of a random option at a region's first entry, first trial."""
     epsilon_decay: float = Field(0.8, ge=0, le=1)
@@ -193,56 +183,34 @@ class OptionsConfig(_Section):
     """From this many finished trials on, options are chosen greedily (0: never forced)."""
     try_untried: StrictBool = True
     """Every option is tried once before any greedy choice (its critic is unknown until then)."""
-    reach: float = Field(0.25, ge=0)
-    """A sub-goal nearer than this (m, odometry) is reached: aim at the goal for the visit."""
     critic: Literal["mean", "best"] = "mean"
     """Option critic: the mean return-to-go over its trials, or the best single one."""
-    subgoal_past: StrictBool = True
-    """A region also gets the points just past the passage it is entered through."""
-    subgoal_on_line: StrictBool = True
-    """Offer sub-goals on a region line itself; False: only the points 0.4 m past it."""
-    subgoal_min_clearance: float = Field(0.0, ge=0)
-    """Drop sub-goals closer than this to a wall (metres; 0 keeps all)."""
-    subgoal_planner: StrictBool = False
-    """Each region also gets the last turn of the planner's shortest path inside it (pushed out
-    to at least 0.45 m from the wall): a corner no region line marks, such as a partition's end.
-    A region the path crosses without a turn and whose table has nothing ahead (only the goal
-    and points just past the passage it is entered by) gets the path's next turn instead."""
-    subgoal_planner_first: StrictBool = False
-    """With ``subgoal_planner``: a region in which the planner's path rounds two corners or more
-    (its first and last turns over 1 m apart: an obstacle on open floor, then the exit) gets the
-    first turn as its planner option, and goes on to the last once the first is reached."""
-    subgoal_way_out: StrictBool = False
-    """With ``subgoal_planner``: a region off the planner's path whose only option is the goal,
-    and which does not hold the goal (a dead end such as a bay), gets the first turn of the
-    planner's path from inside it (its way out), so a robot that strays there can leave."""
-    subgoal_detour: float | None = Field(None, ge=0)
-    """Drop the sub-goals a region's best route cannot use: in each region the planner's shortest
-    path enters, those the reflex cannot steer straight at from any point of the path in the
-    region (every segment crosses a wall), and those whose route (straight from the path's
-    entry point, then the planner's path) is more than this many metres longer than the
-    planner's from the entry (``without_detours`` in ``symrl.learner.options``). The goal and
-    the planner's turns stay. None: every sub-goal stays (the paper has none)."""
+
+
+class OptionsConfig(_Section):
+    """Sub-goal options: per region, where the reflex's goal following steers (the goal, a point
+    of a border or passage toward the goal's region, or told the map the route), chosen at the
+    region's first entry in a trial by the option critic (``symrl.learner.options``)."""
+
+    enabled: StrictBool = False
+    """False: the reflex always steers at the goal (the paper)."""
+    source: Literal["map", "passages", "rules"] = "map"
+    """What the options are made of. ``rules`` (needs ``knowledge: regions``): per region the
+    goal and a point of each border with a region no farther from the goal's
+    (``symrl.knowledge.borders``). ``passages`` (needs ``knowledge: passages``): the same from
+    the passages the robot is told of (where the regions really connect) instead of the rules'
+    borders. ``map`` (needs ``knowledge: map``): the passages' options and the route, a point
+    ``ahead`` metres along the shortest path re-planned from where the robot believes it is
+    (``symrl.knowledge.route``)."""
+    reach: float = Field(0.25, ge=0)
+    """A sub-goal nearer than this (m, believed pose) is reached: aim at the goal for the visit.
+    The route re-plans when no point of its path up to the aim lies this near."""
+    ahead: float = Field(0.8, gt=0)
+    """How far along the route's path (m) from the robot's nearest point it aims (``map``)."""
     region_limit: StrictInt | None = Field(None, ge=1)
-    """A region in which the robot has spent more actions of a trial than its share of the
-    planner's path (the path's length in the region over 0.2 m an action) plus this many (its
-    visits added up: a robot that shuttles across a region line counts in both; off the path
-    the share is 0) goes on by its planner option (``path`` or ``out``) for the rest of the
-    trial; a region without one, or already on it, or still in it this many actions later (the
-    planner option's point reached, the goal's bearing from there leads back into the region),
-    goes on by the planner's path from where the robot is, turn by turn. The chosen option
-    keeps the trial's credit, so a choice that leads into a dead end is still learned as one,
-    without the rest of the trial's budget. None: no limit (the paper has none)."""
-    subgoal_approach: float | None = Field(None, gt=0)
-    """Side-on passages get an approach option: for a region on the planner's path, a passage
-    ahead of it that the straight line from the path's entry into the region meets more than
-    ``subgoal_approach_deg`` off the passage's normal gets the point this many metres before
-    the passage's centre, on its normal; once the robot has reached that point it steers at the
-    passage's centre 0.4 m past the line (not at the goal). The reflex turns at most 45 degrees
-    an action, so coming along a wall it misses a narrow door's turn. None: no approach points
-    (the paper has none)."""
-    subgoal_approach_deg: float = Field(60.0, ge=0, le=180)
-    """How far off a passage's normal (degrees) the way to it must run for an approach option."""
+    """A timeout: an option in force for this many actions of a trial in its region (its
+    visits added up) is given up for the best option left, and not chosen again (the route is
+    re-planned instead). None: no limit (the paper has none)."""
     start_turn_deg: float | None = Field(None, ge=0, le=180)
     """A trial's first action turns straight at its aim (up to 180 degrees, in place of the
     reflex) when the aim is more than this many degrees off the heading; null: the reflex
@@ -257,12 +225,6 @@ class OptionsConfig(_Section):
 
 _SOURCE_RUNG = {"rules": "regions", "passages": "passages", "map": "map"}
 """The knowledge each ``options.source`` needs."""
-
-_MAP_ONLY_OPTIONS = (
-    "subgoal_min_clearance", "subgoal_planner", "subgoal_planner_first", "subgoal_way_out",
-    "subgoal_detour", "subgoal_approach",
-)  # fmt: skip
-"""The options settings that read the walls or the planner (``knowledge: map``)."""
 
 
 class LocalizeSection(_Section):
@@ -326,6 +288,7 @@ class RunConfig(_Section):
     update: UpdateConfig = Field(default_factory=UpdateConfig)
     trial_gradient: TrialGradientConfig = Field(default_factory=TrialGradientConfig)
     options: OptionsConfig = Field(default_factory=OptionsConfig)
+    option_critic: OptionCriticConfig = Field(default_factory=OptionCriticConfig)
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
     shield: ShieldSection = Field(default_factory=ShieldSection)
@@ -344,14 +307,6 @@ class RunConfig(_Section):
                     f"{key}=true needs knowledge={needed} or higher, but the recipe declares "
                     f"knowledge={self.knowledge}"
                 )
-        if o.enabled and o.source != "map":
-            for key in _MAP_ONLY_OPTIONS:
-                value = getattr(o, key)
-                if value not in (None, False, 0.0):
-                    raise ValueError(
-                        f"options.{key}={value} uses the walls or the planner: it needs "
-                        "options.source=map"
-                    )
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
         robot = self.env.robot

@@ -44,7 +44,6 @@ from tensordict.nn import TensorDictModuleBase
 from torchrl.envs.utils import ExplorationType, exploration_type
 
 from symrl.grad import no_grad
-from symrl.knowledge.borders import border_subgoals
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.shield import IRShield, ShieldConfig
@@ -152,15 +151,9 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             names=self.expert_names,
         )  # fmt: skip
         self.options = None
-        if config.options.enabled and config.options.source != "map":
-            # the borders of the region rules, or the passages the robot is told of
-            told = knowledge.passages if config.options.source == "passages" else None
-            table = subgoals or border_subgoals(knowledge.regions, knowledge.goal, told)
-            self.options = SubgoalOptions(knowledge, batch, config.options, self.seeds, table,
-                                          step=robot.step)  # fmt: skip
-        elif config.options.enabled:
-            self.options = SubgoalOptions(knowledge.geometry("options"), batch, config.options,
-                                          self.seeds, subgoals, step=robot.step)  # fmt: skip
+        if config.options.enabled:
+            self.options = SubgoalOptions(knowledge, batch, config.options, self.seeds, subgoals,
+                                          config.option_critic)  # fmt: skip
         self.shield = (
             IRShield(ShieldConfig(margin=config.shield.margin), robot)
             if config.shield.enabled

@@ -252,7 +252,7 @@ def builtin_maps() -> list[str]:
 
 SUITES = ("tuning", "check")
 """Named suites of benchmark worlds shipped beside the maps (``maps/<suite>/``): ``tuning``, the
-worlds the route rules were tuned on; ``check``, worlds written to check them, never tuned on.
+worlds the map rung's route was tuned on; ``check``, worlds written to check it, never tuned on.
 ``load_map("tuning/long_wall")`` and ``--map tuning/long_wall`` take a suite's world."""
 
 

@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from symrl.knowledge.borders import Border, border_subgoals, region_borders, region_hops
+from symrl.knowledge.route import ROUTE, option_table
 from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import load_config
 from symrl.learner.options import SubgoalOptions
@@ -110,10 +111,22 @@ def test_without_the_map_an_option_timed_out_gives_way_to_the_best_one_left():
         assert int(option[0]) == 2
 
 
-def test_without_the_map_the_options_need_their_table():
-    told = Knowledge.told(load_map("hailu2001"), "regions")
-    with pytest.raises(ValueError, match="without the map, pass the table"):
-        SubgoalOptions(told, 1, load_config("paper").options, [0])
+def test_below_the_map_nothing_builds_the_route():
+    """The route needs the planner: an agent told less than the map gets the same table it
+    would without the route, and asking for the route option below the map is an error."""
+    world = load_map("hailu2001")
+    for rung, source in (("regions", "rules"), ("passages", "passages")):
+        told = Knowledge.told(world, rung)
+        opt = SubgoalOptions(told, 1, load_config("paper", [f"options.source={source}"]
+                                                    + [f"knowledge={rung}"]).options, [0])
+        assert opt.route is None and all(ROUTE not in row for row in opt.labels)
+        refused = f"route option needs knowledge=map .* knowledge={rung}$"
+        with pytest.raises(ValueError, match=refused):
+            option_table(told, "map")
+    mapped = option_table(Knowledge.told(world, "map"), "map")
+    doors = option_table(Knowledge.told(world, "passages"), "passages")
+    assert mapped.labels == [[ROUTE, *row] for row in doors.labels]
+    torch.testing.assert_close(mapped.points[:, 1:], doors.points)
 
 
 def test_told_the_passages_the_options_are_the_doors():
@@ -130,3 +143,20 @@ def test_told_the_passages_the_options_are_the_doors():
     assert doors.labels[west] == ["goal", "offices>west_door"]
     x, y = doors.point(west, 1)
     assert 1.5 < x < 2.5 and y == pytest.approx(2.05 - 0.4)  # through the west door
+
+
+def test_the_paper_worlds_table_told_the_map_is_pinned():
+    """``paper_map``'s options on the paper's world (docs/MAPS.md): the route, the goal, and
+    the point 0.4 m past the passage toward the goal's region."""
+    table = option_table(Knowledge.told(load_map("hailu2001"), "map"), "map")
+    assert table.region_names == ("room", "concave", "door", "corridor")
+    assert table.labels == [
+        [ROUTE, "goal", "l2>door"],
+        [ROUTE, "goal", "l1>room"],
+        [ROUTE, "goal", "l3>corridor"],
+        [ROUTE, "goal"],
+    ]
+    assert table.point(0, 2) == pytest.approx((3.9, -0.5))
+    assert table.point(1, 2) == pytest.approx((3.0, -0.6))
+    assert table.point(2, 2) == pytest.approx((4.15, -0.5))
+    assert table.valid.sum(dim=1).tolist() == [3, 3, 3, 2]

@@ -58,8 +58,8 @@ def test_a_setting_above_the_declared_rung_is_a_one_line_error(override, needed)
         load_config("paper_literal", ["knowledge=sensors"])
     # sub-goals from the rules need only the rules; the settings that read the walls need more
     assert load_config("paper_literal", ["options.enabled=true", "options.source=rules"])
-    with pytest.raises(ConfigError, match="options.subgoal_planner=True uses the walls"):
-        load_config("paper", ["options.subgoal_planner=true"])
+    with pytest.raises(ConfigError, match="options.enabled=true needs knowledge=map"):
+        load_config("paper", ["options.source=map"])
 
 
 def test_every_recipe_declares_a_rung_its_settings_fit():

@@ -56,11 +56,10 @@ def test_paper_sets_its_switches_and_keeps_the_budget():
     assert paper.experts.residual
     assert (paper.update.temperature0, paper.update.temperature_min) == (0.1, 0.0)
     o = paper.options
-    assert o.enabled and o.critic == "mean" and o.try_untried and o.subgoal_past
-    assert not o.subgoal_on_line and o.subgoal_min_clearance == 0.45
-    assert o.goal_lead_deg == 20.0 and literal.options.goal_lead_deg == 0.0
-    assert o.subgoal_detour == 1.0 and o.subgoal_way_out
-    assert literal.options.subgoal_detour is None and not literal.options.subgoal_way_out
+    assert o.enabled and o.source == "map" and o.region_limit == 20
+    assert paper.option_critic.critic == "mean" and paper.option_critic.try_untried
+    assert o.goal_lead_deg == 0.0 and load_config("paper").options.goal_lead_deg == 20.0
+    assert literal.options.region_limit is None
     assert paper.shield.enabled and paper.shield.margin == 0.06
     # softer avoidance behind the shield; the rules and the other sectors unchanged
     assert paper.reflex.d_a == 0.5 and paper.reflex.rules == literal.reflex.rules
@@ -91,10 +90,10 @@ def test_overrides_are_typed_and_merge():
     c = load_config(
         "paper_literal",
         ["update.gamma=0.9", "env.noise=false", "update.eta=1e-3", "run.trials=3",
-         "options.critic=best", "env.robot.radius=0.3"],
+         "option_critic.critic=best", "env.robot.radius=0.3"],
     )  # fmt: skip
     assert c.update.gamma == 0.9 and c.env.noise is False and c.update.eta == 1e-3
-    assert c.run.trials == 3 and c.options.critic == "best"
+    assert c.run.trials == 3 and c.option_critic.critic == "best"
     assert isinstance(c.env.robot, RobotConfig) and c.env.robot.radius == 0.3
     assert c.env.robot.step == RobotConfig().step  # the other robot fields are kept
     assert isinstance(load_config("paper_map", ["update.gamma=1"]).update.gamma, float)
@@ -134,14 +133,14 @@ def _error(overrides: list[str], recipe: str = "paper_literal") -> str:
         ("run.trials=2.5", ["run.trials", "2.5"]),
         ("update.gamma=abc", ["update.gamma", "abc"]),
         ("gate.partition=3", ["gate.partition", "3"]),
-        ("options.critic=max", ["options.critic", "max"]),
+        ("option_critic.critic=max", ["option_critic.critic", "max"]),
         ("update.gamma=2", ["update.gamma", "2", "less than or equal to 1"]),  # out of range
         ("experts.width=0", ["experts.width", "0", "greater than 0"]),
         ("shield.margin=-0.1", ["shield.margin", "-0.1"]),
-        ("options.epsilon=1.5", ["options.epsilon", "1.5"]),
+        ("option_critic.epsilon=1.5", ["option_critic.epsilon", "1.5"]),
         ("options.goal_lead_deg=-5", ["options.goal_lead_deg", "-5"]),
-        ("options.subgoal_detour=-1", ["options.subgoal_detour", "-1"]),
-        ("options.subgoal_way_out=2", ["options.subgoal_way_out", "2"]),
+        ("options.ahead=0", ["options.ahead", "0"]),
+        ("options.region_limit=0", ["options.region_limit", "0"]),
         ("update.eta=nan", ["update.eta", "nan", "finite"]),
         ("update.beta=.inf", ["update.beta", "inf", "finite"]),
         ("env.robot.radius=-1", ["env.robot", "radius", "-1"]),
@@ -241,7 +240,7 @@ def test_config_from_dict_rejects_a_non_mapping():
 def test_describe_keys_lists_every_section():
     text = describe_keys()
     for key in ("update.gamma = 0.95", "experts.novelty_radius", "env.robot.radius",
-                "options.critic", "shield.margin", "reflex.d_a", "run.seed",
+                "option_critic.critic", "options.ahead", "shield.margin", "reflex.d_a", "run.seed",
                 "localize.enabled", "localize.prior_xy"):  # fmt: skip
         assert key in text, key
     assert "Discount of the TD error" in text  # each key's docstring
@@ -313,14 +312,12 @@ def test_a_key_given_twice_and_the_recipe_name_are_refused():
     with pytest.raises(ConfigError, match="recipe=mine"):
         apply_overrides(load_config("paper"), ["recipe=mine"])
     # keys that only share a prefix of their names are different keys
-    c = load_config(
-        "paper", ["options.subgoal_planner=false", "options.subgoal_planner_first=false"]
-    )
-    assert not c.options.subgoal_planner and not c.options.subgoal_planner_first
+    c = load_config("paper", ["option_critic.epsilon=0.5", "option_critic.epsilon_decay=0.5"])
+    assert (c.option_critic.epsilon, c.option_critic.epsilon_decay) == (0.5, 0.5)
 
 
 _DISTINCT = ["update.gamma=0.9", "reflex.near.FL=[0.1, 0.3]", "reflex.near.F=[0.2, 0.6]",
-             "env.robot.radius=0.3", "options.subgoal_detour=null", "run.seed=5"]  # fmt: skip
+             "env.robot.radius=0.3", "options.region_limit=null", "run.seed=5"]  # fmt: skip
 
 
 @settings(max_examples=15, deadline=None)

@@ -343,7 +343,9 @@ def test_cooling_down_to_the_floor():
 def _option_policy(*overrides: str):
     """Options on, greedy choices (untried ones are not tried first): the first option of a
     region until another one has a better critic."""
-    return policy("paper_map", "options.try_untried=false", "options.epsilon=0", *overrides)
+    return policy(
+        "paper_map", "option_critic.try_untried=false", "option_critic.epsilon=0", *overrides
+    )
 
 
 def _act(p, loss, obs, nxt, reward):
@@ -357,7 +359,7 @@ def _act(p, loss, obs, nxt, reward):
 @pytest.mark.parametrize("critic, expected", [("mean", [-3.0, -2.0, -3.0]),
                                               ("best", [-3.0, -1.0, -1.0])])  # fmt: skip
 def test_option_critic_steps_toward_the_return_to_go(critic, expected):
-    p = _option_policy(f"options.critic={critic}")
+    p = _option_policy(f"option_critic.critic={critic}")
     loss = TeseoLoss(p)
     room = _room(p)
     rows = torch.tensor([0])

@@ -230,11 +230,11 @@ def test_options_choose_at_the_first_entry_of_a_region_per_trial():
 
 def test_options_steer_the_reflex_at_the_chosen_subgoal():
     # (no goal lead: the sub-goal from the region's first step)
-    p = policy("paper_map", "shield.enabled=false", "options.try_untried=false",
+    p = policy("paper_map", "shield.enabled=false", "option_critic.try_untried=false",
                "options.goal_lead_deg=0")  # fmt: skip
     r = p.region_names.index("room")
     labels = p.options.labels[r]
-    k = next(i for i, name in enumerate(labels) if name != "goal")
+    k = next(i for i, name in enumerate(labels) if name not in ("goal", "route"))
     p.options.critic.n[0, r] = 1  # everything tried: greedy on q
     p.options.critic.q[0, r] = -5.0
     p.options.critic.q[0, r, k] = -1.0
@@ -345,11 +345,12 @@ def test_with_map_localisation_the_gate_and_the_goal_follow_the_scan_not_the_odo
 
 @pytest.mark.parametrize("side", [1.0, -1.0])
 def test_a_trials_first_action_turns_straight_at_an_aim_behind_the_robot(side):
-    """Facing away from the goal (no sub-goal: goal lead, aim the goal), the first action of a
+    """Facing away from the goal (``paper``'s first option, the goal), the first action of a
     trial is the whole turn to the aim, mirrored with the pose; later actions, and a first
-    action with the aim less than start_turn_deg off, follow the reflex."""
+    action with the aim less than start_turn_deg off, follow the reflex (on the route the turn
+    applies at every step: tests/learner/test_options.py)."""
     args = ("shield.enabled=false", "experts.learning=false", "options.start_turn_deg=90")
-    p = policy("paper_map", *args)
+    p = policy("paper", *args)
     heading = side * 2.6  # the goal (4, -2) is ~150 degrees off from (0, 0)
     behind = observation(pose=(0.0, 0.0, heading))
     td = p(behind.clone())
@@ -361,9 +362,9 @@ def test_a_trials_first_action_turns_straight_at_an_aim_behind_the_robot(side):
     assert abs(float(again["action"][0, 0])) <= math.radians(45) + 1e-6
     p.begin_trial(torch.tensor([0]))  # a new trial turns again
     assert float(p(behind.clone())["action"][0, 0]) == pytest.approx(aim, abs=1e-5)
-    off = policy("paper_map", *args[:2], "options.start_turn_deg=null")
+    off = policy("paper", *args[:2], "options.start_turn_deg=null")
     assert abs(float(off(behind.clone())["action"][0, 0])) <= math.radians(45) + 1e-6
-    ahead = policy("paper_map", *args)  # the aim 26 degrees off: the reflex's action
+    ahead = policy("paper", *args)  # the aim 26 degrees off: the reflex's action
     obs = observation(pose=(0.0, 0.0, 0.0))
     assert float(ahead(obs.clone())["action"][0, 0]) == pytest.approx(
         _reflex(ahead, obs, math.atan2(-2.0, 4.0)), abs=1e-5

@@ -9,8 +9,10 @@ import torch
 from shapely.geometry import Point, Polygon
 
 from symrl.cli import main
+from symrl.knowledge.planner import shortest_path
+from symrl.knowledge.route import option_table
+from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import load_config
-from symrl.learner.options import subgoal_table
 from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.studies.generalisation import (
     NOISE_LEVELS,
@@ -66,7 +68,7 @@ def test_markdown_tables():
 
 
 def test_the_new_obstacle_is_in_the_env_and_not_in_what_the_agent_knows():
-    """The agent's sub-goal table, planner path and localiser walls are the training map's;
+    """The agent's option table, route planner and localiser walls are the training map's;
     the robots drive in the map with the box, so their path cannot cross it."""
     config = load_config("paper_map", [])  # told the map: its table, planner and walls
     world = load_map("hailu2001")
@@ -77,8 +79,10 @@ def test_the_new_obstacle_is_in_the_env_and_not_in_what_the_agent_knows():
     try:
         assert env.world is blocked
         assert policy.knowledge.world is world
-        trained, told = subgoal_table(world, config.options), subgoal_table(blocked, config.options)
-        assert trained.labels != told.labels  # told of the box, the planner would route round it
+        trained = option_table(Knowledge.told(world, "map"), "map")
+        assert policy.options.route is not None and policy.options.route.world is world
+        # told of the box, the planner would route round it
+        assert len(shortest_path(world).points) != len(shortest_path(blocked).points)
         assert policy.options.table.labels == trained.labels
         torch.testing.assert_close(policy.options.table.points, trained.points)
         np.testing.assert_array_equal(policy.perception.tracker.localizer.walls.segments,

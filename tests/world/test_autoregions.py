@@ -14,7 +14,9 @@ import yaml
 from shapely.geometry import Polygon, box
 from shapely.ops import unary_union
 
-from symrl.knowledge.subgoals import build_subgoals, find_passages
+from symrl.knowledge.route import option_table
+from symrl.knowledge.rungs import Knowledge
+from symrl.knowledge.subgoals import find_passages
 from symrl.world import load_map
 from symrl.world.autoregions import auto_regions
 
@@ -192,49 +194,10 @@ def test_auto_regions_give_the_paper_door_as_sub_goals():
     world = load_map(_auto("hailu2001"))
     passages = {(p.line, p.before, p.after) for p in find_passages(world)}
     assert passages == {("x1", "room2", "door1"), ("x2", "door1", "room1")}
-    table = build_subgoals(world)
+    table = option_table(Knowledge.told(world, "map"), "map")
     room = table.region_names.index("room2")
-    assert any(
-        abs(x - 3.5) < 1e-6 and abs(y + 0.5) < 1e-6
-        for x, y in table.points[room][table.valid[room]].tolist()
-    )
-
-
-def _planner_turns(world) -> dict[str, tuple[float, float]]:
-    from symrl.learner.options import with_planner_waypoints
-
-    table = with_planner_waypoints(world, build_subgoals(world), 0.45)
-    out = {}
-    for r, region in enumerate(table.region_names):
-        labels, points = table.labels[r], table.points[r][table.valid[r]].tolist()
-        for label, point in zip(labels, points, strict=True):
-            if label == "path":
-                out[region] = tuple(point)
-    return out
-
-
-@pytest.mark.parametrize(
-    ("name", "same"),
-    [
-        ("dead_end", {"west": "room1", "south": "room2", "east": "room3"}),
-        ("two_doors", {"room": "room1", "lower_door": "door1", "corridor": "room2"}),
-    ],
-)
-def test_planner_turns_on_found_region_lines_go_to_the_region_the_path_reaches_them_in(
-    name, same
-):
-    # The planner's path rounds the pocket's (the door's) corners; its tangent points there lie
-    # exactly on the found lines through those corners, where the strict rules name only the
-    # default region. Each turn goes to the region the path reaches it in, so the found regions
-    # get the hand regions' turns: on dead_end the start region keeps the turn before the
-    # pocket's corner (not the far end of the southern passage) and the southern passage keeps
-    # its own.
-    hand = _planner_turns(load_map(name))
-    auto = _planner_turns(load_map(_auto(name)))
-    assert auto == {same[region]: point for region, point in hand.items()}
-    if name == "dead_end":
-        assert auto["room1"] == pytest.approx((2.406, 1.060), abs=1e-3)
-        assert auto["room2"] == pytest.approx((4.5, 1.05), abs=1e-3)
+    assert table.labels[room] == ["route", "goal", "x1>door1"]
+    assert table.point(room, 2) == pytest.approx((3.9, -0.5))  # 0.4 m past the door's line
 
 
 def test_bad_regions_value_names_auto():
