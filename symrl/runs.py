@@ -316,18 +316,13 @@ def check_policy_state(state: dict[str, Any], fresh: dict[str, torch.Tensor]) ->
         if bad is not None:
             return (f"policy entry experts.count holds {bad} neurons, outside 0..{capacity} "
                     "(the stored neurons)")  # fmt: skip
-    if "options.choice" in state and "options.critic.q" in state:
-        options = state["options.critic.q"].shape[-1]
-        choice = state["options.choice"]
-        bad = _outside(choice, -1, options - 1)
-        if bad is not None:
-            return f"policy entry options.choice holds {bad}, outside -1..{options - 1}"
-    if "options.visit" in state and "options.critic.q" in state:
-        regions = state["options.critic.q"].shape[-2]
-        visit = state["options.visit"]
-        bad = _outside(visit, -1, regions - 1)
-        if bad is not None:
-            return f"policy entry options.visit holds region {bad}, outside -1..{regions - 1}"
+    # an option index (the critic's last axis) and a region index (its second last), -1: none
+    for key, axis, what in (("options.choice", -1, ""), ("options.visit", -2, "region ")):
+        if key in state and "options.critic.q" in state:
+            top = state["options.critic.q"].shape[axis] - 1
+            bad = _outside(state[key], -1, top)
+            if bad is not None:
+                return f"policy entry {key} holds {what}{bad}, outside -1..{top}"
     return None
 
 

@@ -44,7 +44,7 @@ from symrl.tensordicts import read
 __all__ = [
     "TrainResult", "train", "train_batch", "make_env", "TrialRecorder", "run_snapshot",
     "check_memory",
-    "restore_snapshot", "env_state", "restore_env_state",
+    "restore_snapshot",
 ]  # fmt: skip
 
 
@@ -408,17 +408,6 @@ def run_snapshot(collector, policy, loss, trials: list[dict[str, Any]]) -> dict[
     }
 
 
-def env_state(env) -> dict[str, Any]:
-    """The state of a :class:`~symrl.world.batched_env.BatchedWorldEnv` of B robots between two
-    steps (:meth:`~symrl.world.batched_env.BatchedWorldEnv.run_state`)."""
-    return env.run_state()
-
-
-def restore_env_state(env, state: dict[str, Any]) -> None:
-    """Put ``env`` (fresh, same map, robots and seeds) into the state of :func:`env_state`."""
-    env.load_run_state(state)
-
-
 def _trimmed(state: dict[str, torch.Tensor], neurons: int) -> dict[str, torch.Tensor]:
     """Cloned state dict with the expert storage cut to the neurons in use (a large
     ``experts.capacity`` is mostly empty; the bank grows again from the saved size, with the
@@ -442,6 +431,6 @@ def restore_snapshot(state: dict[str, Any], collector, policy, loss) -> None:
     # the perception of the trial's first observation again: its localisation starts afresh
     # there, as in the uninterrupted run, and the next one is warm-started from it
     td = policy.perception_transform()(td)
-    env_keys = ("env_rngs", "physics", "last")
+    env_keys = collector.env.base_env.RUN_STATE_KEYS
     collector.load_state_dict({"env_state_dict": {k: state[k] for k in env_keys},
                                "carrier": td.to_dict(), "frames": 0, "iter": -1})  # fmt: skip

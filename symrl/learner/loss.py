@@ -251,8 +251,7 @@ class TeseoLoss(LossModule):
             self.experts.clear_trial(rows)
         if self.critic is not None:
             returns = self.trial_return.numpy()[rows_np, None] - self.entry_return.numpy()[rows_np]
-            choice, fallen = self.options.trial_choices(rows_np)
-            self.critic.learn(rows_np, choice, returns, fallen)
+            self.critic.learn(rows_np, self.options.trial_choices(rows_np), returns)
             self.entry_return.numpy()[rows_np] = 0.0
         self.trial_return.numpy()[rows_np] = 0.0
         progress.count(rows_np)

@@ -55,14 +55,11 @@ class OptionCritic(BufferViews):
         """Controller ``b``'s ``option`` needed another to finish ``region``."""
         self.arrays["stalled"][b, region, option] = True
 
-    def learn(
-        self, rows: np.ndarray, choice: np.ndarray, returns: np.ndarray,
-        fallen: np.ndarray | None = None,
-    ) -> None:  # fmt: skip
+    def learn(self, rows: np.ndarray, choice: np.ndarray, returns: np.ndarray) -> None:
         """Critic step at the end of the trials of controllers ``rows``: ``choice`` (k, R) the
         option each region was visited with (-1: not entered), ``returns`` (k, R) the
-        return-to-go from each region's first entry, ``fallen`` (k, R) the regions whose option
-        gave way to the planner's (those options stall); then epsilon decays."""
+        return-to-go from each region's first entry; then epsilon decays (an option that timed
+        out was stalled when it did, :meth:`stall`)."""
         # numpy on the buffers' memory: a few advanced indexes of a handful of rows
         a = self.arrays
         entered = choice >= 0
@@ -76,8 +73,5 @@ class OptionCritic(BufferViews):
             q[b, r, k] = np.where(first, ret, np.maximum(q[b, r, k], ret))
         else:
             q[b, r, k] += (ret - q[b, r, k]) / n[b, r, k]
-        if fallen is not None:
-            down = fallen[i, r]
-            a["stalled"][b[down], r[down], k[down]] = True
         a["epsilon"][rows] *= self.epsilon_decay
         a["trials"][rows] += 1

@@ -119,9 +119,9 @@ class SubgoalOptions(BufferViews):
         """The signed angle (left positive) from each odometry heading to the point the reflex
         should aim at in ``region``; also the option in force (B,), whether it was chosen at
         this step (the region's first entry in the trial) (B,) bool, the point (B, 2), and which
-        robots take the start turn at this step (B,) bool numpy: a trial's first step with the
-        aim more than ``start_turn_deg`` off the heading (the policy turns them straight at
-        the aim)."""
+        robots take the start turn at this step (B,) bool numpy: the aim more than
+        ``start_turn_deg`` off the heading at a trial's first step, or at any step on the route
+        (the policy turns them straight at the aim)."""
         # numpy on the buffers' memory (a handful of rows: a fraction of the torch dispatches);
         # the norm and atan2 stay torch's, the rest is exact arithmetic in the same order
         a = self.arrays  # the buffers' numpy views
@@ -219,11 +219,10 @@ class SubgoalOptions(BufferViews):
             self.route.forget(r)
 
     # -- what the update learns from -----------------------------------------------------
-    def trial_choices(self, rows: np.ndarray) -> tuple[np.ndarray, None]:
+    def trial_choices(self, rows: np.ndarray) -> np.ndarray:
         """The trials of controllers ``rows`` as the critic learns from them: the option each
-        region was visited with (k, R) (-1: not entered; a copy), and None (an option given up
-        is stalled when it times out)."""
-        return self.arrays["choice"][rows].copy(), None
+        region was visited with (k, R) (-1: not entered; a copy)."""
+        return self.arrays["choice"][rows].copy()
 
     def greedy(self, row: int) -> list[int]:
         """The option each region of controller ``row`` would choose greedily (-1: none tried)."""

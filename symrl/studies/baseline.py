@@ -395,7 +395,7 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
     from tqdm.auto import tqdm
 
     from symrl.runs import BASE_COLUMNS, RunWriter
-    from symrl.train import TrialRecorder, env_state, restore_env_state
+    from symrl.train import TrialRecorder
     from symrl.world.worldmap import load_map
 
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
@@ -434,7 +434,7 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
                            columns=list(BASE_COLUMNS), settings=settings_out)  # fmt: skip
     if state is not None:
         agent.load_state(state["agent"])
-        restore_env_state(env.base_env, state["env"])
+        env.base_env.load_run_state(state["env"])
         recorder.load_state(state["recorder"])
         torch.set_rng_state(state["torch_rng"])
         rows, pending = list(state["rows"]), list(state["pending"])
@@ -454,7 +454,7 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
         wall, cpu = elapsed()
         run_state = {
             "format": SNAPSHOT_FORMAT, "settings": run_settings, "rows": rows,
-            "pending": pending, "agent": agent.state(), "env": env_state(env.base_env),
+            "pending": pending, "agent": agent.state(), "env": env.base_env.run_state(),
             "recorder": recorder.state(), "torch_rng": torch.get_rng_state(),
             "td": td.to_dict(), "frames": frames, "wall_s": wall, "cpu_s": cpu,
             "at20": list(at20) if at20 is not None else None,

@@ -108,6 +108,9 @@ class BatchedWorldEnv(EnvBase):
         self.physics.check_poses(starts)
         self._starts = starts
 
+    RUN_STATE_KEYS = ("env_rngs", "physics", "last")
+    """The keys of :meth:`run_state` (a run snapshot stores them beside its other entries)."""
+
     def run_state(self) -> dict[str, Any]:
         """Everything between two steps a run snapshot needs (tensors and plain Python values):
         every robot's world generator, physics state and the outputs of its last reset or step

@@ -52,8 +52,7 @@ def _odometry(*poses) -> torch.Tensor:
 
 def _learn(opt: SubgoalOptions, rows: torch.Tensor, returns: torch.Tensor) -> None:
     """The update's critic step at the end of the trials of ``rows`` (as ``TeseoLoss``)."""
-    choice, fallen = opt.trial_choices(rows.numpy())
-    opt.critic.learn(rows.numpy(), choice, returns.numpy(), fallen)
+    opt.critic.learn(rows.numpy(), opt.trial_choices(rows.numpy()), returns.numpy())
 
 
 def _trial(opt: SubgoalOptions, returns: dict[int, float], row: int = 0) -> int:
@@ -328,7 +327,7 @@ def test_a_timed_out_option_gives_way_and_the_route_does_not_time_out():
     assert opt.critic.stalled[0, WEST].tolist() == [False, True, False]
     for _ in range(10):  # re-planned, never given up
         assert _aim(opt, WEST, -1.0, -1.0)[0] == 0
-    assert opt.trial_choices(np.array([0]))[0].tolist() == [[0, -1]]
+    assert opt.trial_choices(np.array([0])).tolist() == [[0, -1]]
 
 
 def test_on_the_route_the_start_turn_applies_at_every_step():
