@@ -598,8 +598,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--reward", action="store_true",
                    help="also search for the best total reinforcement of a noise-free trial "
                    "(writes reward_optimum.json and reward_optimum.png)")
-    p.add_argument("--beam", type=int, default=300,
-                   help="with --reward: partial sequences kept per action (default 300)")
+    p.add_argument("--beam", type=int, default=100,
+                   help="with --reward: partial sequences kept per action (default 100)")
     p.add_argument("--headings", type=int, default=72,
                    help="with --reward: headings tried per action (default 72, every 5 degrees)")
     p.set_defaults(handler=_plan)
