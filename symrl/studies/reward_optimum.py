@@ -42,9 +42,13 @@ __all__ = [
     "SearchSettings",
     "Totals",
     "headings_to_actions",
+    "open_loop_with_noise",
     "replay",
+    "reward_command",
     "rollout",
     "search_best_total",
+    "walk_headings",
+    "write_result",
 ]
 
 _TWO_PI = 2.0 * math.pi
@@ -179,6 +183,36 @@ def replay(world: WorldMap, robot: RobotConfig, start: Sequence[float],
     env.close()
     return {"total": total, "actions": len(f1), "reached_goal": reached,
             "collisions": collisions, "f1": f1, "f2": f2, "path": path}  # fmt: skip
+
+
+def open_loop_with_noise(world: WorldMap, robot: RobotConfig, start: Sequence[float],
+                         actions: Sequence[float], seeds: int = 100) -> dict[str, Any]:  # fmt: skip
+    """The same actions with the env's noise on, blind (seeds 0 .. seeds-1): how many trials
+    still reach the goal by the last action, and what those earn. f2 is measured on the
+    odometry, which moves as commanded, so it barely changes; f1 and the goal see the true
+    pose, which drifts."""
+    from symrl.world.env import Hailu2001Env
+
+    env = Hailu2001Env(map=world, noise=True, robot=robot, max_actions=max(len(actions), 1))
+    got = []
+    for seed in range(seeds):
+        env.reset(seed=seed, options={"pose": tuple(float(v) for v in start)})
+        f1 = f2 = 0.0
+        collisions, reached = 0, False
+        for a in actions:
+            _, _, terminated, truncated, info = env.step(np.array([a], dtype=np.float64))
+            f1, f2 = f1 + float(info["f1"]), f2 + float(info["f2"])
+            collisions += int(info["collision"])
+            if terminated or truncated:
+                reached = bool(terminated)
+                break
+        got.append((reached, f1, f2, collisions))
+    env.close()
+    ok = np.array([g[1:3] for g in got if g[0]]).reshape(-1, 2)
+    f1, f2 = (float(v) for v in (ok.mean(axis=0) if len(ok) else (np.nan, np.nan)))
+    return {"seeds": [0, seeds - 1], "reached_goal": len(ok), "total_when_reached": f1 + f2,
+            "f1_when_reached": f1, "f2_when_reached": f2,
+            "collisions": sum(g[3] for g in got)}  # fmt: skip
 
 
 # --- stage 1: the value table ---------------------------------------------------------------
@@ -457,6 +491,7 @@ def write_result(out: Path, world: WorldMap, start: Sequence[float], best: Best,
         "per_action": {"f1": run["f1"], "f2": run["f2"]},
         "path": run["path"],
         "shortest_path": shortest,
+        "noise_on_open_loop": open_loop_with_noise(world, robot, start, best.actions.tolist()),
         "paper_table1_last_trial": {"total_reinforcement": -6.24, "actions": 27.7,
                                     "noise": "a real robot"},  # fmt: skip
         "search": {**settings.__dict__, "stages": best.history},
@@ -494,6 +529,12 @@ def reward_command(args: Any, world: WorldMap, start: Sequence[float], walk: np.
     print(
         f"shortest path replayed: {shortest['total_reinforcement']:.4f} in {shortest['actions']} "
         f"actions (f1 {shortest['f1_walls']:.4f}, f2 {shortest['f2_heading']:.4f})"
+    )
+    blind = result["noise_on_open_loop"]
+    print(
+        f"the same actions with noise on, blind (seeds 0-99): {blind['reached_goal']} of 100 "
+        f"reach the goal, those earn {blind['total_when_reached']:.4f} (f1 "
+        f"{blind['f1_when_reached']:.4f}, f2 {blind['f2_when_reached']:.4f})"
     )
     print(f"wrote {out / 'reward_optimum.json'} and {out / 'reward_optimum.png'} in "
           f"{result['wall_time_s']} s")
