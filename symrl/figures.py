@@ -168,29 +168,41 @@ def plot_reward_optimum(world: WorldMap, result: dict[str, Any], path: Path | st
     plt.close(fig)
 
 
-def plot_ladder_worlds(entries: Sequence[Mapping[str, Any]], path: Path | str) -> None:
+def plot_ladder_worlds(entries: Sequence[Mapping[str, Any]], path: Path | str,
+                       top: float = 2.5) -> None:  # fmt: skip
     """Grouped bars: per world, each recipe's actions over the last trials divided by the
-    world's optimum (mean over sets, sd as the error bar); 1 is the optimum."""
+    world's optimum (mean over sets, sd as the error bar); 1 is the optimum. Bars above ``top``
+    are cut there and labelled with their value; a number over a bar counts its failed trials
+    (from trial 5 on)."""
     worlds = list(dict.fromkeys(e["world"] for e in entries))
     recipes = list(dict.fromkeys(e["recipe"] for e in entries))
-    ratio = np.full((len(recipes), len(worlds)), np.nan)
-    sd = np.full_like(ratio, np.nan)
-    for e in entries:
-        i, j = recipes.index(e["recipe"]), worlds.index(e["world"])
-        ratio[i, j], sd[i, j] = e["ratio"], e["ratio_sd"]
     fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(worlds) + 2.5), 4.2))
     width = 0.8 / max(len(recipes), 1)
-    x = np.arange(len(worlds))
-    for i, recipe in enumerate(recipes):
-        ax.bar(x + (i - (len(recipes) - 1) / 2) * width, ratio[i], width, yerr=sd[i],
-               capsize=2, label=recipe, error_kw={"lw": 0.8})
+    labelled: set[str] = set()
+    for e in entries:
+        i, j = recipes.index(e["recipe"]), worlds.index(e["world"])
+        x = j + (i - (len(recipes) - 1) / 2) * width
+        ratio = min(e["ratio"], top)
+        ax.bar(x, ratio, width, color=f"C{i}",
+               label=None if e["recipe"] in labelled else e["recipe"])  # fmt: skip
+        labelled.add(e["recipe"])
+        cut = e["ratio"] > top
+        if cut:
+            ax.text(x, top, f"{e['ratio']:.1f}", ha="center", va="bottom", fontsize=7)
+        else:
+            ax.errorbar(x, ratio, yerr=e["ratio_sd"], color="black", lw=0.8, capsize=2)
+        if e.get("failed_from"):
+            ax.text(x, top * 0.97 if cut else ratio + e["ratio_sd"] + 0.03,
+                    f"✗{e['failed_from']}", ha="center", va="top" if cut else "bottom",
+                    fontsize=6, color="white" if cut else "tab:red", rotation=90)  # fmt: skip
     ax.axhline(1.0, color="black", lw=0.8, ls="--", label="optimum (planner)")
-    ax.set_xticks(x, worlds, rotation=20 if len(worlds) > 4 else 0, ha="right"
-                  if len(worlds) > 4 else "center")
-    ax.set_ylabel("actions last 5 / optimum")
-    ax.set_ylim(bottom=0)
-    ax.set_title("The knowledge ladder per world (mean over sets ± sd)")
-    ax.legend(fontsize=8, ncol=2)
+    slanted = len(worlds) > 4
+    ax.set_xticks(range(len(worlds)), worlds, rotation=20 if slanted else 0,
+                  ha="right" if slanted else "center")  # fmt: skip
+    ax.set_ylabel("actions, last 5 trials / optimum")
+    ax.set_ylim(0, top * 1.12)
+    ax.set_title("The knowledge ladder per world (mean over sets ± sd; ✗ failed trials from 5)")
+    ax.legend(fontsize=8, ncol=2, loc="upper left")
     fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
 
