@@ -600,8 +600,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "(writes reward_optimum.json and reward_optimum.png)")
     p.add_argument("--beam", type=int, default=100,
                    help="with --reward: partial sequences kept per action (default 100)")
-    p.add_argument("--headings", type=int, default=72,
-                   help="with --reward: headings tried per action (default 72, every 5 degrees)")
+    p.add_argument("--headings", type=int, default=144,
+                   help="with --reward: headings tried per action (default 144, every 2.5 "
+                   "degrees)")
     p.set_defaults(handler=_plan)
 
     p = sub.add_parser(

@@ -60,12 +60,15 @@ class SearchSettings:
 
     beam: int = 100
     """Partial sequences kept per depth."""
-    headings: int = 72
-    """Absolute headings tried per action in the beam (72: every 5 degrees)."""
+    headings: int = 144
+    """Absolute headings tried per action in the beam (144: every 2.5 degrees)."""
+    endings: int = 1
+    """The best sequences of each beam that are refined (on the paper's world the 2nd and 3rd
+    best of a beam of 144 headings refined into the same sequence as the best)."""
     grids: int = 1
     """Beams run, each on the heading grid turned by a further 1/grids of its spacing, and
     each one's best refined: the landscape has many local optima, and another grid may find
-    another (on the paper's world 4 grids of 72 headings found no better one than the first)."""
+    another (on the paper's world 4 grids of 144 headings found no better one than the first)."""
     cell: float = 0.02
     """Metres: partial sequences ending in the same cell of this size keep only the best."""
     dp_spacing: float = 0.1
@@ -304,17 +307,19 @@ class _ValueTable:
 
 
 def _beam(world: WorldMap, robot: RobotConfig, start: Sequence[float], settings: SearchSettings,
-          value: _ValueTable, best_total: float, max_actions: int, offset: float,
-          bar: tqdm | None) -> tuple[float, np.ndarray | None]:  # fmt: skip
-    """Best total and headings the beam finds that beat ``best_total`` (None if none does);
-    the heading grid turned by ``offset`` of its spacing."""
+          value: _ValueTable, max_actions: int, offset: float,
+          bar: tqdm | None) -> list[tuple[float, np.ndarray]]:  # fmt: skip
+    """The ``endings`` best totals the beam finds, with their headings (best first; none if
+    nothing reaches the goal); the heading grid turned by ``offset`` of its spacing."""
+    best_total = -np.inf  # the worst of the endings kept, once there are enough
     k = settings.headings
     angles = -math.pi + _TWO_PI * (np.arange(k) + offset) / k
     x, y, h = (np.array([float(v)]) for v in start)
     g = np.zeros(1)
     history: list[tuple[np.ndarray, np.ndarray]] = []  # per depth: parent index, heading
     seen: dict[tuple[int, int], float] = {}
-    found: tuple[int, int, float] | None = None  # depth, parent, heading of the best ending
+    found: list[tuple[float, int, int, float]] = []  # the best endings: total, depth, parent,
+    # last heading
     gx, gy = world.goal.x, world.goal.y
     k += 1  # and the heading straight at the goal (a straight run at it pays no f2)
     for depth in range(max_actions):
@@ -328,12 +333,12 @@ def _beam(world: WorldMap, robot: RobotConfig, start: Sequence[float], settings:
         parent = np.repeat(np.arange(n), k)
         gain = np.repeat(g, k) + r.reward
         keep = ~r.collision
-        ended = keep & r.reached_goal
-        if ended.any():
-            i = int(np.flatnonzero(ended)[np.argmax(gain[ended])])
-            if gain[i] > best_total:
-                best_total = float(gain[i])
-                found = (depth, int(parent[i]), float(r.true_pose[i, 2]))
+        ended = np.flatnonzero(keep & r.reached_goal)
+        for i in ended[np.argsort(-gain[ended], kind="stable")][: settings.endings].tolist():
+            found.append((float(gain[i]), depth, int(parent[i]), float(r.true_pose[i, 2])))
+        found = sorted(found, key=lambda f: -f[0])[: settings.endings]
+        if len(found) == settings.endings:
+            best_total = found[-1][0]
         keep &= ~r.reached_goal & (gain > best_total)  # rewards are <= 0: no better later
         if bar is not None:
             bar.update(1)
@@ -362,15 +367,15 @@ def _beam(world: WorldMap, robot: RobotConfig, start: Sequence[float], settings:
         history.append((parent[sel], r.true_pose[sel, 2]))
         x, y, h = r.true_pose[sel, 0], r.true_pose[sel, 1], r.true_pose[sel, 2]
         g = gain[sel]
-    if found is None:
-        return best_total, None
-    depth, i, last = found
-    headings = [last]
-    for d in range(depth - 1, -1, -1):
-        parents, heads = history[d]
-        headings.append(float(heads[i]))
-        i = int(parents[i])
-    return best_total, np.array(headings[::-1])
+    out = []
+    for total, depth, i, last in found:
+        headings = [last]
+        for d in range(depth - 1, -1, -1):
+            parents, heads = history[d]
+            headings.append(float(heads[i]))
+            i = int(parents[i])
+        out.append((total, np.array(headings[::-1])))
+    return out
 
 
 # --- stage 3: coordinate descent --------------------------------------------------------------
@@ -429,8 +434,8 @@ def search_best_total(world: WorldMap, start: Sequence[float] | None = None,
     if start is None:
         start = (world.start.x, world.start.y, world.start.heading)
     history: list[tuple[str, float]] = []
-    bar = tqdm(total=max_actions, desc="reward optimum", unit="depth", disable=not progress,
-               leave=False)  # fmt: skip
+    # counts the beam's depths (their number is not known ahead); the postfix names the stage
+    bar = tqdm(desc="reward optimum", unit="depth", disable=not progress, leave=False)
     try:
         best_total, best = -np.inf, None
         for s in seeds:
@@ -443,15 +448,14 @@ def search_best_total(world: WorldMap, start: Sequence[float] | None = None,
         history.append(("value table", float(value(np.array([start[0]]),
                                                    np.array([start[1]]))[0])))  # fmt: skip
         for i in range(settings.grids):
-            total, found = _beam(world, robot, start, settings, value, -np.inf, max_actions,
-                                 i / settings.grids, bar)  # fmt: skip
-            history.append((f"beam {i + 1}", total))
-            if found is None:
-                continue
-            total, found = _refine(world, robot, start, found, settings, bar)
-            history.append((f"refine {i + 1}", total))
-            if total > best_total:
-                best_total, best = total, found
+            endings = _beam(world, robot, start, settings, value, max_actions,
+                            i / settings.grids, bar)  # fmt: skip
+            for j, (total, found) in enumerate(endings):
+                history.append((f"beam {i + 1}, ending {j + 1}", total))
+                total, found = _refine(world, robot, start, found, settings, bar)
+                history.append(("refined", total))
+                if total > best_total:
+                    best_total, best = total, found
         if best is None:
             raise ValueError(f"map {world.name!r}: no action sequence found that reaches the goal")
     finally:

@@ -4,6 +4,7 @@ out by hand and against the shortest path's."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -23,7 +24,7 @@ from symrl.studies.reward_optimum import (
 from symrl.world import load_map
 from symrl.world.robot import RobotConfig
 
-SMALL = SearchSettings(beam=20, headings=36, dp_spacing=0.2, dp_headings=24,
+SMALL = SearchSettings(beam=20, headings=36, dp_spacing=0.2, dp_headings=24, refine_start_deg=1.0,
                        refine_stop_deg=0.5, random=8)  # fmt: skip
 
 # a corridor 1.1 m wide: on its centre line the sonars at +-90 degrees read 0.55 - 0.26 =
@@ -39,7 +40,9 @@ CORRIDOR = {
 
 def test_in_a_corridor_the_best_is_straight_down_the_middle_at_the_hand_computed_total():
     world = load_map(CORRIDOR)
-    best = search_best_total(world, settings=SMALL)
+    best = search_best_total(world, settings=replace(SMALL, endings=2))
+    assert [stage for stage, _ in best.history[2:]] == ["beam 1, ending 1", "refined",
+                                                        "beam 1, ending 2", "refined"]
     # 3.15 m to the goal's centre, 2.75 m to its rim: 14 moves of 0.20 m, each paying only f1
     assert len(best.actions) == 14
     assert best.total == pytest.approx(14 * (-1.0 + 0.29 / 0.30), abs=1e-9)
@@ -72,6 +75,9 @@ def test_on_the_paper_world_the_search_beats_the_shortest_path_and_replays_exact
     assert again["reached_goal"] and again["collisions"] == 0
     assert again["total"] == pytest.approx(best.total, abs=1e-9)
     assert again["total"] == pytest.approx(sum(again["f1"]) + sum(again["f2"]), abs=1e-12)
+    wider = search_best_total(world, start, [seed], replace(SMALL, grids=2))
+    assert wider.total >= best.total  # its first beam is the same, another is refined
+    assert len(wider.history) == len(best.history) + 2
 
 
 def test_a_sequence_that_misses_the_goal_scores_minus_infinity():
