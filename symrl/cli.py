@@ -401,17 +401,14 @@ def _ablate(args: argparse.Namespace) -> int:
             )
     _output_folder("--out", args.out)
     if args.maps is not None:
-        from symrl.studies.ladder_worlds import parse_maps
+        from symrl.studies.ladder_worlds import ladder_worlds_command, parse_maps
 
-        if not args.ladder or args.map is not None:
+        if not args.ladder or args.map != "hailu2001":  # a --map other than the default
             raise ValueError(f"--maps {args.maps!r}: runs the ladder on several worlds; give "
                              "it with --ladder and without --map")
         for name in parse_maps(args.maps):
             _plannable(name)
-        from symrl.studies.ladder_worlds import ladder_worlds_command
-
         return ladder_worlds_command(args)
-    args.map = args.map or "hailu2001"
     _plannable(args.map)
     return ablate_command(args)
 
@@ -573,7 +570,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "ladder.md")
     p.add_argument("--base", default="paper_literal",
                    help="the recipe --changes-of puts settings back to (default paper_literal)")
-    p.add_argument("--map", default=None,
+    p.add_argument("--map", default="hailu2001",
                    help="built-in map name or map file (env.map; default hailu2001)")
     p.add_argument("--maps", default=None, metavar="M1,M2,...",
                    help="with --ladder: the ladder on each of these worlds (built-in names, "

@@ -13,13 +13,14 @@ what is left to earn depends on the position alone. Three stages:
 1. a value table on a grid of positions (value iteration over ``dp_headings`` headings): a
    guess of what is left to earn from anywhere, to rank the beam's partial sequences;
 2. a beam search over ``headings`` absolute headings per action (and the heading straight at
-   the goal), keeping per position cell
-   the best sum so far, ranked by sum + table value, seeded with the shortest path's walk;
-3. coordinate descent on the best sequence's headings (each heading nudged in turn, the step
-   halved when nothing improves), in continuous angles.
+   the goal), keeping per position cell the best sum so far, ranked by sum + table value;
+3. coordinate descent on the beam's best sequence, in continuous angles: each heading nudged
+   alone, with a later one turned back, and all at random, the step halved when nothing
+   improves.
 
-The result is a feasible sequence, replayed in :class:`~symrl.world.env.Hailu2001Env`: a
-lower bound on the optimum, exact in what it reports, not a proof that nothing is better.
+Sequences handed in (``seeds``: the shortest path's walk) are a floor: the result is never
+worse. It is a feasible sequence, replayed in :class:`~symrl.world.env.Hailu2001Env`: a lower
+bound on the optimum, exact in what it reports, not a proof that nothing is better.
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ __all__ = [
 ]
 
 _TWO_PI = 2.0 * math.pi
+_CHUNK = 20_000  # robots stepped in one batch by the value table
 
 
 @dataclass(frozen=True)
@@ -240,12 +242,17 @@ class _ValueTable:
         k = n_headings
         angles = -math.pi + _TWO_PI * np.arange(k) / k
         n = len(idx)
-        bx, by = np.repeat(px[idx], k), np.repeat(py[idx], k)
-        batch = _batch(world, robot, bx, by, np.zeros(n * k))
-        r = batch.step(np.tile(angles, n), _no_rngs(n * k))
-        reward = np.where(r.collision, -np.inf, r.reward).reshape(n, k)
-        done = r.reached_goal.reshape(n, k)
-        nx, ny = r.true_pose[:, 0], r.true_pose[:, 1]
+        reward, done = np.empty((n, k)), np.empty((n, k), dtype=bool)
+        nx, ny = np.empty(n * k), np.empty(n * k)
+        rows = max(1, _CHUNK // k)  # grid points per batch: bounded memory on big maps
+        for a in range(0, n, rows):
+            b = min(a + rows, n)
+            bx, by = np.repeat(px[idx[a:b]], k), np.repeat(py[idx[a:b]], k)
+            batch = _batch(world, robot, bx, by, np.zeros(len(bx)))
+            r = batch.step(np.tile(angles, b - a), _no_rngs(len(bx)))
+            reward[a:b] = np.where(r.collision, -np.inf, r.reward).reshape(b - a, k)
+            done[a:b] = r.reached_goal.reshape(b - a, k)
+            nx[a * k : b * k], ny[a * k : b * k] = r.true_pose[:, 0], r.true_pose[:, 1]
         self.shape = gx.shape
         value = np.zeros(len(px))
         valid = np.zeros(len(px), dtype=bool)
