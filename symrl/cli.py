@@ -15,6 +15,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from symrl.locks import holding
+
 START_HELP = (
     "start pose X,Y,HEADING_DEG (metres, metres, degrees; heading 0 if left out; negative "
     "values as --start -1.4,0,0 or --start=-1.4,0,0); default: the map's start"
@@ -172,7 +174,7 @@ def _drive(args: argparse.Namespace) -> int:
             "(the shield sees walls only by their IR reflectance)"
         )
     _output_folder("--out", args.out, ("path.png", "trial.json"), args.overwrite, "drive")
-    with _naming_start(args.start):
+    with holding(args.out, "--out"), _naming_start(args.start):
         return drive_command(args)
 
 
@@ -339,7 +341,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         from symrl.world.worldmap import load_map
 
         world = load_map(args.map)
-    with _naming_start(args.start):
+    with holding(out, "--out"), _naming_start(args.start):
         if baseline is not None:
             (record,) = baseline.evaluate([args.start], seed=args.seed, world=world)
         else:
@@ -385,7 +387,8 @@ def _study(args: argparse.Namespace) -> int:
         _plannable(load_config(args.recipe, args.overrides).env.map)
     else:
         _plannable(args.map)
-    return study_command(args)
+    with holding(args.out, "--out"):
+        return study_command(args)
 
 
 def _ablate(args: argparse.Namespace) -> int:
@@ -401,7 +404,8 @@ def _ablate(args: argparse.Namespace) -> int:
             )
     _output_folder("--out", args.out)
     _plannable(args.map)
-    return ablate_command(args)
+    with holding(args.out, "--out"):
+        return ablate_command(args)
 
 
 def _plan(args: argparse.Namespace) -> int:
@@ -409,7 +413,7 @@ def _plan(args: argparse.Namespace) -> int:
 
     _output_folder("--out", args.out, ("plan.json", "plan.png"), args.overwrite, "plan")
     _plannable(args.map)
-    with _naming_start(args.start):
+    with holding(args.out, "--out"), _naming_start(args.start):
         return plan_command(args)
 
 
@@ -430,7 +434,8 @@ def _generalise(args: argparse.Namespace) -> int:
     _sets_and_trials(args)
     _output_folder("--out", args.out, ("generalise.json",), args.overwrite, "generalise")
     _plannable(args.map)
-    return generalise_command(args)
+    with holding(args.out, "--out"):
+        return generalise_command(args)
 
 
 def _sweep(args: argparse.Namespace) -> int:
@@ -442,7 +447,8 @@ def _sweep(args: argparse.Namespace) -> int:
     for name in (args.maps or "").split(","):
         if name.strip():
             _plannable(name.strip())
-    return sweep_command(args)
+    with holding(args.out, "--out"):
+        return sweep_command(args)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -596,7 +602,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--residual", action="store_true",
                    help="act as the shielded fuzzy reflex (steering toward the goal) plus a "
                    "learned correction of at most --correction * pi")
-    p.add_argument("--correction", type=float, default=0.25,
+    p.add_argument("--correction", type=float, default=None,
                    help="largest residual correction as a fraction of pi (default 0.25: 45 deg)")
     p.add_argument("--regions", action="store_true",
                    help="append the region id (one-hot, from the odometry pose) to the "

@@ -531,23 +531,11 @@ class RunWriter:
 
 def _lock_run_folder(folder: Path) -> Any:
     """Hold ``folder/.lock`` while a run writes the folder: a second run into it (two
-    ``--overwrite`` at once) is refused instead of mixing its files with the first's. An OS
-    lock (flock): a killed run leaves no stale lock."""
-    from filelock import FileLock, Timeout
+    ``--overwrite`` at once) is refused instead of mixing its files with the first's
+    (:func:`symrl.locks.lock_folder`: an OS lock, a killed run leaves no stale lock)."""
+    from symrl.locks import lock_folder
 
-    lock = FileLock(folder / ".lock")
-    try:
-        lock.acquire(timeout=0)
-    except Timeout:
-        raise FileExistsError(
-            f"--logdir {str(folder)!r}: another symrl run is writing it now (it holds "
-            f"{str(folder / '.lock')!r}); wait for it or choose another folder"
-        ) from None
-    except OSError as err:
-        raise FileExistsError(
-            f"--logdir {str(folder)!r}: cannot write in it ({err.strerror})"
-        ) from None
-    return lock
+    return lock_folder(folder, "--logdir")
 
 
 def _purge_from(experiment: Any, step: int) -> None:
