@@ -344,8 +344,13 @@ def load_checkpoint_world(path: str | Path) -> tuple[Any, RunConfig, Any]:
         raise CheckpointError(
             f"checkpoint {str(path)!r}: is a folder; pass the checkpoint.pt file in it"
         )
-    if not path.is_file():
+    if not path.exists():
         raise CheckpointError(f"checkpoint {str(path)!r}: no such file")
+    if not path.is_file():
+        raise CheckpointError(
+            f"checkpoint {str(path)!r}: not a regular file (a device, pipe or socket); pass the "
+            "checkpoint.pt a run wrote"
+        )
     data = read_checkpoint_file(path, f"checkpoint {str(path)!r}")
     if not isinstance(data, dict) or "config" not in data or "policy" not in data:
         raise CheckpointError(f"checkpoint {str(path)!r}: not written by symrl train")

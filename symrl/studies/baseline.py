@@ -540,6 +540,8 @@ def _algorithms() -> dict[str, tuple[Any, Any]]:
 # The command
 
 
+MAX_SEEDS = 10_000
+"""Most seeds (runs) one baseline command trains."""
 MAX_ENVS = 1024
 """Most robots a baseline steps together (``--envs``): each holds its own world and buffers."""
 
@@ -554,9 +556,13 @@ def parse_seeds(text: str) -> list[int]:
                 lo, hi = (int(p) for p in part.split("-", 1))
                 if hi < lo:
                     raise ValueError
+                if hi - lo + 1 + len(seeds) > MAX_SEEDS:
+                    raise OverflowError
                 seeds += range(lo, hi + 1)
             elif part:
                 seeds.append(int(part))
+    except OverflowError:
+        raise ValueError(f"--seeds {text!r}: more than {MAX_SEEDS} seeds") from None
     except ValueError:
         raise ValueError(
             f"--seeds {text!r}: expected seeds as a range 100-104 and/or a list 100,105"
@@ -602,7 +608,6 @@ def baseline_command(args: argparse.Namespace, signalled: list[int] | None = Non
     """``symrl baseline ALGO``: one run folder per seed (``OUT/seed-S``), a summary table.
     ``signalled`` (one worker): the signals received; the first stops the run between two steps
     with its state saved (``--resume`` goes on)."""
-    from symrl.studies.runner import run_jobs
 
     seeds = parse_seeds(args.seeds)
     if args.episodes < 1:
