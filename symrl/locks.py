@@ -78,9 +78,28 @@ def lock_folder(folder: str | Path, flag: str) -> Any:
 
 @contextlib.contextmanager
 def holding(folder: str | Path, flag: str) -> Iterator[Path]:
-    """``with holding(out, "--out"):`` the command's output folder locked for its whole run."""
-    lock = lock_folder(folder, flag)
+    """``with holding(out, "--out"):`` the command's output folder locked for its whole run. A
+    folder made here is removed again if the run fails before writing anything into it (a bad
+    input found by the command leaves no empty folder behind)."""
+    path = Path(folder)
+    made = not path.exists()
+    lock = lock_folder(path, flag)
     try:
-        yield Path(folder)
-    finally:
+        yield path
+    except BaseException:
         lock.release()
+        if made:
+            _remove_if_empty(path)
+        raise
+    lock.release()
+
+
+def _remove_if_empty(folder: Path) -> None:
+    """Remove ``folder`` if it holds nothing but the lock's files."""
+    try:
+        if {p.name for p in folder.iterdir()} <= {LOCK_NAME, OWNER_NAME}:
+            for name in (LOCK_NAME, OWNER_NAME):
+                (folder / name).unlink(missing_ok=True)
+            folder.rmdir()
+    except OSError:
+        pass
