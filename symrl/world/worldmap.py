@@ -385,6 +385,8 @@ def _check_auto_size(boundary: np.ndarray, obstacles: tuple[np.ndarray, ...],
         )
 
 
+MAX_REGIONS = 64
+"""Most regions a map may name (the shipped maps name at most 7)."""
 MIN_GOAL_RADIUS = 0.1
 """Smallest goal radius (m): half the robot's step, so a path through the goal meets it."""
 
@@ -540,6 +542,11 @@ def _regions(value: Any) -> RegionSpec:
         raise MapError(f"field 'regions.names' must be a non-empty list of strings, got {names!r}")
     if len(set(names)) != len(names):
         raise MapError(f"field 'regions.names' has duplicates: {names!r}")
+    if len(names) > MAX_REGIONS:  # before the rules are checked over the map
+        raise MapError(
+            f"field 'regions.names': {len(names)} regions, more than {MAX_REGIONS} (the learner "
+            "keeps an expert and an option critic per region)"
+        )
 
     lines_raw = value["lines"]
     if not isinstance(lines_raw, dict):
