@@ -406,12 +406,15 @@ class RunWriter:
         *,
         columns: list[str] | None = None,
         settings: dict[str, Any] | None = None,
+        flag: str = "--logdir",
     ):
         """``resume_rows``: go on with the run already in ``logdir`` whose finished trials are
         these rows (the trial table is rewritten with them, then appended to). ``columns``: the
         trial table's columns (default :func:`trial_columns`); ``settings``: what
         ``config.yaml``, the TensorBoard text and HParams record (default the whole config) --
-        a learner other than the paper's (the baselines) names only the settings it uses."""
+        a learner other than the paper's (the baselines) names only the settings it uses.
+        ``flag``: the command's flag naming the folder, in the refusal when another process
+        writes it."""
         from torchrl.record.loggers import TensorboardLogger
 
         from symrl.about import provenance
@@ -425,7 +428,7 @@ class RunWriter:
             raise FileExistsError(
                 f"--logdir {str(self.dir)!r}: cannot make it ({err.strerror})"
             ) from None
-        self._lock = _lock_run_folder(self.dir)
+        self._lock = _lock_run_folder(self.dir, flag)
         for leftover in self.dir.glob("checkpoint.pt*.tmp"):  # a save cut short by SIGKILL
             leftover.unlink()
         if resume_rows is not None:
@@ -534,13 +537,13 @@ class RunWriter:
         self._lock.release()
 
 
-def _lock_run_folder(folder: Path) -> Any:
+def _lock_run_folder(folder: Path, flag: str = "--logdir") -> Any:
     """Hold ``folder/.lock`` while a run writes the folder: a second run into it (two
     ``--overwrite`` at once) is refused instead of mixing its files with the first's
     (:func:`symrl.locks.lock_folder`: an OS lock, a killed run leaves no stale lock)."""
     from symrl.locks import lock_folder
 
-    return lock_folder(folder, "--logdir")
+    return lock_folder(folder, flag)
 
 
 def _purge_from(experiment: Any, step: int) -> None:
@@ -597,7 +600,7 @@ def run_one(
         check_memory(config, 1, world)
         writer = RunWriter(logdir, config, world, overwrite=overwrite)
     else:
-        writer = RunWriter(logdir, config, world, resume_rows=resume["trials"])
+        writer = RunWriter(logdir, config, world, resume_rows=resume["trials"], flag="--resume")
     every = max(1, int(checkpoint_every))
     latest: list[Any] = [None, False]  # the last snapshot, and whether it is on disk
 

@@ -116,3 +116,23 @@ def test_evaluate_in_another_map_refuses_then_names_both(tmp_path, capsys):
     # the map it learned in, named again, is no other map
     assert main(["evaluate", ckpt, "--map", "hailu2001", "--out", str(tmp_path / "f")]) == 0
     assert main(["evaluate", ckpt, "--other-map", "--out", str(tmp_path / "g")]) == 2
+
+
+@pytest.mark.parametrize(("boundary", "goal"), [
+    ([[0, 0], [1.2, 0], [1.2, 9000], [0, 9000]], {"x": 0.6, "y": 3.0, "radius": 0.4}),
+    ([[0, 0], [9000, 0], [9000, 1.2], [0, 1.2]], {"x": 3.0, "y": 0.6, "radius": 0.4}),
+])  # fmt: skip
+def test_a_very_tall_or_wide_map_renders_a_bounded_frame(tmp_path, boundary, goal):
+    from symrl.world.env import Hailu2001Env
+
+    start = {"x": goal["x"] if goal["x"] < 1 else 1.0, "y": 1.0 if goal["x"] < 1 else 0.6}
+    path = tmp_path / "long.yaml"
+    path.write_text(yaml.safe_dump({"name": "long", "boundary": boundary, "start": start,
+                                    "goal": goal}))  # fmt: skip
+    env = Hailu2001Env(map=str(path), render_mode="rgb_array")
+    env.reset(seed=0)
+    frame = env.render()
+    env.close()
+    assert frame is not None and frame.ndim == 3
+    assert 100 <= frame.shape[0] <= 1000 and 100 <= frame.shape[1] <= 1000  # never gigabytes
+    assert (frame < 250).any()  # something is drawn: not an empty frame
