@@ -15,6 +15,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from symrl.locks import holding
+
 START_HELP = (
     "start pose X,Y,HEADING_DEG (metres, metres, degrees; heading 0 if left out; negative "
     "values as --start -1.4,0,0 or --start=-1.4,0,0); default: the map's start"
@@ -172,7 +174,7 @@ def _drive(args: argparse.Namespace) -> int:
             "(the shield sees walls only by their IR reflectance)"
         )
     _output_folder("--out", args.out, ("path.png", "trial.json"), args.overwrite, "drive")
-    with _naming_start(args.start):
+    with holding(args.out, "--out"), _naming_start(args.start):
         return drive_command(args)
 
 
@@ -182,8 +184,15 @@ def _at_least(flag: str, value: int | None, low: int) -> None:
         raise ValueError(f"{flag} {value}: must be >= {low}")
 
 
+def _STOP_SIGNALS() -> tuple[int, ...]:  # noqa: N802 - a constant, read when it is needed
+    """Ctrl-C, SIGTERM and (where there is one) SIGHUP: a closed terminal stops a run too."""
+    import signal
+
+    return tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
+
+
 def _stoppable(run: Any) -> int:
-    """``run(signalled)`` with SIGINT and SIGTERM only asking it to stop (``signalled`` gets
+    """``run(signalled)`` with SIGINT, SIGTERM and SIGHUP only asking it to stop (``signalled`` gets
     their numbers; the run stops after its current step, with its state saved), from the start
     of the command on."""
     import signal
@@ -194,7 +203,7 @@ def _stoppable(run: Any) -> int:
     def on_signal(signum: int, frame) -> None:
         signalled.append(signum)
 
-    for sig in (signal.SIGINT, signal.SIGTERM):
+    for sig in _STOP_SIGNALS():
         handlers[sig] = signal.signal(sig, on_signal)
     try:
         return int(run(signalled))
@@ -335,11 +344,25 @@ def _evaluate(args: argparse.Namespace) -> int:
     world = learned_in if baseline is None else baseline.world
     out = Path(args.out) if args.out else Path(args.checkpoint).parent
     _output_folder("--out", out, ("evaluate.png",), args.overwrite, "evaluate")
+    trained_on = world
     if args.map is not None:
         from symrl.world.worldmap import load_map
 
         world = load_map(args.map)
-    with _naming_start(args.start):
+    elif args.other_map:
+        raise ValueError("--other-map: only with --map (the map to drive in)")
+    other = args.map is not None and not _same_map(trained_on, world)
+    if other and not args.other_map:
+        raise ValueError(
+            f"--map {args.map}: the controller learned in map {trained_on.name!r} (its regions "
+            f"and goal); it would drive in {world.name!r} told the old map's. Pass --other-map "
+            "to drive it there anyway"
+        )
+    if other:
+        print(f"symrl evaluate: note: trained on map {trained_on.name!r}, driving in map "
+              f"{world.name!r} (told {trained_on.name!r}'s regions and goal)",
+              file=sys.stderr)  # fmt: skip
+    with holding(out, "--out"), _naming_start(args.start):
         if baseline is not None:
             (record,) = baseline.evaluate([args.start], seed=args.seed, world=world)
         else:
@@ -357,15 +380,36 @@ def _evaluate(args: argparse.Namespace) -> int:
         f"total {record['total_reinforcement']:.2f}, "
         f"{record['collisions']} collisions, reached goal {record['reached_goal']}, "
         f"path {record['path_length']:.2f} m"
+        + (f"; trained on {trained_on.name}, driven in {world.name}" if other else "")
     )
     print(f"wrote {out / 'evaluate.png'}")
     return 0
+
+
+def _same_map(a: Any, b: Any) -> bool:
+    """Whether two loaded maps are the same world (name, walls, start and goal)."""
+    import numpy as np
+
+    return bool(a.name == b.name and a.goal == b.goal and a.start == b.start
+                and a.segments.shape == b.segments.shape
+                and np.array_equal(a.segments, b.segments))  # fmt: skip
+
+
+MAX_SETS = 10_000
+"""Most sets of one study (each a robot with its own world and learner in memory)."""
+MAX_WORKERS = 1024
 
 
 def _sets_and_trials(args: argparse.Namespace) -> None:
     _at_least("--sets", args.sets, 1)
     _at_least("--trials", args.trials, 1)
     _at_least("--seed", args.seed, 0)
+    for flag, value, high in (("--sets", args.sets, MAX_SETS), ("--trials", args.trials, 1_000_000),
+                              ("--seed", args.seed, 2**63 - 1 - MAX_SETS),
+                              ("--workers", args.workers, MAX_WORKERS)):  # fmt: skip
+        if value is not None and value > high:
+            raise ValueError(f"{flag} {value}: must be <= {high}")
+    _at_least("--workers", args.workers, 1)
 
 
 def _study(args: argparse.Namespace) -> int:
@@ -378,6 +422,9 @@ def _study(args: argparse.Namespace) -> int:
         taken["env.map"] = f"--map {args.map}"
     _check_overrides(args.overrides, taken)
     args.out = args.out or f"results/study-{Path(args.recipe).stem}"
+    if args.resume and args.overwrite:
+        raise ValueError("--resume goes on with the stopped study in --out, --overwrite starts "
+                         "afresh: give one")  # fmt: skip
     _output_folder("--out", args.out, ("table1.json",), args.overwrite, "study")
     if args.map is None:
         from symrl.learner.config import load_config
@@ -385,13 +432,26 @@ def _study(args: argparse.Namespace) -> int:
         _plannable(load_config(args.recipe, args.overrides).env.map)
     else:
         _plannable(args.map)
-    return study_command(args)
+    from symrl.studies import checkpointing
+
+    settings = {"recipe": args.recipe, "sets": args.sets, "trials": args.trials,
+                "seed": args.seed, "map": args.map, "overrides": list(args.overrides)}
+    with holding(args.out, "--out"), checkpointing.running(
+        args.out, "study", settings, args.resume, args.overwrite
+    ) as going_on:
+        if args.overwrite and not going_on:
+            checkpointing.forget_kept(Path(args.out) / "sets")
+        return study_command(args)
 
 
 def _ablate(args: argparse.Namespace) -> int:
     from symrl.studies.ablation import ablate_command
 
     _sets_and_trials(args)
+    if args.base is not None and not args.changes_of:
+        raise ValueError(f"--base {args.base}: only with --changes-of (the recipe whose settings "
+                         "it puts back); without it --base would be ignored")  # fmt: skip
+    args.base = args.base or "paper_literal"
     for flag, value in (("--recipes", args.recipes),):
         if value is not None and not all(part.strip() for part in value.split(",")):
             raise ValueError(
@@ -410,7 +470,10 @@ def _ablate(args: argparse.Namespace) -> int:
             _plannable(name)
         return ladder_worlds_command(args)
     _plannable(args.map)
-    return ablate_command(args)
+    if args.resume and not Path(args.out).is_dir():
+        raise ValueError(f"--resume: --out {args.out!r} does not exist; nothing to go on with")
+    with holding(args.out, "--out"):
+        return ablate_command(args)
 
 
 def _plan(args: argparse.Namespace) -> int:
@@ -424,7 +487,7 @@ def _plan(args: argparse.Namespace) -> int:
         results += ("reward_optimum.json", "reward_optimum.png")
     _output_folder("--out", args.out, results, args.overwrite, "plan")
     _plannable(args.map)
-    with _naming_start(args.start):
+    with holding(args.out, "--out"), _naming_start(args.start):
         return plan_command(args)
 
 
@@ -445,7 +508,8 @@ def _generalise(args: argparse.Namespace) -> int:
     _sets_and_trials(args)
     _output_folder("--out", args.out, ("generalise.json",), args.overwrite, "generalise")
     _plannable(args.map)
-    return generalise_command(args)
+    with holding(args.out, "--out"):
+        return generalise_command(args)
 
 
 def _sweep(args: argparse.Namespace) -> int:
@@ -457,7 +521,8 @@ def _sweep(args: argparse.Namespace) -> int:
     for name in (args.maps or "").split(","):
         if name.strip():
             _plannable(name.strip())
-    return sweep_command(args)
+    with holding(args.out, "--out"):
+        return sweep_command(args)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -469,6 +534,10 @@ def build_parser() -> argparse.ArgumentParser:
         "(see --out of each).",
     )
     _one_line_errors(parser)
+    from symrl.about import __version__
+
+    parser.add_argument("--version", action="version", version=f"symrl {__version__}",
+                        help="print the version and exit")  # fmt: skip
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser("drive", help="let the fuzzy reflex drive one trial and save its path")
@@ -529,7 +598,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="checkpoint file written by `symrl train` or `symrl baseline`")
     p.add_argument("--start", type=parse_pose, default=None, help=START_HELP)
     p.add_argument("--seed", type=int, default=0, help="random seed for the world's noise")
-    p.add_argument("--map", default=None, help="drive in another map (default: its own)")
+    p.add_argument("--map", default=None,
+                   help="drive in another map (default: its own); with --other-map")
+    p.add_argument("--other-map", action="store_true",
+                   help="with --map: drive in a map other than the one the controller learned "
+                   "in (it keeps the learned map's regions and goal; the output names both)")
     p.add_argument("--out", default=None,
                    help="output folder for evaluate.png (default: beside the checkpoint)")
     p.add_argument("--overwrite", action="store_true",
@@ -547,7 +620,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--map", default=None, help="built-in map name or map file (env.map)")
     p.add_argument("--out", default=None, help="results folder (default results/study-RECIPE)")
     p.add_argument("--overwrite", action="store_true",
-                   help="replace a finished study in --out (a stopped one always goes on)")
+                   help="replace a finished or stopped study in --out")
+    p.add_argument("--resume", action="store_true",
+                   help="go on with the study stopped in --out (Ctrl-C, SIGTERM, SIGHUP or a "
+                   "kill): the same command and --resume give the table of a run never stopped")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
     p.set_defaults(handler=_study)
 
@@ -568,7 +644,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the knowledge ladder: the best recipe of each rung (reflex_only, "
                    "paper_literal, paper, paper_passages, paper_map) on the same seeds; writes "
                    "ladder.md")
-    p.add_argument("--base", default="paper_literal",
+    p.add_argument("--base", default=None,
                    help="the recipe --changes-of puts settings back to (default paper_literal)")
     p.add_argument("--map", default="hailu2001",
                    help="built-in map name or map file (env.map; default hailu2001)")
@@ -578,6 +654,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "figure of them all (ladder-worlds.md, ladder-worlds.png)")
     p.add_argument("--out", default="results/ablate",
                    help="results folder (default results/ablate)")
+    p.add_argument("--resume", action="store_true",
+                   help="go on with the ablation stopped in --out (same settings)")
     p.set_defaults(handler=_ablate)
 
     p = sub.add_parser(
@@ -623,7 +701,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--residual", action="store_true",
                    help="act as the shielded fuzzy reflex (steering toward the goal) plus a "
                    "learned correction of at most --correction * pi")
-    p.add_argument("--correction", type=float, default=0.25,
+    p.add_argument("--correction", type=float, default=None,
                    help="largest residual correction as a fraction of pi (default 0.25: 45 deg)")
     p.add_argument("--regions", action="store_true",
                    help="append the region id (one-hot, from the odometry pose) to the "
@@ -683,6 +761,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--backend", choices=["local", "ray"], default="local",
                    help='local process pool (default) or Ray tasks (pip install "symrl[ray]")')
     p.add_argument("--out", required=True, help="sweep folder")
+    p.add_argument("--resume", action="store_true",
+                   help="go on with the sweep stopped in --out: its unfinished runs go on from "
+                   "their last checkpoints")
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides for all")
     p.set_defaults(handler=_sweep)
     for each in sub.choices.values():
@@ -760,7 +841,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             drawing.start()
         _preload(args.command)
     try:
-        code = int(args.handler(args) or 0)
+        _no_empty_values(args)
+        with _signals_stop(args.command in _RESUMABLE):
+            code = int(args.handler(args) or 0)
     except (ValueError, FileNotFoundError, FileExistsError) as err:
         # Configuration and input errors: one clear line, no deep traceback.
         print(f"symrl {args.command}: error: {_one_line(err)}", file=sys.stderr)
@@ -769,11 +852,81 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f"{err.filename!r}: " if err.filename else ""
         print(f"symrl {args.command}: error: {where}{err.strerror or err}", file=sys.stderr)
         code = 2
-    except KeyboardInterrupt:  # a command that does not catch Ctrl-C itself
-        print(f"symrl {args.command}: stopped by Ctrl-C; what was finished is kept",
-              file=sys.stderr)  # fmt: skip
-        code = 130
+    except KeyboardInterrupt as err:  # a command that does not catch Ctrl-C itself
+        import signal
+
+        signum = int(getattr(err, "signum", signal.SIGINT))
+        name = "Ctrl-C" if signum == signal.SIGINT else signal.Signals(signum).name
+        if args.command in _RESUMABLE:
+            kept = (f"its progress is saved in {args.out}/ (all but the last few seconds); go on "
+                    "with the same command and --resume")  # fmt: skip
+        else:
+            kept = "what was finished is kept"
+        print(f"symrl {args.command}: stopped by {name}; {kept}", file=sys.stderr)
+        code = 128 + signum
     return code
+
+
+_NAMED_VALUES = {
+    "out": "--out", "logdir": "--logdir", "map": "--map", "resume": "--resume",
+    "checkpoint": "CHECKPOINT", "recipe": "RECIPE", "base": "--base", "changes_of": "--changes-of",
+}  # fmt: skip
+"""The arguments naming a file or folder, by the flag that gives them (lists such as --recipes
+have their own checks)."""
+
+
+def _no_empty_values(args: argparse.Namespace) -> None:
+    """An empty path or list (``--out ""``) is an error, not the default or the current
+    folder."""
+    for name, flag in _NAMED_VALUES.items():
+        value = getattr(args, name, None)
+        if isinstance(value, str) and not value.strip():
+            if name == "recipe" and args.command in ("generalise",):
+                flag = "--recipe"
+            raise ValueError(f"{flag} {value!r}: empty; give a name or path (or leave the flag "
+                             "out for its default)")  # fmt: skip
+
+
+_RESUMABLE = ("study", "ablate", "sweep")
+"""The commands that save their progress as they go and take --resume."""
+
+
+class _Stopped(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, stopping a command as Ctrl-C does."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _signals_stop(on: bool):
+    """With ``on``: Ctrl-C, SIGTERM and SIGHUP stop the command at once, its worker processes
+    too (each is sent SIGINT, as a terminal's Ctrl-C does), so it ends with its stop message
+    and its saved progress instead of dying silently or waiting for its workers."""
+    import os
+    import signal
+
+    if not on:
+        yield
+        return
+
+    def stop(signum: int, frame: Any) -> None:
+        import multiprocessing
+
+        if os.getpid() == main_pid:
+            for child in multiprocessing.active_children():
+                with contextlib.suppress(OSError):
+                    os.kill(child.pid, signal.SIGINT)
+        raise _Stopped(signum)
+
+    main_pid = os.getpid()
+    old = {s: signal.signal(s, stop) for s in _STOP_SIGNALS()}
+    try:
+        yield
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler)
 
 
 def _one_line(err: BaseException) -> str:

@@ -344,8 +344,13 @@ def load_checkpoint_world(path: str | Path) -> tuple[Any, RunConfig, Any]:
         raise CheckpointError(
             f"checkpoint {str(path)!r}: is a folder; pass the checkpoint.pt file in it"
         )
-    if not path.is_file():
+    if not path.exists():
         raise CheckpointError(f"checkpoint {str(path)!r}: no such file")
+    if not path.is_file():
+        raise CheckpointError(
+            f"checkpoint {str(path)!r}: not a regular file (a device, pipe or socket); pass the "
+            "checkpoint.pt a run wrote"
+        )
     data = read_checkpoint_file(path, f"checkpoint {str(path)!r}")
     if not isinstance(data, dict) or "config" not in data or "policy" not in data:
         raise CheckpointError(f"checkpoint {str(path)!r}: not written by symrl train")
@@ -401,12 +406,15 @@ class RunWriter:
         *,
         columns: list[str] | None = None,
         settings: dict[str, Any] | None = None,
+        flag: str = "--logdir",
     ):
         """``resume_rows``: go on with the run already in ``logdir`` whose finished trials are
         these rows (the trial table is rewritten with them, then appended to). ``columns``: the
         trial table's columns (default :func:`trial_columns`); ``settings``: what
         ``config.yaml``, the TensorBoard text and HParams record (default the whole config) --
-        a learner other than the paper's (the baselines) names only the settings it uses."""
+        a learner other than the paper's (the baselines) names only the settings it uses.
+        ``flag``: the command's flag naming the folder, in the refusal when another process
+        writes it."""
         from torchrl.record.loggers import TensorboardLogger
 
         from symrl.about import provenance
@@ -420,7 +428,7 @@ class RunWriter:
             raise FileExistsError(
                 f"--logdir {str(self.dir)!r}: cannot make it ({err.strerror})"
             ) from None
-        self._lock = _lock_run_folder(self.dir)
+        self._lock = _lock_run_folder(self.dir, flag)
         for leftover in self.dir.glob("checkpoint.pt*.tmp"):  # a save cut short by SIGKILL
             leftover.unlink()
         if resume_rows is not None:
@@ -529,25 +537,13 @@ class RunWriter:
         self._lock.release()
 
 
-def _lock_run_folder(folder: Path) -> Any:
+def _lock_run_folder(folder: Path, flag: str = "--logdir") -> Any:
     """Hold ``folder/.lock`` while a run writes the folder: a second run into it (two
-    ``--overwrite`` at once) is refused instead of mixing its files with the first's. An OS
-    lock (flock): a killed run leaves no stale lock."""
-    from filelock import FileLock, Timeout
+    ``--overwrite`` at once) is refused instead of mixing its files with the first's
+    (:func:`symrl.locks.lock_folder`: an OS lock, a killed run leaves no stale lock)."""
+    from symrl.locks import lock_folder
 
-    lock = FileLock(folder / ".lock")
-    try:
-        lock.acquire(timeout=0)
-    except Timeout:
-        raise FileExistsError(
-            f"--logdir {str(folder)!r}: another symrl run is writing it now (it holds "
-            f"{str(folder / '.lock')!r}); wait for it or choose another folder"
-        ) from None
-    except OSError as err:
-        raise FileExistsError(
-            f"--logdir {str(folder)!r}: cannot write in it ({err.strerror})"
-        ) from None
-    return lock
+    return lock_folder(folder, flag)
 
 
 def _purge_from(experiment: Any, step: int) -> None:
@@ -604,7 +600,7 @@ def run_one(
         check_memory(config, 1, world)
         writer = RunWriter(logdir, config, world, overwrite=overwrite)
     else:
-        writer = RunWriter(logdir, config, world, resume_rows=resume["trials"])
+        writer = RunWriter(logdir, config, world, resume_rows=resume["trials"], flag="--resume")
     every = max(1, int(checkpoint_every))
     latest: list[Any] = [None, False]  # the last snapshot, and whether it is on disk
 

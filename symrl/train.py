@@ -250,6 +250,8 @@ def train_batch(
     on_snapshot: Any = None,
     resume: dict[str, Any] | None = None,
     stop: Any = None,
+    on_boundary: Any = None,
+    resume_batch: dict[str, Any] | None = None,
 ) -> list[TrainResult]:
     """Train one robot per seed for ``config.run.trials`` trials, all in one batch.
 
@@ -261,6 +263,11 @@ def train_batch(
     such a state exactly as the uninterrupted run would have. ``stop()`` is asked after every
     step; when it answers True the loop ends there and the result holds the finished trials
     (``TrainResult.timings["stopped"]`` is 1).
+
+    Resumable batches (any number of robots): ``on_boundary(snapshot)`` is called after every
+    step at which a trial ended, with a function that returns the whole batch's state then
+    (:func:`batch_snapshot`; the caller decides when it is worth building);
+    ``resume_batch=state`` goes on from such a state as the uninterrupted batch would have.
     """
     from torchrl.envs.utils import ExplorationType
     from tqdm.auto import tqdm
@@ -284,6 +291,10 @@ def train_batch(
     recorder = TrialRecorder(batch)
     trials: list[list[dict[str, Any]]] = [[] for _ in seeds]
     finals: list[dict[str, torch.Tensor] | None] = [None] * batch
+    if resume_batch is not None:
+        restore_batch_snapshot(resume_batch, collector, policy, loss, recorder)
+        trials = [[dict(r) for r in rows] for rows in resume_batch["trials"]]
+        finals = [None if f is None else dict(f) for f in resume_batch["finals"]]
     if resume is not None:
         restore_snapshot(resume, collector, policy, loss)
         trials[0] = [dict(r) for r in resume["trials"]]
@@ -344,6 +355,9 @@ def train_batch(
                     finals[b] = policy.robot_state(b)
             if on_snapshot is not None:
                 on_snapshot(run_snapshot(collector, policy, loss, trials[0]))
+            if on_boundary is not None:
+                on_boundary(lambda: batch_snapshot(collector, policy, loss, recorder, trials,
+                                                   finals))  # fmt: skip
             if all(f is not None for f in finals):
                 break
             if stop is not None and stop():
@@ -406,6 +420,86 @@ def run_snapshot(collector, policy, loss, trials: list[dict[str, Any]]) -> dict[
         **collected["env_state_dict"],
         "td": collected["carrier"],
     }
+
+
+BATCH_SNAPSHOT_FORMAT = 1
+_KEEP_PATH_OF = ("first", "first_success")
+
+
+def _numpy_fields(obj: Any) -> dict[str, Any] | None:
+    """The per-trial working state kept in ``obj``'s attributes (numpy arrays, and lists of
+    arrays or None such as the route's paths) as tensors (copies); None for no ``obj``."""
+    if obj is None:
+        return None
+    out: dict[str, Any] = {}
+    for k, v in vars(obj).items():
+        if isinstance(v, np.ndarray):
+            out[k] = torch.from_numpy(v.copy())
+        elif isinstance(v, list) and v and all(x is None or isinstance(x, np.ndarray)
+                                               for x in v):  # fmt: skip
+            out[k] = [None if x is None else torch.from_numpy(x.copy()) for x in v]
+    return out
+
+
+def _load_numpy_fields(obj: Any, state: dict[str, Any] | None) -> None:
+    if obj is None or state is None:
+        return
+    for k, v in state.items():
+        setattr(obj, k, [None if x is None else x.numpy().copy() for x in v]
+                if isinstance(v, list) else v.numpy().copy())  # fmt: skip
+
+
+def _working_parts(policy, loss) -> dict[str, Any]:
+    """The objects whose attributes hold a trial in progress beyond the state dicts: the trial
+    gradient's record, the localiser's warm start, the options' step counts and route."""
+    options = policy.options
+    return {"loss_record": loss.record, "tracker": policy.perception.tracker,
+            "options": options, "route": getattr(options, "route", None)}  # fmt: skip
+
+
+def batch_snapshot(collector, policy, loss, recorder: TrialRecorder,
+                   trials: list[list[dict[str, Any]]],
+                   finals: list[dict[str, torch.Tensor] | None]) -> dict[str, Any]:
+    """Everything a batch of robots needs to go on from between two steps, robots in the middle
+    of their trials included: the state of :func:`run_snapshot` for the whole batch, the trials
+    in progress (the recorder's accumulators, the trial gradient's record, the localiser's warm
+    start, the observation the next step acts on with its perception), the controllers of the
+    robots that are done, and every robot's trial rows (the paths of its first trial and first
+    trial to reach the goal kept: a study draws them)."""
+    rows_out = []
+    for rows in trials:
+        first_success = next((r["trial"] for r in rows if r["reached_goal"]), None)
+        keep = {1, first_success}
+        rows_out.append([dict(r) if r["trial"] in keep else
+                         {k: v for k, v in r.items() if k not in _ROW_SKIP} for r in rows])
+    collected = collector.state_dict()
+    return {
+        "format": BATCH_SNAPSHOT_FORMAT,
+        "trials": rows_out,
+        "finals": [None if f is None else {k: v.clone() for k, v in f.items()} for f in finals],
+        "policy": _trimmed(policy.state_dict(), int(policy.experts.count.max())),
+        "loss": {k: v.clone() for k, v in loss.state_dict().items()},
+        "working": {k: _numpy_fields(v) for k, v in _working_parts(policy, loss).items()},
+        "recorder": recorder.state(),
+        "random": policy.random_state(),
+        "collector": {**collected, "frames": int(collected["frames"]),
+                      "iter": int(collected["iter"])},
+    }
+
+
+def restore_batch_snapshot(state: dict[str, Any], collector, policy, loss,
+                           recorder: TrialRecorder) -> None:
+    """Put a fresh batch (same config and seeds) into the state of :func:`batch_snapshot`."""
+    if state.get("format") != BATCH_SNAPSHOT_FORMAT:
+        raise ValueError(f"batch snapshot format {state.get('format')!r}, this symrl resumes "
+                         f"format {BATCH_SNAPSHOT_FORMAT}")  # fmt: skip
+    policy.load_state_dict(state["policy"])
+    loss.load_state_dict(state["loss"])
+    for name, part in _working_parts(policy, loss).items():
+        _load_numpy_fields(part, state["working"].get(name))
+    policy.load_random_state(state["random"])
+    recorder.load_state(state["recorder"])
+    collector.load_state_dict(state["collector"])
 
 
 def _trimmed(state: dict[str, torch.Tensor], neurons: int) -> dict[str, torch.Tensor]:

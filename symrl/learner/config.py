@@ -303,8 +303,10 @@ class RunConfig(_Section):
             ("localize.enabled", self.localize.enabled, "map"),
         ):
             if on and not rung_at_least(self.knowledge, needed):
+                what = (f"options.source={o.source} (with options.enabled=true)"
+                        if key == "options.enabled" else f"{key}=true")  # fmt: skip
                 raise ValueError(
-                    f"{key}=true needs knowledge={needed} or higher, but the recipe declares "
+                    f"{what} needs knowledge={needed} or higher, but the recipe declares "
                     f"knowledge={self.knowledge}"
                 )
         if self.experts.residual and not self.experts.reflex:
@@ -367,6 +369,10 @@ def _read_recipe(text: str, path: Path) -> DictConfig:
     return _read_recipe_file(text, str(path.resolve()), stat.st_mtime_ns, stat.st_size)
 
 
+MAX_RECIPE_BYTES = 256 * 1024
+"""Largest recipe file read (the built-in ones are 1-5 KiB)."""
+
+
 @functools.lru_cache(maxsize=64)
 def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictConfig:
     """Kept while the file is unchanged: studies and tests load the same recipes many times,
@@ -374,11 +380,22 @@ def _read_recipe_file(text: str, path: str, mtime_ns: int, size: int) -> DictCon
     from omegaconf import DictConfig, ListConfig, OmegaConf
     from omegaconf.errors import OmegaConfBaseException
 
+    if size > MAX_RECIPE_BYTES:  # before reading it: a recipe sets a few dozen keys
+        raise ConfigError(
+            f"recipe {text!r}: {size / 2**20:.1f} MiB, far larger than a recipe (at most "
+            f"{MAX_RECIPE_BYTES // 1024} KiB: a recipe sets a few dozen keys); is it the right "
+            "file?"
+        )
     try:
         data = OmegaConf.load(path)
     except yaml.MarkedYAMLError as err:
         where = f"line {err.problem_mark.line + 1}: " if err.problem_mark else ""
         problem = " ".join(str(err.problem or err).split())
+        if "node expansion exceeds" in problem:  # OmegaConf's cap on nodes, aliases or not
+            raise ConfigError(
+                f"recipe {text!r}: too many entries (over 10,000 YAML nodes); a recipe sets a "
+                "few dozen keys"
+            ) from None
         raise ConfigError(f"recipe {text!r}: not valid YAML ({where}{problem})") from None
     except (yaml.YAMLError, UnicodeDecodeError) as err:
         problem = " ".join(str(err).split())
@@ -599,6 +616,10 @@ def _one_line(err: ValidationError) -> tuple[str, str]:
     return key, f"{key}={value!r}: {reason}"
 
 
+class _NumberFault(Exception):
+    """A number key given a boolean, a string or an overflowing value (``symrl.learner.strict``)."""
+
+
 def _validate(
     layers: list[tuple[str, Any]], recipe: str | None, merged: dict[str, Any] | None = None
 ) -> RunConfig:
@@ -608,10 +629,17 @@ def _validate(
     merged = _merge(layers) if merged is None else merged
     if recipe is not None:
         merged["recipe"] = recipe
+    from symrl.learner.strict import number_fault
+
+    fault = number_fault(RunConfig, merged)  # no bool or string for a number, no 1e308
     try:
+        if fault is not None:
+            raise _NumberFault()
         return RunConfig.model_validate(merged)
     except ValidationError as err:
         key, message = _one_line(err)
+    except _NumberFault:
+        key, message = fault  # type: ignore[misc]
     for source, data in reversed(layers):
         if key and _at(_container(data), key, _ABSENT) is not _ABSENT:
             if source.startswith("recipe "):
@@ -652,7 +680,24 @@ def load_config(
     data = _read_recipe(str(recipe), path)
     layers = [(f"recipe {str(recipe)!r}", data)]
     layers += [(text, nested) for text, _, nested in _overrides(overrides or [])]
-    return _validate(layers, recipe=str(data.get("recipe", name)))
+    declared = "knowledge" in data
+    config: RunConfig | None = None
+    try:
+        config = _validate(layers, recipe=str(data.get("recipe", name)))
+    except ConfigError as err:  # a rung fault of a recipe that declares none: the missing key
+        if declared or "needs knowledge=" not in str(err):
+            raise
+    if not declared:  # what the robot is told is never left to a default
+        if config is not None:  # any fault of the map it names first, as a declared one's
+            from symrl.world.worldmap import load_map
+
+            load_map(config.env.map)
+        raise ConfigError(
+            f"recipe {str(recipe)!r}: no knowledge: key; every recipe declares what the robot "
+            "is told (knowledge: sensors, regions, passages or map)"
+        )
+    assert config is not None
+    return config
 
 
 def apply_overrides(config: RunConfig, overrides: list[str] | tuple[str, ...]) -> RunConfig:

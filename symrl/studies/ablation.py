@@ -284,6 +284,7 @@ def run_ablation(
     figures: bool = True,
     starts: Sequence[tuple[float, float, float]] | None = None,
     map: str = "hailu2001",
+    keep_sets: bool = False,
 ) -> dict[str, Any]:
     """Run every recipe's study on the same seeds in ``map`` (name or file; each recipe trained
     with ``env.map=map``); return (and write) the summary. ``recipes``: names, or
@@ -315,7 +316,9 @@ def run_ablation(
         recipe = variant.name
         r0 = time.perf_counter()
         sets_r = run_sets(variant.recipe, sets, trials, seed,
-                          [f"env.map={map}", *variant.overrides], starts, workers)  # fmt: skip
+                          [f"env.map={map}", *variant.overrides], starts, workers,
+                          keep=Path(out) / recipe / "sets" if keep_sets and out
+                          else None)  # fmt: skip
         rows = [r for s in sets_r for r in s.rows]
         table = table1(rows)
         table.update(optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1],
@@ -415,8 +418,16 @@ def ablate_command(args: argparse.Namespace) -> int:
         recipes += changes_of(changes, args.base)
     recipes += [r for r in named or (() if changes else RECIPES) if r not in
                 {v.name for v in recipes if isinstance(v, Variant)}]  # fmt: skip
-    summary = run_ablation(recipes, args.sets, args.trials, args.seed, args.workers, args.out,
-                           map=args.map)
+    from symrl.studies import checkpointing
+
+    settings = {
+        "variants": [[v.name, v.recipe, list(v.overrides)] if isinstance(v, Variant) else v
+                     for v in recipes],
+        "sets": args.sets, "trials": args.trials, "seed": args.seed, "map": args.map,
+    }  # fmt: skip
+    with checkpointing.running(args.out, "ablate", settings, bool(getattr(args, "resume", 0))):
+        summary = run_ablation(recipes, args.sets, args.trials, args.seed, args.workers,
+                               args.out, map=args.map, keep_sets=True)  # fmt: skip
     print(summary_markdown(summary))
     if ladder:
         table = ladder_markdown(summary)

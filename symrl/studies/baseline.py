@@ -540,6 +540,12 @@ def _algorithms() -> dict[str, tuple[Any, Any]]:
 # The command
 
 
+MAX_SEEDS = 10_000
+"""Most seeds (runs) one baseline command trains."""
+MAX_ENVS = 1024
+"""Most robots a baseline steps together (``--envs``): each holds its own world and buffers."""
+
+
 def parse_seeds(text: str) -> list[int]:
     """``100-104`` and/or ``100,105``; one-line ValueError naming --seeds otherwise."""
     seeds: list[int] = []
@@ -550,9 +556,13 @@ def parse_seeds(text: str) -> list[int]:
                 lo, hi = (int(p) for p in part.split("-", 1))
                 if hi < lo:
                     raise ValueError
+                if hi - lo + 1 + len(seeds) > MAX_SEEDS:
+                    raise OverflowError
                 seeds += range(lo, hi + 1)
             elif part:
                 seeds.append(int(part))
+    except OverflowError:
+        raise ValueError(f"--seeds {text!r}: more than {MAX_SEEDS} seeds") from None
     except ValueError:
         raise ValueError(
             f"--seeds {text!r}: expected seeds as a range 100-104 and/or a list 100,105"
@@ -598,13 +608,15 @@ def baseline_command(args: argparse.Namespace, signalled: list[int] | None = Non
     """``symrl baseline ALGO``: one run folder per seed (``OUT/seed-S``), a summary table.
     ``signalled`` (one worker): the signals received; the first stops the run between two steps
     with its state saved (``--resume`` goes on)."""
-    from symrl.studies.runner import run_jobs
 
     seeds = parse_seeds(args.seeds)
     if args.episodes < 1:
         raise ValueError(f"--episodes {args.episodes}: must be >= 1")
-    if args.envs is not None and args.envs < 1:
-        raise ValueError(f"--envs {args.envs}: must be >= 1")
+    if args.envs is not None and not 1 <= args.envs <= MAX_ENVS:
+        raise ValueError(f"--envs {args.envs}: must be within 1..{MAX_ENVS}")
+    if args.correction is not None and not args.residual:
+        raise ValueError(f"--correction {args.correction:g}: only with --residual (it bounds "
+                         "the residual's correction; without --residual it would be ignored)")
     if args.workers < 1:
         raise ValueError(f"--workers {args.workers}: must be >= 1")
     if args.checkpoint_every < 1:
@@ -612,7 +624,8 @@ def baseline_command(args: argparse.Namespace, signalled: list[int] | None = Non
     if args.resume and args.overwrite:
         raise ValueError("--resume goes on with the runs in --out, --overwrite replaces them: "
                          "give one")  # fmt: skip
-    priors = Priors(residual=args.residual, regions=args.regions, correction=args.correction)
+    priors = Priors(residual=args.residual, regions=args.regions,
+                    correction=0.25 if args.correction is None else args.correction)
     out = Path(args.out or f"results/baseline-{args.algorithm}-{priors.label()}")
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {str(out)!r}: exists and is not a folder")
@@ -628,6 +641,17 @@ def baseline_command(args: argparse.Namespace, signalled: list[int] | None = Non
         if goes_on:  # every run's settings are checked before any of them trains
             load_run_state(run, _run_settings(args, priors, seed), args.episodes,
                            knowledge_of(run_config(args.map, seed, args.episodes), priors))
+    from symrl.locks import holding
+
+    with holding(out, "--out"):
+        return _baseline_runs(args, signalled, seeds, priors, out, runs, resumed)
+
+
+def _baseline_runs(args: argparse.Namespace, signalled: list[int] | None, seeds: list[int],
+                   priors: Priors, out: Path, runs: list[Path], resumed: list[bool]) -> int:
+    """The runs of ``symrl baseline`` once its inputs are checked (``out`` locked)."""
+    from symrl.studies.runner import run_jobs
+
     t0 = time.perf_counter()
     stop = (lambda: bool(signalled)) if signalled is not None else None
     jobs = [{"algorithm": args.algorithm, "seed": s, "episodes": args.episodes,

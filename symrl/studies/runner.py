@@ -143,16 +143,26 @@ def _run_batch(
     starts: Sequence[tuple[float, float, float]],
     progress: bool,
     on_trial: Any = None,
+    kept_in: Any = None,
 ) -> list[SetResult]:
     """Train one robot per seed in one batch, then drive each final controller from ``starts``
-    (runs in a worker process, or in this one); ``on_trial`` as for ``train_batch``."""
+    (runs in a worker process, or in this one); ``on_trial`` as for ``train_batch``. ``kept_in``:
+    the study's folder of kept sets, where the batch's state is saved as it trains
+    (:mod:`symrl.studies.checkpointing`) and from where a stopped batch goes on."""
     import torch
 
+    from symrl.studies.checkpointing import BatchKeeper
     from symrl.train import train_batch
 
     torch.set_num_threads(1)
     config = config_from_dict(config_data)
-    results = train_batch(config, seeds, progress=progress, on_trial=on_trial)
+    keeper = (BatchKeeper(kept_in, config_data, indices, starts) if kept_in is not None
+              else None)  # fmt: skip
+    results = train_batch(
+        config, seeds, progress=progress, on_trial=on_trial,
+        on_boundary=keeper.on_boundary if keeper is not None else None,
+        resume_batch=keeper.saved() if keeper is not None else None,
+    )  # fmt: skip
     out = []
     for index, res in zip(indices, results, strict=True):
         rows, paths, ghosts = [], {}, {}
@@ -175,6 +185,10 @@ def _run_batch(
         )  # fmt: skip
         for (s, _), ev in zip(pairs, evs, strict=True):
             s.evaluations.append(ev)
+    if keeper is not None:  # each set kept as set-K.pt, then the batch's state is not needed
+        for s in out:
+            _save_set(kept_in, s, config_data, starts)
+        keeper.done()
     return out
 
 
@@ -216,22 +230,22 @@ def run_sets(
     if len(todo) == 0:
         for fn in waiting:
             fn()
+        _drop_batch_states(keep)
         return [done[k] for k in range(sets)]
 
     def finished(batch: list[SetResult]) -> list[SetResult]:
-        for s in batch:
-            if keep is not None:
-                _save_set(keep, s, data, starts)
+        for s in batch:  # with ``keep``, saved by the batch itself (``_run_batch``)
             done[s.index] = s
         return batch
 
     workers = min(workers, len(todo), os.cpu_count() or 1)
     chunks = [[int(k) for k in c] for c in np.array_split(todo, workers) if len(c)]
-    jobs = [(data, c, [seed + k for k in c], list(starts)) for c in chunks]
+    jobs = [(data, c, [seed + k for k in c], list(starts), keep) for c in chunks]
     if len(jobs) == 1:
-        finished(_run_batch(*jobs[0], progress=progress))
+        finished(_run_batch(*jobs[0][:4], progress=progress, kept_in=keep))
         for fn in waiting:
             fn()
+        _drop_batch_states(keep)
         return [done[k] for k in range(sets)]
     import queue
     from concurrent.futures import FIRST_COMPLETED, wait
@@ -268,7 +282,18 @@ def run_sets(
         bar.close()
         if trials_done is not None:
             trials_done.close()
+    _drop_batch_states(keep)
     return [done[k] for k in range(sets)]
+
+
+def _drop_batch_states(keep: Any) -> None:
+    """Every set is kept: no batch state is needed any more (one of another split into workers,
+    left by a stopped run resumed with another --workers, included)."""
+    if keep is not None:
+        from symrl.studies.checkpointing import batch_files
+
+        for path in batch_files(keep):
+            path.unlink(missing_ok=True)
 
 
 def _run_batch_in_worker(
@@ -276,13 +301,15 @@ def _run_batch_in_worker(
     indices: Sequence[int],
     seeds: Sequence[int],
     starts: Sequence[tuple[float, float, float]],
+    keep: Any = None,
 ) -> list[SetResult]:
     """:func:`_run_batch` in a worker process, its controllers as numpy arrays: a tensor sent
     between processes travels as a shared-memory file whose descriptor the receiver keeps open
     while the tensor lives, and an ablation of 40 sets x 20 variants holds ~20,000 of them
     (beyond the usual limit on open files). Each finished trial is counted on the pool's
     progress queue, if it has one."""
-    batch = _run_batch(config_data, indices, seeds, starts, False, on_trial=_count_trial)
+    batch = _run_batch(config_data, indices, seeds, starts, False, on_trial=_count_trial,
+                       kept_in=keep)  # fmt: skip
     for r in batch:
         r.controller = {k: v.numpy() for k, v in r.controller.items()}
     return batch
@@ -338,9 +365,28 @@ def _count_trial(*_: Any) -> None:
         _TRIALS_DONE.put(1)
 
 
+def _die_with_parent() -> None:
+    """A worker ends when the command's process dies, even by ``kill -9`` (Linux: the parent
+    death signal), instead of training on into a folder no process holds any more."""
+    import ctypes
+    import signal
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # pragma: no cover - no prctl: the worker may outlive it
+        return
+    if os.getppid() == 1:  # the parent died before the signal was set
+        os._exit(1)
+
+
 def _init_worker(trials_done: Any = None) -> None:
     import torch
 
+    _die_with_parent()
     global _TRIALS_DONE
     _TRIALS_DONE = trials_done
     torch.set_num_threads(1)  # one core per worker; and a forked child must not reuse the

@@ -44,6 +44,10 @@ class SweepRun:
     logdir: str
 
 
+MAX_RUNS = 10_000
+"""Most runs (recipes x seeds x maps) one sweep trains."""
+
+
 def parse_seeds(text: str) -> list[int]:
     """``100-102``, ``100,105``, ``7`` or a mix (``1-3,9``) as a sorted list of seeds >= 0."""
     seeds: set[int] = set()
@@ -60,6 +64,11 @@ def parse_seeds(text: str) -> list[int]:
             ) from None
         if lo < 0 or hi < lo:
             raise ValueError(f"--seeds {text!r}: range {part!r} is empty or negative")
+        if hi >= 2**63:
+            raise ValueError(f"--seeds {text!r}: seeds must be below 2**63")
+        if hi - lo + 1 + len(seeds) > MAX_RUNS:  # counted before the range is spelled out
+            raise ValueError(f"--seeds {text!r}: more than {MAX_RUNS} seeds; a sweep runs at "
+                             f"most {MAX_RUNS} runs")  # fmt: skip
         seeds.update(range(lo, hi + 1))
     return sorted(seeds)
 
@@ -93,6 +102,10 @@ def plan_sweep(
         raise ValueError(f"--trials {trials}: must be >= 1")
     if not recipes or not seeds or not maps:
         raise ValueError("empty grid: give at least one recipe, one seed and one map")
+    runs = len(recipes) * len(seeds) * len(maps)
+    if runs > MAX_RUNS:
+        raise ValueError(f"the grid has {runs} runs ({len(recipes)} recipes x {len(seeds)} seeds "
+                         f"x {len(maps)} maps), more than the {MAX_RUNS} a sweep runs")  # fmt: skip
     for name in maps:
         load_map(name)
     grid = []
@@ -131,9 +144,10 @@ def _is_done(run: SweepRun) -> bool:
     return bool(saved == yaml.safe_load(yaml.safe_dump(run.config, sort_keys=False)))
 
 
-def train_run(config: dict[str, Any], logdir: str) -> list[dict[str, Any]]:
-    """Train one run of the grid into ``logdir`` (replacing an unfinished one); its trial rows
-    as written to ``trials.csv``. Runs in a worker process or a Ray task."""
+def train_run(config: dict[str, Any], logdir: str, resume: bool = False) -> list[dict[str, Any]]:
+    """Train one run of the grid into ``logdir`` (replacing an unfinished one, or with
+    ``resume`` going on from its last checkpoint when it is a stopped run of this config); its
+    trial rows as written to ``trials.csv``. Runs in a worker process or a Ray task."""
     import torch
 
     from symrl.learner.config import config_from_dict
@@ -141,8 +155,30 @@ def train_run(config: dict[str, Any], logdir: str) -> list[dict[str, Any]]:
 
     torch.set_num_threads(1)
     cfg = config_from_dict(config, recipe=str(config.get("recipe", "sweep")))
-    run_one(cfg, logdir, overwrite=True, progress=False)
+    state = _stopped_state(cfg, logdir) if resume else None
+    if state is not None:
+        run_one(cfg, logdir, resume=state, seed=cfg.run.seed, progress=False)
+    else:
+        run_one(cfg, logdir, overwrite=True, progress=False)
     return read_trials_csv(Path(logdir) / "trials.csv")
+
+
+def _stopped_state(config: Any, logdir: str) -> dict[str, Any] | None:
+    """The run state of a stopped run of ``config`` in ``logdir`` (None: nothing to go on
+    with there: no run, another config, or a checkpoint without run state)."""
+    from symrl.learner.config import config_to_dict
+    from symrl.runs import CheckpointError, load_resume
+
+    if not (Path(logdir) / "checkpoint.pt").is_file():
+        return None
+    try:
+        saved, seed, state = load_resume(logdir)
+    except (CheckpointError, ValueError, OSError):
+        return None
+    same = config_to_dict(saved) == config_to_dict(config) and seed == config.run.seed
+    if not same or len(state["trials"]) >= config.run.trials:
+        return None
+    return state
 
 
 def _run_ray(jobs: list[dict[str, Any]], workers: int | None) -> list[Any]:
@@ -157,7 +193,8 @@ def _run_ray(jobs: list[dict[str, Any]], workers: int | None) -> list[Any]:
                  runtime_env={"env_vars": {"PYTHONPATH": path}})  # fmt: skip
     try:
         task = ray.remote(num_cpus=1)(train_run)
-        return list(ray.get([task.remote(job["config"], job["logdir"]) for job in jobs]))
+        return list(ray.get([task.remote(job["config"], job["logdir"], job.get("resume", False))
+                             for job in jobs]))  # fmt: skip
     finally:
         if started:
             ray.shutdown()
@@ -167,6 +204,7 @@ def run_sweep(
     grid: Sequence[SweepRun],
     workers: int | None = 1,
     backend: str = "local",
+    resume: bool = False,
 ) -> dict[str, Any]:
     """Train every run of ``grid`` not finished yet, on ``backend``; returns ``{"ran": n,
     "kept": n, "rows": {logdir: trial rows}}``."""
@@ -178,7 +216,8 @@ def run_sweep(
     if workers is not None and workers < 1:
         raise ValueError(f"--workers {workers}: must be >= 1")
     todo = [r for r in grid if not _is_done(r)]
-    jobs = [{"config": r.config, "logdir": r.logdir} for r in todo]
+    jobs = [{"config": r.config, "logdir": r.logdir, **({"resume": True} if resume else {})}
+            for r in todo]  # fmt: skip
     if backend == "ray":
         results = _run_ray(jobs, workers) if jobs else []
     else:
@@ -280,7 +319,13 @@ def sweep_command(args: argparse.Namespace) -> int:
         raise ValueError(f"--out {args.out!r}: exists and is not a folder")
     grid = plan_sweep(recipes, seeds, maps, args.trials, out, overrides)
     out.mkdir(parents=True, exist_ok=True)
-    done = run_sweep(grid, workers=args.workers, backend=args.backend)
+    from symrl.studies import checkpointing
+
+    resume = bool(getattr(args, "resume", False))
+    marked = {"recipes": recipes, "maps": maps, "seeds": seeds, "trials": args.trials,
+              "overrides": overrides}  # fmt: skip
+    with checkpointing.running(out, "sweep", marked, resume):
+        done = run_sweep(grid, workers=args.workers, backend=args.backend, resume=resume)
     settings = {"recipes": recipes, "maps": maps, "seeds": seeds, "trials": args.trials,
                 "overrides": overrides, "backend": args.backend}  # fmt: skip
     table = write_summary(out, grid, done["rows"], settings)

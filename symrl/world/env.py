@@ -12,7 +12,7 @@ from gymnasium import spaces
 
 from symrl.world.physics import Readings, RobotBatch
 from symrl.world.robot import RobotConfig
-from symrl.world.worldmap import MAX_COORD, WorldMap, load_map
+from symrl.world.worldmap import WorldMap, load_map
 
 __all__ = ["Hailu2001Env"]
 
@@ -299,9 +299,10 @@ class Hailu2001Env(gymnasium.Env):
         if len(values) != 3 or not all(math.isfinite(v) for v in values):
             raise ValueError(f"reset: pose must be 3 finite numbers (x, y, heading), got {pose!r}")
         x, y, h = values
-        if abs(h) > MAX_COORD:
+        if abs(h) > 2 * math.pi:  # larger: almost surely degrees
             raise ValueError(
-                f"reset: pose {pose!r}: heading {h:g} rad is beyond +-{MAX_COORD:g} (radians)"
+                f"reset: pose {pose!r}: heading {h:g} is outside +-2*pi; the heading is in "
+                "radians (90 degrees is 1.5708)"
             )
         if not bool(self.world.in_free_area(x, y)):
             raise ValueError(

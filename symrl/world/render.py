@@ -199,9 +199,8 @@ def save_map_figure(
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    xmin, xmax, ymin, ymax = world.bounds
     width = 6.0
-    height = max(2.5, width * (ymax - ymin + 0.6) / (xmax - xmin + 0.6)) + 0.4
+    height = max(2.5, width * _aspect(world)) + 0.4
     fig = Figure(figsize=(width, height), dpi=110)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
@@ -220,6 +219,18 @@ def save_map_figure(
     fig.savefig(out)
 
 
+ASPECT_RANGE = (0.25, 2.0)
+"""Height over width of a map's figure, at least and at most: a map far taller or wider than
+that (1.2 m x 9 km) is drawn squeezed, in a frame of at most 6 x 12 inches, instead of a frame
+of gigabytes or of no rows at all."""
+
+
+def _aspect(world: WorldMap) -> float:
+    xmin, xmax, ymin, ymax = world.bounds
+    low, high = ASPECT_RANGE
+    return min(max((ymax - ymin + 0.6) / (xmax - xmin + 0.6), low), high)
+
+
 class EnvRenderer:
     """One matplotlib figure for an env: Agg canvas for rgb_array, a pyplot window for human."""
 
@@ -231,9 +242,8 @@ class EnvRenderer:
         except ImportError as err:  # pragma: no cover - matplotlib is a dependency
             raise ImportError("rendering needs matplotlib: pip install matplotlib") from err
         self.world, self.robot, self.human = world, robot, human
-        xmin, xmax, ymin, ymax = world.bounds
         width = 6.0
-        height = width * (ymax - ymin + 0.6) / (xmax - xmin + 0.6)
+        height = width * _aspect(world)
         if human:
             import matplotlib.pyplot as plt
 

@@ -336,7 +336,9 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
     starts = _starts(data.get("starts") or [])
     goal = _goal(data["goal"])
     regions_raw = data.get("regions", "auto")
+    _check_room(boundary)
     if regions_raw == "auto":  # no hand-written rules: find rooms and doors from the walls
+        _check_auto_size(boundary, obstacles, segments)
         regions_raw = auto_regions(boundary, obstacles, segments)
     regions = _regions(regions_raw)
 
@@ -351,6 +353,42 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
 
 
 # --- field validators -------------------------------------------------------------------
+
+
+MAX_AUTO_PIECES = 100
+"""Most obstacles plus segments a map may have when its regions are found from the walls
+(``regions: auto``): the search grows with their square (100: a few seconds)."""
+MAX_AUTO_CORNERS = 20_000
+"""Most polygon corners a map may have when its regions are found from the walls."""
+
+
+def _check_room(boundary: np.ndarray) -> None:
+    """The free area must hold the robot's body, before anything is computed in it."""
+    width, height = (float(v) for v in np.ptp(boundary, axis=0))
+    if min(width, height) < 2 * BODY_RADIUS:
+        raise MapError(
+            f"field 'boundary': the room spans only {width:.3g} x {height:.3g} m; the robot's body "
+            f"(radius {BODY_RADIUS} m) does not fit in it"
+        )
+
+
+def _check_auto_size(boundary: np.ndarray, obstacles: tuple[np.ndarray, ...],
+                     segments: np.ndarray) -> None:
+    """Refuse, before the search starts, a map too large to find its regions in."""
+    pieces = len(obstacles) + len(segments)
+    corners = len(boundary) + sum(len(p) for p in obstacles)
+    if pieces > MAX_AUTO_PIECES or corners > MAX_AUTO_CORNERS:
+        raise MapError(
+            f"map with {len(obstacles)} obstacles, {len(segments)} segments and {corners} "
+            f"corners: too large to find its regions from the walls (at most {MAX_AUTO_PIECES} "
+            f"obstacles and segments and {MAX_AUTO_CORNERS} corners); write its regions: rules"
+        )
+
+
+MAX_REGIONS = 64
+"""Most regions a map may name (the shipped maps name at most 7)."""
+MIN_GOAL_RADIUS = 0.1
+"""Smallest goal radius (m): half the robot's step, so a path through the goal meets it."""
 
 
 def _number(value: Any, field_name: str) -> float:
@@ -434,8 +472,21 @@ def _pose(value: Any) -> Pose:
     return Pose(
         _number(value["x"], "start.x"),
         _number(value["y"], "start.y"),
-        _number(value.get("heading", 0.0), "start.heading"),
+        _heading(value.get("heading", 0.0), "start.heading"),
     )
+
+
+def _heading(value: Any, field_name: str) -> float:
+    """A start heading in radians, within +-2 pi: a larger one is almost surely degrees."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
+        raise MapError(f"field {field_name!r} must be a number (radians), got {value!r}")
+    number = float(value)
+    if not math.isfinite(number) or abs(number) > 2 * math.pi:
+        raise MapError(
+            f"field {field_name!r}: {value!r} is outside +-2*pi; a map's start heading is in "
+            f"radians (e.g. 90 degrees is 1.5708), not degrees"
+        )
+    return number
 
 
 def _starts(value: Any) -> tuple[Pose, ...]:
@@ -449,6 +500,9 @@ def _starts(value: Any) -> tuple[Pose, ...]:
         x = _number(item[0], f"starts[{i}].x")
         y = _number(item[1], f"starts[{i}].y")
         deg = _number(item[2], f"starts[{i}].heading_deg") if len(item) == 3 else 0.0
+        if abs(deg) > 360:
+            raise MapError(f"field 'starts[{i}].heading_deg': {item[2]!r} is outside +-360 "
+                           "(degrees)")  # fmt: skip
         out.append(Pose(x, y, math.radians(deg)))
     return tuple(out)
 
@@ -462,6 +516,12 @@ def _goal(value: Any) -> Goal:
     radius = _number(value["radius"], "goal.radius")
     if radius <= 0:
         raise MapError(f"field 'goal.radius' must be positive, got {radius!r}")
+    if radius < MIN_GOAL_RADIUS:
+        raise MapError(
+            f"field 'goal.radius': {radius!r} m is below {MIN_GOAL_RADIUS:g} m, half the robot's "
+            "0.20 m step: its centre could pass the goal every trial without ever being that "
+            "near it"
+        )
     return Goal(_number(value["x"], "goal.x"), _number(value["y"], "goal.y"), radius)
 
 
@@ -482,6 +542,11 @@ def _regions(value: Any) -> RegionSpec:
         raise MapError(f"field 'regions.names' must be a non-empty list of strings, got {names!r}")
     if len(set(names)) != len(names):
         raise MapError(f"field 'regions.names' has duplicates: {names!r}")
+    if len(names) > MAX_REGIONS:  # before the rules are checked over the map
+        raise MapError(
+            f"field 'regions.names': {len(names)} regions, more than {MAX_REGIONS} (the learner "
+            "keeps an expert and an option critic per region)"
+        )
 
     lines_raw = value["lines"]
     if not isinstance(lines_raw, dict):

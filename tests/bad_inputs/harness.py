@@ -32,12 +32,15 @@ class Outcome:
 
 
 def load_cases() -> list[dict[str, Any]]:
-    """Every case of the corpus as ``{section, id, input..., expect}``."""
-    data = yaml.safe_load(CORPUS.read_text())
+    """Every case of the corpus files (``corpus.yaml``, then ``corpus_*.yaml`` beside it, whose
+    ids are prefixed with their name) as ``{section, id, input..., expect}``."""
     cases = []
-    for section, entries in data.items():
-        for k, entry in enumerate(entries):
-            cases.append({"section": section, "id": f"{section}-{k:03d}", **entry})
+    for path in [CORPUS, *sorted(CORPUS.parent.glob("corpus_*.yaml"))]:
+        data = yaml.safe_load(path.read_text())
+        prefix = "" if path == CORPUS else path.stem.removeprefix("corpus_") + ":"
+        for section, entries in data.items():
+            for k, entry in enumerate(entries):
+                cases.append({"section": section, "id": f"{prefix}{section}-{k:03d}", **entry})
     return cases
 
 
@@ -93,10 +96,15 @@ def make_fixtures(root: Path) -> dict[str, str]:
     (root / "drive_out" / "path.png").write_text("x\n")
     (root / "study_out").mkdir(exist_ok=True)
     (root / "study_out" / "table1.json").write_text("{}\n")
+    for name in ("stopped_study", "stopped_ablate", "stopped_sweep"):  # a stopped run's folder,
+        (root / name).mkdir(exist_ok=True)  # of settings no case gives
+        (root / name / "stopped.json").write_text('{"recipe": "other", "sets": 99}\n')
     return {"FILE": str(root / "afile"), "DIR": str(root / "adir"), "CKPT": str(ckpt),
             "RUN": str(run), "MIXED": str(mixed), "ROOT": str(root),
             "PLANOUT": str(root / "plan_out"), "DRIVEOUT": str(root / "drive_out"),
-            "STUDYOUT": str(root / "study_out")}  # fmt: skip
+            "STUDYOUT": str(root / "study_out"), "STOPPEDSTUDY": str(root / "stopped_study"),
+            "STOPPEDABLATE": str(root / "stopped_ablate"),
+            "STOPPEDSWEEP": str(root / "stopped_sweep")}  # fmt: skip
 
 
 def _fill(text: str, places: dict[str, str]) -> str:
@@ -108,15 +116,21 @@ def _fill(text: str, places: dict[str, str]) -> str:
 # --- running one case -------------------------------------------------------------------------
 
 
-def _cli(argv: list[str]) -> Outcome:
+def _cli(argv: list[str], locked: str | None = None) -> Outcome:
+    """``symrl ARGV``; ``locked``: a folder another process holds the lock of meanwhile."""
     from symrl.cli import main
+    from symrl.locks import lock_folder
 
     err, out = io.StringIO(), io.StringIO()
+    held = lock_folder(locked, "--out") if locked else None
     try:
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
             code = main(argv)
     except SystemExit as exit_:
         code = exit_.code if isinstance(exit_.code, int) else 2
+    finally:
+        if held is not None:
+            held.release()
     text = err.getvalue().strip()
     if code == 0:
         return Outcome("accepted", out.getvalue().strip()[-200:])
@@ -154,6 +168,26 @@ def _map_text(case: dict[str, Any]) -> str:
                 "regions": {"names": ["west", "east"], "lines": {"l": {"x": 0.0}},
                             "rules": [{"region": "west", "when": ["x < l"]},
                                       {"region": "east"}]}}  # fmt: skip
+    if "regions" in case:  # a 100 m x 10 m hall cut into n regions by n - 1 lines
+        n = int(case["regions"])
+        base = {"name": "hall", "boundary": [[-50, -5], [50, -5], [50, 5], [-50, 5]],
+                "start": {"x": -45.0, "y": 0.0}, "goal": {"x": -40.0, "y": 0.0, "radius": 0.4},
+                "regions": {"names": [f"r{i}" for i in range(n)],
+                            "lines": {f"l{i}": {"x": -50 + (i + 1) * 100 / n}
+                                      for i in range(n - 1)},
+                            "rules": [*({"region": f"r{i}", "when": [f"x < l{i}"]}
+                                        for i in range(n - 1)), {"region": f"r{n - 1}"}]}}
+    if "obstacles" in case or "segments" in case:  # a 40 m room of n pillars or n thin walls,
+        k = int(case.get("obstacles", case.get("segments", 0)))  # its regions found (auto)
+        side = int(math.ceil(math.sqrt(k)))
+        cells = [(-18 + 36 * (i % side) / side, -18 + 36 * (i // side) / side) for i in range(k)]
+        base = {"name": "pillars", "boundary": [[-20, -20], [20, -20], [20, 20], [-20, 20]],
+                "start": {"x": -19.5, "y": -19.5}, "goal": {"x": 19.5, "y": 19.5, "radius": 0.4}}
+        if "obstacles" in case:
+            base["obstacles"] = [[[x, y], [x + 0.1, y], [x + 0.1, y + 0.1], [x, y + 0.1]]
+                                 for x, y in cells]
+        else:
+            base["segments"] = [[[x, y], [x + 0.1, y]] for x, y in cells]
     if "square" in case:  # a square room of half-side L
         size = float(case["square"])
         base = {"name": "square", "boundary": [[-size, -size], [size, -size], [size, size],
@@ -179,6 +213,12 @@ def _map_text(case: dict[str, Any]) -> str:
             node = node[part]
         del node[parts[-1]]
     return yaml.safe_dump(base, sort_keys=False)
+
+
+def _paper_map_with(path: str, value: Any) -> dict[str, Any]:
+    """The paper's map file's content with one field (dotted ``path``) set to ``value``: the
+    map a checkpoint carries."""
+    return yaml.safe_load(_map_text({"set": {path: value}}))
 
 
 _CHECKPOINT_CHANGES: dict[str, Any] = {
@@ -225,6 +265,16 @@ _CHECKPOINT_CHANGES: dict[str, Any] = {
     "seed_a_bool": lambda d: d.__setitem__("seed", True),
     "format_1": lambda d: d.__setitem__("format", 1),
     "format_dropped": lambda d: d.pop("format"),
+    "config_gamma_bool": lambda d: d["config"]["update"].__setitem__("gamma", True),
+    "config_gamma_string": lambda d: d["config"]["update"].__setitem__("gamma", "0.9"),
+    "config_noise_1e308": lambda d: d["config"]["env"]["robot"].__setitem__(
+        "sonar_noise_std", 1e308),
+    "config_rate_1e308": lambda d: d["config"]["trial_gradient"].__setitem__("rate", 1e308),
+    "config_peaks_short": lambda d: d["config"]["reflex"].__setitem__("peaks", [1.0]),
+    "map_heading_degrees": lambda d: d.__setitem__("map", _paper_map_with("start.heading", 270)),
+    "map_goal_tiny": lambda d: d.__setitem__("map", _paper_map_with("goal.radius", 1e-9)),
+    "map_room_tiny": lambda d: d.__setitem__("map", _paper_map_with(
+        "boundary", [[-1e-6, -1e-6], [1e-6, -1e-6], [1e-6, 1e-6], [-1e-6, 1e-6]])),
 }
 
 
@@ -277,13 +327,19 @@ def run_case(case: dict[str, Any], places: dict[str, str], tmp: Path) -> Outcome
     try:
         with _alarm(case.get("timeout", TIMEOUT_S)):
             if section == "cli":
-                return _cli([_fill(a, {**places, "TMP": str(tmp)}) for a in case["argv"]])
+                fill = {**places, "TMP": str(tmp)}
+                locked = _fill(case["locked"], fill) if "locked" in case else None
+                return _cli([_fill(a, fill) for a in case["argv"]], locked)
             if section == "overrides":
                 return _cli(["train", case.get("recipe", "paper"), "--logdir", out,
                              *case["overrides"]])  # fmt: skip
             if section == "recipes":
                 path = tmp / "recipe.yaml"
-                path.write_text(case["text"])
+                if "keys" in case:  # a recipe of n keys (no aliases)
+                    keys = "".join(f"  k{i}: {i}\n" for i in range(int(case["keys"])))
+                    path.write_text(f"knowledge: regions\nupdate:\n{keys}")
+                else:
+                    path.write_text(case["text"])
                 return _cli(["train", str(path), "--logdir", out])
             if section == "maps":
                 path = tmp / "map.yaml"

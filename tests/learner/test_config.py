@@ -172,11 +172,11 @@ def test_cross_field_rules():
 
 def test_bad_recipe_files(tmp_path):
     unknown = tmp_path / "unknown.yaml"
-    unknown.write_text("experts:\n  novelty_radus: 0.2\n")
+    unknown.write_text("knowledge: regions\nexperts:\n  novelty_radus: 0.2\n")
     with pytest.raises(ConfigError, match="unknown.yaml.*experts.novelty_radus=0.2: unknown key"):
         load_config(unknown)
     typed = tmp_path / "typed.yaml"
-    typed.write_text("env:\n  noise: maybe\n")
+    typed.write_text("knowledge: regions\nenv:\n  noise: maybe\n")
     with pytest.raises(ConfigError, match="typed.yaml.*env.noise='maybe'"):
         load_config(typed)
     with pytest.raises(ConfigError, match="^env.noise='perhaps'"):  # the override is named
@@ -194,8 +194,14 @@ def test_bad_recipe_files(tmp_path):
     listed.write_text("- 1\n- 2\n")
     with pytest.raises(ConfigError, match="listed.yaml"):
         load_config(listed)
+    silent = tmp_path / "silent.yaml"  # what the robot is told is never a default
+    silent.write_text("experts:\n  novelty_radius: 0.3\n")
+    with pytest.raises(ConfigError, match="silent.yaml.*no knowledge: key"):
+        load_config(silent)
+    with pytest.raises(ConfigError, match="no knowledge: key"):  # not even given as override
+        load_config(silent, ["knowledge=regions"])
     good = tmp_path / "mine.yaml"
-    good.write_text("experts:\n  novelty_radius: 0.3\n")
+    good.write_text("knowledge: regions\nexperts:\n  novelty_radius: 0.3\n")
     c = load_config(good)
     assert c.recipe == "mine" and c.experts.novelty_radius == 0.3
 

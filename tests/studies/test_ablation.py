@@ -12,6 +12,7 @@ from symrl.learner.config import load_config
 from symrl.studies.ablation import Variant, _leaves, changes_markdown, changes_of
 
 RECIPE = """\
+knowledge: regions
 reflex:
   d_a: 0.5
   peaks: [0.5, 0.0, -0.5]

@@ -22,9 +22,9 @@ def test_finished_sets_are_kept_and_skipped(tmp_path, monkeypatch):
     trained = []
     real = runner._run_batch
 
-    def spy(data, indices, seeds, starts, progress):
+    def spy(data, indices, seeds, starts, progress, **kwargs):
         trained.append(list(seeds))
-        return real(data, indices, seeds, starts, progress)
+        return real(data, indices, seeds, starts, progress, **kwargs)
 
     monkeypatch.setattr(runner, "_run_batch", spy)
     again = _study(out)
