@@ -30,6 +30,7 @@ from shapely.ops import unary_union
 from shapely.validation import explain_validity
 
 from symrl.world.autoregions import auto_regions
+from symrl.world.occupancy import OccupancyError, read_occupancy, trace_world
 
 __all__ = [
     "MapError",
@@ -81,7 +82,9 @@ MAX_PLAN_AREA = 250_000.0
 point per 0.2 m) grows with the area (a 400 m square: 1 s and 0.5 GB; 2 km: 32 s and 3.5 GB)."""
 
 _COND = re.compile(r"^\s*([xy])\s*([<>])\s*([A-Za-z_][A-Za-z0-9_]*)\s*$")
-_TOP_KEYS = {"name", "boundary", "obstacles", "segments", "start", "goal", "regions", "starts"}
+_TOP_KEYS = {"name", "boundary", "obstacles", "segments", "start", "goal", "regions", "starts",
+             "occupancy"}
+_DRAWN_KEYS = ("boundary", "obstacles", "segments")
 MAX_COORD = 1e4
 """Largest magnitude (metres, radians) a map number may have: beyond it a value is a typo."""
 BODY_RADIUS = 0.26
@@ -319,6 +322,8 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
         raise MapError(
             f"{source}: unknown field(s) {sorted(unknown)}; allowed: {sorted(_TOP_KEYS)}"
         )
+    if "occupancy" in data:
+        data = _with_traced_walls(data, source)
     for key in ("boundary", "start", "goal"):
         if key not in data:
             raise MapError(f"{source}: missing required field {key!r}")
@@ -348,6 +353,33 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
             raise MapError(f"field {label!r}: the point ({px}, {py}) is not in the free area")
     _check_meaning(world, source)
     return world
+
+
+def _with_traced_walls(data: dict[str, Any], source: str) -> dict[str, Any]:
+    """The map document with ``occupancy: PATH`` (a map_server YAML, relative to the map file)
+    replaced by the walls traced from it (:mod:`symrl.world.occupancy`)."""
+    drawn = [k for k in _DRAWN_KEYS if k in data]
+    if drawn:
+        raise MapError(f"{source}: field 'occupancy' takes the place of {drawn}; give one or "
+                       "the other")  # fmt: skip
+    ref = data["occupancy"]
+    if not isinstance(ref, str) or not ref:
+        raise MapError(f"{source}: field 'occupancy' must be a path to a map_server YAML, "
+                       f"got {ref!r}")  # fmt: skip
+    path = Path(ref)
+    if not path.is_absolute() and source != "<dict>":
+        path = Path(source).parent / path
+    for key in ("start", "goal"):
+        if key not in data:
+            raise MapError(f"{source}: missing required field {key!r}")
+    start, goal = _pose(data["start"]), _goal(data["goal"])
+    try:
+        boundary, holes = trace_world(read_occupancy(path), (start.x, start.y),
+                                      (goal.x, goal.y), source)  # fmt: skip
+    except OccupancyError as err:
+        raise MapError(str(err)) from None
+    rest = {k: v for k, v in data.items() if k != "occupancy"}
+    return rest | {"boundary": boundary.tolist(), "obstacles": [h.tolist() for h in holes]}
 
 
 # --- field validators -------------------------------------------------------------------
