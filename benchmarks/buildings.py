@@ -80,7 +80,24 @@ def office_floor(
             y = y1
     free = unary_union(parts).difference(unary_union(furniture))
     free = max(getattr(free, "geoms", [free]), key=lambda g: g.area)
-    return _doc(f"office{width:g}x{height:g}_c{clutter}", free, start, goal)
+    doc = _doc(f"office{width:g}x{height:g}_c{clutter}", free, start, goal)
+    # the floor's own partition (finding it from the walls takes minutes on a floor): the room
+    # columns, the two corridors and the cross corridor
+    doc["regions"] = {
+        "names": ["west_rooms", "west_hall", "middle_rooms", "cross_hall", "east_hall",
+                  "east_rooms"],
+        "lines": {"a": {"x": c1}, "b": {"x": c1 + 2}, "c": {"x": c2}, "d": {"x": c2 + 2},
+                  "s": {"y": cross}, "n": {"y": cross + 2}},
+        "rules": [
+            {"region": "west_rooms", "when": ["x < a"]},
+            {"region": "west_hall", "when": ["x < b"]},
+            {"region": "east_rooms", "when": ["x > d"]},
+            {"region": "east_hall", "when": ["x > c"]},
+            {"region": "cross_hall", "when": ["y > s", "y < n"]},
+            {"region": "middle_rooms"},
+        ],
+    }  # fmt: skip
+    return doc
 
 
 def pillar_hall(k: int, size: float = 20.0) -> dict:
@@ -96,16 +113,21 @@ def pillar_hall(k: int, size: float = 20.0) -> dict:
     return _doc(f"pillars{k}", free, (0.5 * size / (k + 1), 1.0), (size - 1.0, size - 1.0))
 
 
-def write_ros(world: WorldMap, folder: Path, resolution: float = 0.05) -> Path:
-    """The world as a saved ROS map (PNG + map_server YAML) and a symrl map naming it."""
+def write_ros(
+    world: WorldMap, folder: Path, resolution: float = 0.05, regions: dict | None = None
+) -> Path:
+    """The world as a saved ROS map (PNG + map_server YAML) and a symrl map naming it (with
+    ``regions`` if given, else found from the walls)."""
     folder.mkdir(parents=True, exist_ok=True)
     save_occupancy(world, folder / f"{world.name}_map.yaml", resolution, image_suffix=".png")
-    doc = {
+    doc: dict = {
         "name": f"{world.name}_ros",
         "occupancy": f"{world.name}_map.yaml",
         "start": {"x": world.start.x, "y": world.start.y, "heading": world.start.heading},
         "goal": {"x": world.goal.x, "y": world.goal.y, "radius": world.goal.radius},
     }
+    if regions is not None:
+        doc["regions"] = regions
     path = folder / f"{world.name}_ros.yaml"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path
@@ -113,4 +135,5 @@ def write_ros(world: WorldMap, folder: Path, resolution: float = 0.05) -> Path:
 
 if __name__ == "__main__":
     out = Path(sys.argv[1] if len(sys.argv) > 1 else "/tmp/symrl-building")
-    print(write_ros(load_map(office_floor()), out))
+    doc = office_floor(clutter=int(sys.argv[2]) if len(sys.argv) > 2 else 1)
+    print(write_ros(load_map(doc), out, regions=doc["regions"]))

@@ -440,7 +440,8 @@ def _owners(cells, pieces) -> list[list[int]]:
     parts = np.array(pieces, dtype=object)
     box_i, piece_i = shapely.STRtree(parts).query(geoms)
     areas = shapely.area(shapely.intersection(parts[piece_i], geoms[box_i]))
-    for b, i in sorted(zip(box_i[areas > 1e-6].tolist(), piece_i[areas > 1e-6].tolist(), strict=True)):
+    some = areas > 1e-6
+    for b, i in sorted(zip(box_i[some].tolist(), piece_i[some].tolist(), strict=True)):
         owners[b].append(i)
     return owners
 
