@@ -22,9 +22,10 @@ def test_every_shipped_world_keeps_200(name):
     assert step_budget(load_map(name), 200, 0.2) == 200
 
 
-def test_a_building_gets_two_half_perimeters_of_travel():
-    assert step_budget(load_map(floor(30.0, 50.0)), 200, 0.2) == 800
-    assert step_budget(load_map(floor(30.0, 50.0)), 1000, 0.2) == 1000  # the larger one
+def test_a_building_gets_a_budget_in_proportion():
+    assert step_budget(load_map(floor(30.0, 50.0)), 200, 0.2) == 800  # 160 m over 40 m
+    assert step_budget(load_map(floor(30.0, 50.0)), 3, 0.2) == 12
+    assert step_budget(load_map("hailu2001"), 3, 0.2) == 3  # a short budget stays short
 
 
 def test_training_envs_take_the_budget():
