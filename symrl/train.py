@@ -66,11 +66,14 @@ def make_env(
 ):
     """The world of ``config`` as a TorchRL env with one robot per seed."""
     from symrl.world.batched_env import BatchedWorldEnv
+    from symrl.world.budget import step_budget
+    from symrl.world.worldmap import WorldMap, load_map
 
     ec = config.env
+    world = world if isinstance(world, WorldMap) else load_map(ec.map if world is None else world)
     env = BatchedWorldEnv(
-        world if world is not None else ec.map, size=len(seeds), robot=ec.robot,
-        noise=ec.noise, max_actions=ec.max_actions, seeds=list(seeds),
+        world, size=len(seeds), robot=ec.robot, noise=ec.noise,
+        max_actions=step_budget(world, ec.max_actions, ec.robot.step), seeds=list(seeds),
     )  # fmt: skip
     if starts is not None:
         env.set_starts(starts)
@@ -281,6 +284,9 @@ def train_batch(
     if (resume is not None or on_snapshot is not None) and batch != 1:
         raise ValueError(f"train_batch: snapshots and resume need one robot, got {batch}")
     env = make_env(config, seeds, world=world)
+    if env.physics.max_actions != config.env.max_actions:  # a big world's budget (make_env)
+        budget = {"max_actions": env.physics.max_actions}
+        config = config.model_copy(update={"env": config.env.model_copy(update=budget)})
     check_memory(config, batch, env.world)
     policy = MixtureOfExpertsPolicy(config, env.world, seeds)  # cut to config.knowledge
     # what the robot makes of each observation, written once on reset and step

@@ -84,7 +84,8 @@ class EnvConfig(_Section):
     noise: StrictBool = True
     """Sensor and motion noise on (False turns every noise source off)."""
     max_actions: StrictInt = Field(200, ge=1, le=100_000)
-    """A trial is truncated (failed) after this many actions."""
+    """A trial is truncated (failed) after this many actions, on a world up to the paper's
+    travel in size; a building gets more in proportion (``symrl.world.budget``)."""
     robot: RobotConfig = Field(default_factory=RobotConfig)
     """The B21 (body, sensors, noise levels): any ``RobotConfig`` field."""
 

@@ -430,7 +430,20 @@ def _cells(lines: tuple[list[float], list[float]], bounds) -> list[tuple[tuple, 
 
 
 def _owners(cells, pieces) -> list[list[int]]:
-    return [[i for i, p in enumerate(pieces) if p.intersection(g).area > 1e-6] for _, g in cells]
+    """Per box, the pieces whose free area in it exceeds 1e-6 m^2, in piece order: only the
+    pairs whose bounding boxes meet are intersected (an STR tree; thousands of boxes and
+    hundreds of pieces on a building floor)."""
+    geoms = np.array([g for _, g in cells], dtype=object)
+    owners: list[list[int]] = [[] for _ in cells]
+    if not len(pieces) or not len(geoms):
+        return owners
+    parts = np.array(pieces, dtype=object)
+    box_i, piece_i = shapely.STRtree(parts).query(geoms)
+    areas = shapely.area(shapely.intersection(parts[piece_i], geoms[box_i]))
+    some = areas > 1e-6
+    for b, i in sorted(zip(box_i[some].tolist(), piece_i[some].tolist(), strict=True)):
+        owners[b].append(i)
+    return owners
 
 
 def _clashes(owners: list[list[int]], kinds: list[str]) -> int:

@@ -33,8 +33,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from symrl.world.geometry import Walls
 from symrl.world.robot import RobotConfig
+from symrl.world.spatial import walls_for
 from symrl.world.worldmap import WorldMap
 
 __all__ = ["Readings", "RobotBatch", "goal_reading", "wrap_angle"]
@@ -152,7 +152,9 @@ class RobotBatch:
         self.size = int(size)
         self.noise = bool(noise)
         self.max_actions = max_actions
-        self.walls = Walls(world.segments)
+        # many walls: queried through a spatial index (the sonar's reach; the disc's sweep)
+        self.walls = walls_for(world, robot.radius + robot.sonar_range,
+                               robot.radius + 3.0 * robot.step + 0.1)  # fmt: skip
         self._valid_poses: set[bytes] = set()  # float64 (x, y, heading) rows that passed
         self._rest_senses: dict[bytes, np.ndarray] = {}  # per reset pose: _sense_at's row
 
@@ -525,7 +527,7 @@ class RobotBatch:
         skips the closest-point and ray queries (about 40 % of a reset)."""
         keys = [row.tobytes() for row in poses]
         rows = [self._rest_senses.get(key) for key in keys]
-        n, m = len(self.walls), self.n_sensors
+        n, m = self._ex.shape[1], self.n_sensors  # the closest points' width per robot
         if all(row is not None for row in rows):
             block = np.stack(rows)  # type: ignore[arg-type]
             return ((block[:, :n], block[:, n : 2 * n], block[:, -1]), block[:, 2 * n : 2 * n + m],

@@ -30,6 +30,7 @@ from shapely.ops import unary_union
 from shapely.validation import explain_validity
 
 from symrl.world.autoregions import auto_regions
+from symrl.world.occupancy import OccupancyError, read_occupancy, trace_world
 
 __all__ = [
     "MapError",
@@ -72,16 +73,23 @@ _UniqueKeyLoader.add_constructor(
     yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _no_duplicate_keys
 )
 
-MAX_PLAN_CORNERS = 400
+MAX_PLAN_CORNERS = 1000
 """Most wall corners (polygon vertices, two per thin wall) a map the planner and the sub-goal
-table work on may have: their time grows with its square (a 200-corner ring: 3.5 s, 500: 20 s;
-``benchmarks/big_maps.py``)."""
+table work on may have: their time grows with its square or faster (a 200-corner ring: 3.5 s,
+500: 20 s, ``benchmarks/big_maps.py``; a 30 m x 50 m office floor of 400 corners: 21-28 s,
+640: 65 s, ``benchmarks/bench_big_maps.py``): a building floor of up to a thousand corners is
+prepared in minutes, not hours."""
 MAX_PLAN_AREA = 250_000.0
 """Largest bounding box (m^2) of a map the sub-goal table works on: its look-out grid (one
 point per 0.2 m) grows with the area (a 400 m square: 1 s and 0.5 GB; 2 km: 32 s and 3.5 GB)."""
 
 _COND = re.compile(r"^\s*([xy])\s*([<>])\s*([A-Za-z_][A-Za-z0-9_]*)\s*$")
-_TOP_KEYS = {"name", "boundary", "obstacles", "segments", "start", "goal", "regions", "starts"}
+_TOP_KEYS = {"name", "boundary", "obstacles", "segments", "start", "goal", "regions", "starts",
+             "occupancy"}
+_DRAWN_KEYS = ("boundary", "obstacles", "segments")
+_SHAPELY_FROM = 200
+"""Polygon corners from which :meth:`WorldMap.in_free_area` asks GEOS (the even-odd loop below
+costs a Python iteration per edge: 0.15 s a call on 3,000 corners)."""
 MAX_COORD = 1e4
 """Largest magnitude (metres, radians) a map number may have: beyond it a value is a typo."""
 BODY_RADIUS = 0.26
@@ -197,6 +205,8 @@ class WorldMap:
         """True where the point is inside the boundary and outside every obstacle."""
         x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)
+        if len(self.boundary) + sum(len(p) for p in self.obstacles) > _SHAPELY_FROM:
+            return np.asarray(shapely.intersects_xy(self.free_polygon, x, y))  # GEOS, indexed
         inside = _point_in_polygon(x, y, self.boundary)
         for poly in self.obstacles:
             inside &= ~_point_in_polygon(x, y, poly)
@@ -319,6 +329,8 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
         raise MapError(
             f"{source}: unknown field(s) {sorted(unknown)}; allowed: {sorted(_TOP_KEYS)}"
         )
+    if "occupancy" in data:
+        data = _with_traced_walls(data, source)
     for key in ("boundary", "start", "goal"):
         if key not in data:
             raise MapError(f"{source}: missing required field {key!r}")
@@ -350,6 +362,33 @@ def parse_map(data: Any, source: str = "<dict>") -> WorldMap:
             raise MapError(f"field {label!r}: the point ({px}, {py}) is not in the free area")
     _check_meaning(world, source)
     return world
+
+
+def _with_traced_walls(data: dict[str, Any], source: str) -> dict[str, Any]:
+    """The map document with ``occupancy: PATH`` (a map_server YAML, relative to the map file)
+    replaced by the walls traced from it (:mod:`symrl.world.occupancy`)."""
+    drawn = [k for k in _DRAWN_KEYS if k in data]
+    if drawn:
+        raise MapError(f"{source}: field 'occupancy' takes the place of {drawn}; give one or "
+                       "the other")  # fmt: skip
+    ref = data["occupancy"]
+    if not isinstance(ref, str) or not ref:
+        raise MapError(f"{source}: field 'occupancy' must be a path to a map_server YAML, "
+                       f"got {ref!r}")  # fmt: skip
+    path = Path(ref)
+    if not path.is_absolute() and source != "<dict>":
+        path = Path(source).parent / path
+    for key in ("start", "goal"):
+        if key not in data:
+            raise MapError(f"{source}: missing required field {key!r}")
+    start, goal = _pose(data["start"]), _goal(data["goal"])
+    try:
+        boundary, holes = trace_world(read_occupancy(path), (start.x, start.y),
+                                      (goal.x, goal.y), source)  # fmt: skip
+    except OccupancyError as err:
+        raise MapError(str(err)) from None
+    rest = {k: v for k, v in data.items() if k != "occupancy"}
+    return rest | {"boundary": boundary.tolist(), "obstacles": [h.tolist() for h in holes]}
 
 
 # --- field validators -------------------------------------------------------------------
