@@ -51,6 +51,7 @@ __all__ = [
     "TrialGradientConfig",
     "OptionsConfig",
     "OptionCriticConfig",
+    "CrossingsConfig",
     "LocalizeSection",
     "ShieldSection",
     "RunSection",
@@ -223,6 +224,21 @@ class OptionsConfig(_Section):
     line earns it at little cost to the route. 0: at the sub-goal from the region's entry."""
 
 
+class CrossingsConfig(_Section):
+    """Where each border can be crossed, learned by each robot from its own sonar readings,
+    odometry and progress (``symrl.learner.crossings``), for options made of the region rules'
+    borders (``options.source: rules``): a border option aims at a stretch of the border the
+    robot has not found blocked, and a border found blocked is routed around."""
+
+    enabled: StrictBool = False
+    """False: a border option aims at one fixed point of the border (``symrl.knowledge.borders``)."""
+    resolution: float = Field(0.1, gt=0, le=1)
+    """Bin width (m) of the evidence kept along each border's line."""
+    patience: StrictInt | None = Field(15, ge=1, le=10_000)
+    """An aim the robot got no nearer to (by half an action's move) in this many actions is
+    given up: a border stretch is marked unreachable, the goal option stalls. None: never."""
+
+
 _SOURCE_RUNG = {"rules": "regions", "passages": "passages", "map": "map"}
 """The knowledge each ``options.source`` needs."""
 
@@ -288,6 +304,7 @@ class RunConfig(_Section):
     update: UpdateConfig = Field(default_factory=UpdateConfig)
     trial_gradient: TrialGradientConfig = Field(default_factory=TrialGradientConfig)
     options: OptionsConfig = Field(default_factory=OptionsConfig)
+    crossings: CrossingsConfig = Field(default_factory=CrossingsConfig)
     option_critic: OptionCriticConfig = Field(default_factory=OptionCriticConfig)
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
@@ -307,6 +324,11 @@ class RunConfig(_Section):
                     f"{key}=true needs knowledge={needed} or higher, but the recipe declares "
                     f"knowledge={self.knowledge}"
                 )
+        if self.crossings.enabled and not (o.enabled and o.source == "rules"):
+            raise ValueError(
+                "crossings.enabled=true needs options.enabled=true and options.source=rules "
+                f"(got options.enabled={o.enabled}, options.source={o.source})"
+            )
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
         robot = self.env.robot

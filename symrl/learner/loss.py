@@ -101,6 +101,9 @@ class TeseoLoss(LossModule):
         self.__dict__["progress"] = policy.progress
         self.__dict__["options"] = policy.options
         self.__dict__["critic"] = policy.options.critic if policy.options is not None else None
+        self.__dict__["crossings"] = (
+            policy.options.crossings if policy.options is not None else None
+        )
         self.config = policy.config
         batch = policy.batch
         regions = len(policy.region_names)
@@ -149,6 +152,8 @@ class TeseoLoss(LossModule):
                 region = read(td, k.region).numpy()
                 self.entry_return.numpy()[rows, region[rows]] = self.trial_return.numpy()[rows]
         self.trial_return.numpy()[:] += r
+        if self.crossings is not None:
+            self._observe_crossings(td, nxt)
         if not cfg.experts.learning:
             zero = torch.zeros(batch, dtype=torch.float64)
             return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
@@ -224,6 +229,28 @@ class TeseoLoss(LossModule):
              "neurons": torch.from_numpy(bank.flat.counts.reshape(batch, -1).sum(-1))},
             batch_size=torch.Size([batch]),
         )  # fmt: skip
+
+    def _observe_crossings(self, td: TensorDictBase, nxt: TensorDictBase) -> None:
+        """The crossing evidence of the state reached (and of a trial's first state): the
+        sonar rays from the believed pose, and where the robot crossed a border."""
+        k, crossings, policy = self.tensor_keys, self.crossings, self.policy
+        scale = policy.config.env.robot.sonar_range
+        pose = read(td, k.pose).numpy().astype(np.float64)
+        pose_next = read(nxt, k.pose).numpy().astype(np.float64)
+        first = read(td, "is_init", None)
+        if first is not None and first.any():
+            rows = np.flatnonzero(first.numpy().reshape(-1))
+            sonar = read(td, k.sonar).numpy()[rows].astype(np.float64) * scale
+            crossings.observe_rows(rows, pose[rows], sonar)
+        sonar_next = read(nxt, k.sonar).numpy().astype(np.float64) * scale
+        crossings.observe(pose_next, sonar_next)
+        region, region_next = read(td, k.region).numpy(), read(nxt, k.region).numpy()
+        moved = region != region_next
+        if moved.any():
+            names = policy.region_names
+            for b in np.flatnonzero(moved).tolist():
+                crossings.cross(b, names[int(region[b])], names[int(region_next[b])],
+                                pose[b, :2], pose_next[b, :2])  # fmt: skip
 
     @no_grad
     def end_trial(

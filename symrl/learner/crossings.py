@@ -1,0 +1,228 @@
+"""Where each border can be crossed, learned by each robot from its own sonar and odometry.
+
+The region rules fix where two regions meet (a *border*, :class:`symrl.knowledge.borders.Border`)
+but not whether a wall stands on it or where its door is. A robot told only the rules
+(``knowledge: regions``) finds that out as it drives: every sonar ray that meets a border's line
+says something about the point where it meets it. A ray that passes the line (its echo comes
+from beyond it) shows the line *open* there; a ray whose echo comes from the line itself, or from
+less than a body radius before it, shows it *blocked* there (the robot could not reach the line
+at that point); a ray that ends well before the line says nothing. Where the robot actually
+crosses a border (its odometry pose changes region across the line) the line is open for a body
+width. The evidence is kept per robot, per border, in bins of ``resolution`` metres along the
+line, across trials: it is learned, as the experts are.
+
+From the evidence, a border's crossings are the stretches of bins not shown blocked that are at
+least the robot's diameter wide; the robot aims at a point of one of them, kept a body radius
+plus the reward's close distance from its ends (the middle of a narrower stretch). Stretches
+seen open are preferred to stretches not seen at all; among them the one that makes the
+straight way robot -> crossing -> goal shortest. A stretch the robot could not get to (it made no
+progress toward it for a while, :class:`symrl.learner.options.SubgoalOptions` decides) is given
+up; a border with no stretch left is blocked, and the options re-route the region graph around
+it. Nothing here reads the walls: only the rules' lines, the robot's size, its sensors' geometry
+and readings, and its odometry.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import torch
+
+from symrl.buffers import BufferViews
+from symrl.knowledge.borders import Border
+
+__all__ = ["CrossingMap", "Crossing"]
+
+Crossing = tuple[float, float, float]
+"""A crossing chosen: (t along the line, the stretch's first bin, its last bin)."""
+
+
+class CrossingMap(BufferViews):
+    """The crossing evidence of B robots over the borders ``borders``.
+
+    Buffers (per robot): ``open`` and ``blocked`` (B, J, N) float32, the rays (and crossings)
+    that showed each bin of each border open or blocked (learned, kept across trials), and
+    ``given_up`` (B, J, N) bool, the bins of stretches the robot could not get to in this
+    trial. J borders, N bins (the longest
+    border's; ``bins`` (J,) says how many each has).
+    """
+
+    open: torch.Tensor
+    blocked: torch.Tensor
+    given_up: torch.Tensor
+
+    def __init__(
+        self,
+        borders: Sequence[Border],
+        batch: int,
+        *,
+        radius: float,
+        close_distance: float,
+        sonar_range: float,
+        n_sensors: int,
+        origin: tuple[float, float],
+        reach: float,
+        resolution: float,
+    ) -> None:
+        """``radius``: the robot's body radius; ``close_distance``: the reward's wall distance
+        (a crossing is aimed at that far from a stretch's ends, past the body); ``origin``: the
+        start, and ``reach``: how far from it the robot can get and still sense (an unbounded
+        border is binned that far either side of the start)."""
+        super().__init__()
+        self.borders = tuple(borders)
+        self.radius = float(radius)
+        self.inset = float(radius + close_distance)
+        self.sonar_range = float(sonar_range)
+        self.resolution = float(resolution)
+        self.tolerance = 0.5 * self.resolution  # an echo this far past the line hit the line
+        j = len(self.borders)
+        self.axis = np.array([b.axis for b in self.borders], dtype=np.int64)
+        self.intercept = np.array([b.intercept for b in self.borders], dtype=np.float64)
+        lo, hi = [], []
+        for b in self.borders:
+            along = origin[1] if b.axis == 0 else origin[0]
+            lo.append(max(b.lo, along - reach))
+            hi.append(min(b.hi, along + reach))
+        self.lo = np.array(lo, dtype=np.float64)
+        self.hi = np.array(hi, dtype=np.float64)
+        self.bins = np.maximum(np.ceil((self.hi - self.lo) / self.resolution), 1).astype(np.int64)
+        n = int(self.bins.max()) if j else 1
+        self.register_buffer("open", torch.zeros(batch, j, n, dtype=torch.float32))
+        self.register_buffer("blocked", torch.zeros(batch, j, n, dtype=torch.float32))
+        # per trial (a stretch out of reach from where the robot was may not be from elsewhere)
+        self.register_buffer(
+            "given_up", torch.zeros(batch, j, n, dtype=torch.bool), persistent=False
+        )
+        self._angles = np.arange(n_sensors, dtype=np.float64) * (2 * math.pi / n_sensors)
+        self._exists = np.arange(n)[None, :] < self.bins[:, None]  # (J, N)
+        self._rows = np.arange(batch)
+        self._between: dict[tuple[str, str], list[int]] = {}
+        for i, b in enumerate(self.borders):
+            self._between.setdefault((b.low, b.high), []).append(i)
+            self._between.setdefault((b.high, b.low), []).append(i)
+
+    # -- evidence (the update calls these) -------------------------------------------------
+    def observe(self, pose: np.ndarray, sonar: np.ndarray) -> None:
+        """Every robot's sonar rays (``sonar`` (B, n) rim distances in metres, capped at the
+        range) from its believed ``pose`` (B, 3), as evidence on every border they meet."""
+        self.observe_rows(self._rows, pose, sonar)
+
+    def observe_rows(self, rows: np.ndarray, pose: np.ndarray, sonar: np.ndarray) -> None:
+        """:meth:`observe` for robots ``rows`` (k,) only (``pose`` (k, 3), ``sonar`` (k, n))."""
+        if not len(self.borders) or not len(rows):
+            return
+        angle = pose[:, 2:3] + self._angles  # (B, n)
+        cos, sin = np.cos(angle), np.sin(angle)
+        axis = self.axis[None, :, None]  # (1, J, 1)
+        across = np.where(axis == 0, cos[:, None, :], sin[:, None, :])  # (B, J, n)
+        along = np.where(axis == 0, sin[:, None, :], cos[:, None, :])
+        own = np.where(self.axis[None, :] == 0, pose[:, 0:1], pose[:, 1:2])  # (B, J)
+        other = np.where(self.axis[None, :] == 0, pose[:, 1:2], pose[:, 0:1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (self.intercept[None, :] - own)[:, :, None] / across  # distance to the line
+        t = other[:, :, None] + s * along
+        echo = sonar[:, None, :] + self.radius  # from the centre
+        seen = sonar[:, None, :] < self.sonar_range  # an echo (else nothing within range)
+        valid = (s > self.radius) & (s < self.sonar_range + self.radius) & np.isfinite(s)
+        valid &= (t >= self.lo[None, :, None]) & (t < self.hi[None, :, None])
+        passed = valid & (~seen | (echo > s + self.tolerance))
+        stopped = valid & seen & (echo >= s - self.radius) & (echo <= s + self.tolerance)
+        self._add(self.arrays["open"], rows, passed, t)
+        self._add(self.arrays["blocked"], rows, stopped, t)
+
+    def _add(self, counts: np.ndarray, rows: np.ndarray, mask: np.ndarray, t: np.ndarray) -> None:
+        if not mask.any():
+            return
+        b, j, _ = np.nonzero(mask)
+        i = ((t[mask] - self.lo[j]) / self.resolution).astype(np.int64)
+        np.add.at(counts, (rows[b], j, np.minimum(i, self.bins[j] - 1)), 1.0)
+
+    def cross(
+        self, row: int, before: str, after: str, xy: np.ndarray, xy_next: np.ndarray
+    ) -> None:
+        """Robot ``row`` moved from region ``before`` at ``xy`` to ``after`` at ``xy_next``:
+        every border between the two that the move crosses is open where it crossed."""
+        for j in self._between.get((before, after), ()):
+            a, c = int(self.axis[j]), float(self.intercept[j])
+            d = xy_next[a] - xy[a]
+            if d == 0 or (xy[a] - c) * (xy_next[a] - c) > 0:
+                continue
+            f = (c - xy[a]) / d
+            t = float(xy[1 - a] + f * (xy_next[1 - a] - xy[1 - a]))
+            if self.lo[j] <= t < self.hi[j]:
+                self.crossed(row, j, t)
+
+    def crossed(self, row: int, border: int, t: float) -> None:
+        """Robot ``row`` crossed ``border`` at ``t`` along its line: open for a body width."""
+        first, last = self._span(border, t - self.radius, t + self.radius)
+        if first <= last:
+            self.arrays["open"][row, border, first : last + 1] += 1.0
+
+    def give_up(self, row: int, border: int, first: int, last: int) -> None:
+        """Robot ``row`` could not get to the stretch of bins ``first..last`` of ``border``."""
+        self.arrays["given_up"][row, border, first : last + 1] = True
+
+    def forget(self, rows: np.ndarray) -> None:
+        """Robots ``rows`` start a trial: the stretches they gave up are worth a new try."""
+        self.arrays["given_up"][rows] = False
+
+    def _span(self, border: int, t0: float, t1: float) -> tuple[int, int]:
+        n = int(self.bins[border])
+        first = max(int(math.floor((t0 - self.lo[border]) / self.resolution)), 0)
+        last = min(int(math.floor((t1 - self.lo[border]) / self.resolution)), n - 1)
+        return first, last
+
+    # -- reading (the options call these) ---------------------------------------------------
+    def crossing(
+        self, row: int, border: int, xy: np.ndarray, goal: tuple[float, float]
+    ) -> Crossing | None:
+        """Where robot ``row`` at ``xy`` should cross ``border`` on its way to ``goal``: the
+        point ``t`` along the line and the stretch it lies in (first and last bin); None when
+        the robot has found the border blocked."""
+        a = self.arrays
+        n = int(self.bins[border])
+        opened, shut = a["open"][row, border, :n], a["blocked"][row, border, :n]
+        blocked = (shut > opened) | a["given_up"][row, border, :n]
+        free = ~blocked
+        if not free.any():
+            return None
+        # runs of free bins: starts and ends (inclusive)
+        edges = np.diff(np.concatenate(([0], free.astype(np.int8), [0])))
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+        res, lo = self.resolution, float(self.lo[border])
+        wide = (ends - starts + 1) * res >= 2 * self.radius
+        if not wide.any():
+            return None
+        starts, ends = starts[wide], ends[wide]
+        seen_open = np.array([bool((opened[s : e + 1] > 0).any()) for s, e in zip(starts, ends)])
+        if seen_open.any():
+            starts, ends = starts[seen_open], ends[seen_open]
+        b = self.borders[border]
+        goal_t = goal[1] if b.axis == 0 else goal[0]
+        best: Crossing | None = None
+        best_cost = math.inf
+        for s, e in zip(starts.tolist(), ends.tolist()):
+            t0, t1 = lo + s * res, lo + (e + 1) * res
+            inset = min(self.inset, (t1 - t0) / 2)
+            t = min(max(goal_t, t0 + inset), t1 - inset)
+            p = b.at(t)
+            cost = math.hypot(p[0] - xy[0], p[1] - xy[1]) + math.hypot(
+                goal[0] - p[0], goal[1] - p[1])
+            if cost < best_cost:
+                best, best_cost = (t, float(s), float(e)), cost
+        return best
+
+    def seen(self, row: int, border: int) -> tuple[np.ndarray, np.ndarray]:
+        """Robot ``row``'s view of ``border``: the bins' centres along the line (n,) and their
+        state (n,) int: 0 unknown, 1 open, 2 blocked, 3 given up (figures, logging)."""
+        a = self.arrays
+        n = int(self.bins[border])
+        centres = self.lo[border] + (np.arange(n) + 0.5) * self.resolution
+        opened, shut = a["open"][row, border, :n], a["blocked"][row, border, :n]
+        state = np.zeros(n, dtype=np.int64)
+        state[opened > 0] = 1
+        state[shut > opened] = 2
+        state[a["given_up"][row, border, :n]] = 3
+        return centres, state

@@ -1,0 +1,213 @@
+"""The crossing map: sonar evidence along the region rules' borders at known poses, the
+crossing chosen from it, crossings recorded from odometry, stretches given up, and the options
+routing around a border found blocked. The walls are used here only to make the sonar readings
+(the env's own noise-free ``sense``); the map itself never sees them."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from symrl.knowledge.borders import Border, border_options, region_borders
+from symrl.knowledge.rungs import Knowledge
+from symrl.learner.config import CrossingsConfig, OptionCriticConfig, OptionsConfig, load_config
+from symrl.learner.crossings import CrossingMap
+from symrl.learner.options import SubgoalOptions
+from symrl.world.env import Hailu2001Env
+from symrl.world.robot import RobotConfig
+from symrl.world.worldmap import load_map
+
+OFFICE = load_map("office")  # west door x in [1.5, 2.5] on y = 2.05 (offices line)
+ROBOT = RobotConfig()
+UNKNOWN, OPEN, BLOCKED, GIVEN_UP = 0, 1, 2, 3
+
+
+def _map(borders, batch: int = 1, origin=(2.0, 4.5)) -> CrossingMap:
+    return CrossingMap(
+        borders, batch, radius=ROBOT.radius, close_distance=ROBOT.close_distance,
+        sonar_range=ROBOT.sonar_range, n_sensors=ROBOT.n_sensors, origin=origin, reach=20.0,
+        resolution=0.1,
+    )  # fmt: skip
+
+
+def _office_door() -> tuple[int, Border]:
+    """The border between the west office and its door region: the offices line, x < 4."""
+    for j, b in enumerate(region_borders(OFFICE.regions)):
+        if {b.low, b.high} == {"west_office", "west_door"}:
+            return j, b
+    raise AssertionError("office has no west office border")
+
+
+def _look(cmap: CrossingMap, poses) -> None:
+    env = Hailu2001Env(OFFICE, noise=False)
+    for x, y, h in poses:
+        rim, _ = env.sense(x, y, h)
+        cmap.observe(np.array([[x, y, h]]), rim[None, :].astype(np.float64))
+
+
+def test_rays_show_the_door_open_and_the_wall_beside_it_blocked():
+    j, border = _office_door()
+    cmap = _map(region_borders(OFFICE.regions))
+    _look(cmap, [(2.0, 3.0, -math.pi / 2), (1.0, 3.2, -math.pi / 2), (3.2, 3.0, -math.pi / 2)])
+    centres, state = cmap.seen(0, j)
+    door = (centres > 1.6) & (centres < 2.4)
+    walls = ((centres > 0.3) & (centres < 1.3)) | ((centres > 2.7) & (centres < 3.8))
+    seen_door = state[door][state[door] != UNKNOWN]
+    seen_wall = state[walls][state[walls] != UNKNOWN]
+    assert len(seen_door) > 3 and (seen_door == OPEN).all()
+    assert len(seen_wall) > 5 and (seen_wall == BLOCKED).all()
+
+
+def test_the_crossing_is_the_middle_of_the_door_seen_open():
+    j, border = _office_door()
+    cmap = _map(region_borders(OFFICE.regions))
+    _look(cmap, [(2.0, 3.0, -math.pi / 2), (1.0, 3.2, -math.pi / 2), (3.2, 3.0, -math.pi / 2)])
+    # the goal lies east: the fixed rule point would be at x = 3.5, on the wall
+    found = cmap.crossing(0, j, np.array([2.0, 3.0]), (10.0, 4.5))
+    assert found is not None
+    t, first, last = found
+    assert 1.8 < t < 2.2  # the door (1 m) is narrower than two insets: its middle
+    assert 1.3 < cmap.lo[j] + first * 0.1 <= 1.6 and 2.4 <= cmap.lo[j] + (last + 1) * 0.1 < 2.7
+
+
+def test_with_no_evidence_the_crossing_is_nearest_the_goal():
+    border = Border("l", 0, 1.0, -10.0, 10.0, "a", "b")
+    cmap = _map([border], origin=(0.0, 0.0))
+    t, _, _ = cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 2.0))
+    assert t == pytest.approx(2.0, abs=0.06)
+
+
+def test_a_border_seen_blocked_everywhere_has_no_crossing():
+    border = Border("l", 0, 1.0, -1.0, 1.0, "a", "b")
+    cmap = _map([border], origin=(0.0, 0.0))
+    cmap.arrays["blocked"][0, 0, :] = 3.0
+    assert cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.0)) is None
+    cmap.arrays["open"][0, 0, 5:12] = 4.0  # 0.7 m seen open: wider than the body
+    assert cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.0)) is not None
+
+
+def test_a_gap_narrower_than_the_body_is_no_crossing():
+    border = Border("l", 0, 1.0, -1.0, 1.0, "a", "b")
+    cmap = _map([border], origin=(0.0, 0.0))
+    cmap.arrays["blocked"][0, 0, :] = 3.0
+    cmap.arrays["open"][0, 0, 8:12] = 4.0  # 0.4 m < 2 x 0.26 m
+    assert cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.0)) is None
+
+
+def test_a_crossing_from_odometry_opens_a_body_width_and_only_that_robots():
+    border = Border("l", 0, 1.0, -5.0, 5.0, "a", "b")
+    cmap = _map([border], batch=2, origin=(0.0, 0.0))
+    cmap.cross(1, "a", "b", np.array([0.9, 0.3]), np.array([1.1, 0.5]))
+    centres, state = cmap.seen(1, 0)
+    opened = centres[state == OPEN]
+    assert opened.min() == pytest.approx(0.4 - 0.26, abs=0.1)
+    assert opened.max() == pytest.approx(0.4 + 0.26, abs=0.1)
+    assert (cmap.seen(0, 0)[1] == UNKNOWN).all()
+    cmap.cross(1, "a", "c", np.array([0.9, 3.0]), np.array([1.1, 3.0]))  # not this border
+    assert (cmap.seen(1, 0)[1][np.abs(centres - 3.0) < 0.5] == UNKNOWN).all()
+
+
+def test_a_stretch_given_up_is_skipped_for_the_trial_then_tried_again():
+    border = Border("l", 0, 1.0, -5.0, 5.0, "a", "b")
+    cmap = _map([border], origin=(0.0, 0.0))
+    cmap.arrays["blocked"][0, 0, 40:60] = 2.0  # a wall from -1 to 1: two stretches either side
+    t, first, last = cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.5))
+    assert t > 1.0
+    cmap.give_up(0, 0, int(first), int(last))
+    t2, _, _ = cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.5))
+    assert t2 < -1.0
+    cmap.forget(np.array([0]))
+    assert cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.5))[0] == pytest.approx(t)
+    assert "given_up" not in cmap.state_dict()  # per trial, not learned
+
+
+@settings(max_examples=40, deadline=None)
+@given(x=st.floats(0.4, 3.6), y=st.floats(2.5, 5.6), heading=st.floats(-math.pi, math.pi))
+def test_no_ray_from_the_west_office_shows_its_walls_open(x, y, heading):
+    """Wherever the robot stands in the west office, the offices line is never shown open
+    outside the door (a ray that passes the line went through the door)."""
+    j, border = _office_door()
+    cmap = _map(region_borders(OFFICE.regions))
+    _look(cmap, [(x, y, heading)])
+    centres, state = cmap.seen(0, j)
+    opened = centres[state == OPEN]
+    assert ((opened > 1.5 - 0.1) & (opened < 2.5 + 0.1)).all()
+
+
+def test_the_crossing_map_is_built_from_the_rules_alone():
+    config = load_config("paper", ["crossings.enabled=true"])
+    told = Knowledge.told(OFFICE, "regions")
+    assert told.world is None
+    opts = SubgoalOptions(
+        told, 1, config.options, [0], None, config.option_critic, config.crossings, ROBOT, 200
+    )
+    assert opts.crossings is not None
+    assert len(opts.crossings.borders) == len(region_borders(OFFICE.regions))
+
+
+def test_crossings_need_the_rules_options():
+    with pytest.raises(ValueError, match="crossings.enabled=true needs options.enabled=true"):
+        load_config("paper_map", ["crossings.enabled=true"])
+
+
+def _office_options(**cfg) -> SubgoalOptions:
+    told = Knowledge.told(OFFICE, "regions")
+    config = OptionsConfig(enabled=True, source="rules")
+    explore = OptionCriticConfig(epsilon=0.0, try_untried=False)
+    return SubgoalOptions(told, 1, config, [0], None, explore, CrossingsConfig(enabled=True, **cfg),
+                          ROBOT, 200)  # fmt: skip
+
+
+def _labels(opts: SubgoalOptions, region: str) -> list[str]:
+    r = opts.region_names.index(region)
+    offered = opts._offered(0, r, opts.valid[r].tolist(), [False] * opts.valid.shape[1])
+    return [label for label, ok in zip(opts.labels[r], offered, strict=False) if ok]
+
+
+def test_a_border_found_blocked_is_routed_around():
+    """The rules say the west office borders the middle office (through the wall between
+    them, line wc); told so, the west door leads farther from the goal and is not offered.
+    Once the robot finds the wc border blocked, the region graph goes round by the door."""
+    opts = _office_options()
+    assert _labels(opts, "west_office") == ["goal", "wc>middle_office"]
+    j = next(i for i, b in enumerate(opts.crossings.borders)
+             if {b.low, b.high} == {"west_office", "middle_office"})  # fmt: skip
+    opts.crossings.arrays["blocked"][0, j, :] = 5.0
+    opts.begin_trial(torch.tensor([0]))
+    assert _labels(opts, "west_office") == ["goal", "offices>west_door"]
+
+
+def test_a_robot_aims_at_the_door_it_saw_not_at_the_wall():
+    opts = _office_options()
+    _look(opts.crossings, [(2.0, 3.0, -math.pi / 2), (1.0, 3.2, -math.pi / 2),
+                           (3.2, 3.0, -math.pi / 2)])  # fmt: skip
+    j = next(i for i, b in enumerate(opts.crossings.borders)
+             if {b.low, b.high} == {"west_office", "middle_office"})  # fmt: skip
+    opts.crossings.arrays["blocked"][0, j, :] = 5.0
+    opts.begin_trial(torch.tensor([0]))
+    r = opts.region_names.index("west_office")
+    k = opts.labels[r].index("offices>west_door")
+    opts.arrays["choice"][0, r] = k  # the door's option in force
+    _, option, _, aim, _ = opts.steer(torch.tensor([r]), torch.tensor([[2.0, 3.0, -1.5]]), False)
+    assert int(option[0]) == k
+    assert aim[0, 0].item() == pytest.approx(2.0, abs=0.2)  # the door, not x = 3.5
+    assert aim[0, 1].item() == pytest.approx(2.05 - 0.4, abs=1e-6)
+
+
+def test_an_aim_not_approached_for_patience_actions_is_given_up():
+    opts = _office_options(patience=3)
+    r = opts.region_names.index("west_office")
+    k = opts.labels[r].index("wc>middle_office")
+    opts.begin_trial(torch.tensor([0]))
+    opts.arrays["choice"][0, r] = k
+    pose = torch.tensor([[3.0, 4.5, 0.0]])
+    aims = [opts.steer(torch.tensor([r]), pose, False)[3][0].clone() for _ in range(6)]
+    # standing still: after the first step and three more without progress, the stretch is
+    # given up and the next one along the border is aimed at
+    assert torch.equal(aims[0], aims[3])
+    assert not torch.equal(aims[3], aims[5])
