@@ -6,7 +6,8 @@ but not whether a wall stands on it or where its door is. A robot told only the 
 says something about the point where it meets it. A ray that passes the line (its echo comes
 from beyond it) shows the line *open* there; a ray whose echo comes from the line itself, or from
 less than a body radius before it, shows it *blocked* there (the robot could not reach the line
-at that point); a ray that ends well before the line says nothing. Where the robot actually
+at that point); a ray that ends well before the line shows the point *hidden* behind another
+wall. Where the robot actually
 crosses a border (its odometry pose changes region across the line) the line is open for a body
 width. The evidence is kept per robot, per border, in bins of ``resolution`` metres along the
 line, across trials: it is learned, as the experts are.
@@ -14,7 +15,8 @@ line, across trials: it is learned, as the experts are.
 From the evidence, a border's crossings are the stretches of bins not shown blocked that are at
 least the robot's diameter wide; the robot aims at a point of one of them, kept a body radius
 plus the reward's close distance from its ends (the middle of a narrower stretch). Stretches
-seen open are preferred to stretches not seen at all; among them the one that makes the
+seen open are preferred to stretches not seen at all, and a stretch only ever seen hidden is
+none (the robot looked that way and a wall stands between); among them the one that makes the
 straight way robot -> crossing -> goal shortest. A stretch the robot could not get to (it made no
 progress toward it for a while, :class:`symrl.learner.options.SubgoalOptions` decides) is given
 up; a border with no stretch left is blocked, and the options re-route the region graph around
@@ -35,6 +37,9 @@ from symrl.knowledge.borders import Border
 
 __all__ = ["CrossingMap", "Crossing"]
 
+_SURE = 0.5
+"""The evidence of one ray (weight 1 when the odometry is exact) that a bin needs, halved."""
+
 Crossing = tuple[float, float, float]
 """A crossing chosen: (t along the line, the stretch's first bin, its last bin)."""
 
@@ -42,8 +47,9 @@ Crossing = tuple[float, float, float]
 class CrossingMap(BufferViews):
     """The crossing evidence of B robots over the borders ``borders``.
 
-    Buffers (per robot): ``open`` and ``blocked`` (B, J, N) float32, the rays (and crossings)
-    that showed each bin of each border open or blocked (learned, kept across trials), and
+    Buffers (per robot): ``open``, ``blocked`` and ``hidden`` (B, J, N) float32, the rays (and
+    crossings) that showed each bin of each border open, blocked, or behind another wall
+    (learned, kept across trials), and
     ``given_up`` (B, J, N) bool, the bins of stretches the robot could not get to in this
     trial. J borders, N bins (the longest
     border's; ``bins`` (J,) says how many each has).
@@ -65,11 +71,17 @@ class CrossingMap(BufferViews):
         origin: tuple[float, float],
         reach: float,
         resolution: float,
+        step: float = 0.0,
+        translation_noise: float = 0.0,
+        rotation_noise: float = 0.0,
     ) -> None:
         """``radius``: the robot's body radius; ``close_distance``: the reward's wall distance
         (a crossing is aimed at that far from a stretch's ends, past the body); ``origin``: the
         start, and ``reach``: how far from it the robot can get and still sense (an unbounded
-        border is binned that far either side of the start)."""
+        border is binned that far either side of the start); ``step``, ``translation_noise``
+        (a fraction of the step) and ``rotation_noise`` (radians): the robot's model of its own
+        motion, whose odometry drifts as a trial goes on: a ray counts as passing the line
+        only when its echo lies beyond it by more than the drift could account for."""
         super().__init__()
         self.borders = tuple(borders)
         self.radius = float(radius)
@@ -91,6 +103,12 @@ class CrossingMap(BufferViews):
         n = int(self.bins.max()) if j else 1
         self.register_buffer("open", torch.zeros(batch, j, n, dtype=torch.float32))
         self.register_buffer("blocked", torch.zeros(batch, j, n, dtype=torch.float32))
+        self.register_buffer("hidden", torch.zeros(batch, j, n, dtype=torch.float32))
+        # the latest scan alone, at full weight: it is in the frame of the odometry the robot
+        # steers by now, however far that has drifted
+        for name in ("fresh_open", "fresh_blocked", "fresh_hidden"):
+            self.register_buffer(name, torch.zeros(batch, j, n, dtype=torch.float32),
+                                 persistent=False)  # fmt: skip
         # per trial (a stretch out of reach from where the robot was may not be from elsewhere)
         self.register_buffer(
             "given_up", torch.zeros(batch, j, n, dtype=torch.bool), persistent=False
@@ -98,6 +116,9 @@ class CrossingMap(BufferViews):
         self._angles = np.arange(n_sensors, dtype=np.float64) * (2 * math.pi / n_sensors)
         self._exists = np.arange(n)[None, :] < self.bins[:, None]  # (J, N)
         self._rows = np.arange(batch)
+        self._step, self._move, self._turn = float(step), float(translation_noise), float(
+            rotation_noise)
+        self._seen_steps = np.zeros(batch, dtype=np.int64)  # observations in this trial
         self._between: dict[tuple[str, str], list[int]] = {}
         for i, b in enumerate(self.borders):
             self._between.setdefault((b.low, b.high), []).append(i)
@@ -127,17 +148,46 @@ class CrossingMap(BufferViews):
         seen = sonar[:, None, :] < self.sonar_range  # an echo (else nothing within range)
         valid = (s > self.radius) & (s < self.sonar_range + self.radius) & np.isfinite(s)
         valid &= (t >= self.lo[None, :, None]) & (t < self.hi[None, :, None])
-        passed = valid & (~seen | (echo > s + self.tolerance))
-        stopped = valid & seen & (echo >= s - self.radius) & (echo <= s + self.tolerance)
-        self._add(self.arrays["open"], rows, passed, t)
-        self._add(self.arrays["blocked"], rows, stopped, t)
+        # two standard deviations of the odometry's drift after n actions, along the ray: the
+        # position's (the heading's error integrated along the path) and the heading's at s
+        n = self._seen_steps[rows].astype(np.float64)
+        heading = self._turn * np.sqrt(n)
+        position = self._step * np.sqrt(self._move**2 * n + self._turn**2 * n**3 / 3)
+        with np.errstate(invalid="ignore"):
+            drift = np.sqrt(position[:, None, None] ** 2 + (s * heading[:, None, None]) ** 2)
+        tolerance = self.tolerance + 2 * drift
+        # a ray counts as much as its point on the line is sure to a bin: an odometry that has
+        # drifted by several bins places it nowhere in particular
+        weight = 1.0 / (1.0 + (drift / self.resolution) ** 2)
+        passed = valid & (~seen | (echo > s + tolerance))
+        stopped = valid & seen & (echo >= s - self.radius) & (echo <= s + tolerance)
+        hidden = valid & seen & (echo < s - self.radius)
+        self._seen_steps[rows] += 1
+        a, one = self.arrays, np.ones_like(weight)
+        for name, mask in (("open", passed), ("blocked", stopped), ("hidden", hidden)):
+            self._add(a[name], rows, mask, t, weight)
+            a[f"fresh_{name}"][rows] = 0.0
+            self._add(a[f"fresh_{name}"], rows, mask, t, one)
 
-    def _add(self, counts: np.ndarray, rows: np.ndarray, mask: np.ndarray, t: np.ndarray) -> None:
+    def _add(
+        self, counts: np.ndarray, rows: np.ndarray, mask: np.ndarray, t: np.ndarray,
+        weight: np.ndarray,
+    ) -> None:
         if not mask.any():
             return
         b, j, _ = np.nonzero(mask)
         i = ((t[mask] - self.lo[j]) / self.resolution).astype(np.int64)
-        np.add.at(counts, (rows[b], j, np.minimum(i, self.bins[j] - 1)), 1.0)
+        np.add.at(counts, (rows[b], j, np.minimum(i, self.bins[j] - 1)), weight[mask])
+
+    def _states(self, row: int, border: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Robot ``row``'s bins of ``border``: seen open, seen blocked, seen hidden (each
+        needs the weight of one sure ray; blocked and open by the larger)."""
+        a, n = self.arrays, int(self.bins[border])
+        opened = a["open"][row, border, :n] + a["fresh_open"][row, border, :n]
+        shut = a["blocked"][row, border, :n] + a["fresh_blocked"][row, border, :n]
+        hidden = a["hidden"][row, border, :n] + a["fresh_hidden"][row, border, :n] >= _SURE
+        blocked = (shut >= _SURE) & (shut > opened)
+        return (opened >= _SURE) & ~blocked, blocked, hidden
 
     def cross(
         self, row: int, before: str, after: str, xy: np.ndarray, xy_next: np.ndarray
@@ -166,7 +216,11 @@ class CrossingMap(BufferViews):
 
     def forget(self, rows: np.ndarray) -> None:
         """Robots ``rows`` start a trial: the stretches they gave up are worth a new try."""
-        self.arrays["given_up"][rows] = False
+        a = self.arrays
+        a["given_up"][rows] = False
+        for name in ("fresh_open", "fresh_blocked", "fresh_hidden"):
+            a[name][rows] = 0.0
+        self._seen_steps[rows] = 0
 
     def _span(self, border: int, t0: float, t1: float) -> tuple[int, int]:
         n = int(self.bins[border])
@@ -183,9 +237,8 @@ class CrossingMap(BufferViews):
         the robot has found the border blocked."""
         a = self.arrays
         n = int(self.bins[border])
-        opened, shut = a["open"][row, border, :n], a["blocked"][row, border, :n]
-        blocked = (shut > opened) | a["given_up"][row, border, :n]
-        free = ~blocked
+        opened, shut, behind = self._states(row, border)
+        free = ~(shut | a["given_up"][row, border, :n])
         if not free.any():
             return None
         # runs of free bins: starts and ends (inclusive)
@@ -196,9 +249,14 @@ class CrossingMap(BufferViews):
         if not wide.any():
             return None
         starts, ends = starts[wide], ends[wide]
-        seen_open = np.array([bool((opened[s : e + 1] > 0).any()) for s, e in zip(starts, ends)])
-        if seen_open.any():
-            starts, ends = starts[seen_open], ends[seen_open]
+        # stretches seen open first; else stretches never seen, not those seen only behind
+        # other walls (the robot has looked that way, and something stands between)
+        seen_open = np.array([bool(opened[s : e + 1].any()) for s, e in zip(starts, ends)])
+        hidden = np.array([bool(behind[s : e + 1].any()) for s, e in zip(starts, ends)])
+        keep = seen_open if seen_open.any() else ~hidden
+        if not keep.any():
+            return None
+        starts, ends = starts[keep], ends[keep]
         b = self.borders[border]
         goal_t = goal[1] if b.axis == 0 else goal[0]
         best: Crossing | None = None
@@ -217,12 +275,34 @@ class CrossingMap(BufferViews):
     def seen(self, row: int, border: int) -> tuple[np.ndarray, np.ndarray]:
         """Robot ``row``'s view of ``border``: the bins' centres along the line (n,) and their
         state (n,) int: 0 unknown, 1 open, 2 blocked, 3 given up (figures, logging)."""
-        a = self.arrays
         n = int(self.bins[border])
         centres = self.lo[border] + (np.arange(n) + 0.5) * self.resolution
-        opened, shut = a["open"][row, border, :n], a["blocked"][row, border, :n]
+        opened, shut, _ = self._states(row, border)
         state = np.zeros(n, dtype=np.int64)
-        state[opened > 0] = 1
-        state[shut > opened] = 2
-        state[a["given_up"][row, border, :n]] = 3
+        state[opened] = 1
+        state[shut] = 2
+        state[self.arrays["given_up"][row, border, :n]] = 3
         return centres, state
+
+    def summary(self, row: int) -> dict[str, object]:
+        """Robot ``row``'s belief in a few numbers and as stretches (trial records, TensorBoard,
+        figures): metres of the borders seen open and seen blocked, the borders with no
+        crossing left, and ``stretches``: per border, runs ``[t0, t1, state]`` of one state
+        (:meth:`seen`'s codes)."""
+        opened = shut = 0.0
+        blocked = 0
+        stretches = []
+        for j in range(len(self.borders)):
+            centres, state = self.seen(row, j)
+            opened += float((state == 1).sum()) * self.resolution
+            shut += float((state == 2).sum()) * self.resolution
+            goal = (0.0, 0.0)
+            blocked += self.crossing(row, j, np.zeros(2), goal) is None
+            edges = np.flatnonzero(np.diff(state)) + 1
+            runs = []
+            for a, b in zip(np.r_[0, edges], np.r_[edges, len(state)], strict=True):
+                lo, hi = centres[a] - self.resolution / 2, centres[b - 1] + self.resolution / 2
+                runs.append([round(float(lo), 3), round(float(hi), 3), int(state[a])])
+            stretches.append(runs)
+        return {"crossings_open_m": round(opened, 3), "crossings_blocked_m": round(shut, 3),
+                "borders_blocked": int(blocked), "stretches": stretches}

@@ -145,7 +145,9 @@ class SubgoalOptions(BufferViews):
             sonar_range=robot.sonar_range, n_sensors=robot.n_sensors,
             origin=(float(start.x), float(start.y)),
             reach=max_actions * robot.step + robot.sonar_range + robot.radius,
-            resolution=config.resolution,
+            resolution=config.resolution, step=robot.step,
+            translation_noise=robot.translation_noise,
+            rotation_noise=math.radians(robot.rotation_noise_deg),
         )  # fmt: skip
         self._beyond = 0.4
         self._start_xy = np.array([float(start.x), float(start.y)])
@@ -167,6 +169,7 @@ class SubgoalOptions(BufferViews):
         shape = (batch, len(names), k)
         self._aim_key = np.full((*shape, 2), -1, dtype=np.int64)
         self._best = np.full(shape, math.inf)
+        self._lining_up = np.zeros(batch, dtype=bool)  # aiming in front of a crossing
         self._since = np.zeros(shape, dtype=np.int64)
 
     def _rehop(self, b: int) -> None:
@@ -219,7 +222,21 @@ class SubgoalOptions(BufferViews):
             return None
         t, first, last = found
         border = self._border_options.borders[j]
-        x, y = border.at(t, self._side[region, option] * self._beyond)
+        side = self._side[region, option]
+        x, y = border.at(t, side * self._beyond)
+        # straight at the point past the line where that way crosses the stretch with a body
+        # radius to spare; else first to the point in front of the crossing, to line up with it
+        crossings = self.crossings
+        t0 = crossings.lo[j] + first * crossings.resolution + crossings.radius
+        t1 = crossings.lo[j] + (last + 1) * crossings.resolution - crossings.radius
+        here = xy[border.axis] - border.intercept  # signed distance to the line
+        ahead = -side * here  # how far before the line, on the robot's side
+        if ahead > 0 and t0 <= t1:
+            along = xy[1 - border.axis]
+            hit = along + (t - along) * ahead / (ahead + self._beyond)
+            if not t0 <= hit <= t1:
+                x, y = border.at(t, -side * min(crossings.inset, ahead))
+                self._lining_up[b] = True
         return np.array([x, y]), (int(first), int(last))
 
     def _cross(
@@ -231,6 +248,7 @@ class SubgoalOptions(BufferViews):
         crossings = self.crossings
         assert crossings is not None
         choice = self.arrays["choice"]
+        self._lining_up[:] = False
         for b in range(len(region)):
             r = int(region[b])
             stretch = (-1, -1)
@@ -321,7 +339,10 @@ class SubgoalOptions(BufferViews):
         if self.route is not None and on_route.any():
             point[on_route] = self.route.aim(np.flatnonzero(on_route), xy[on_route])
         distance = torch.linalg.vector_norm(torch.from_numpy(point - xy), dim=-1).numpy()
-        stage[(distance < self.config.reach) & ~on_route] = _GOAL_STAGE
+        reached = (distance < self.config.reach) & ~on_route
+        if self.crossings is not None:
+            reached &= ~self._lining_up  # in front of a crossing is not past it
+        stage[reached] = _GOAL_STAGE
         at_goal = stage == _GOAL_STAGE
         if self._lead > 0:
             first = stage == _FIRST_STAGE
