@@ -35,6 +35,7 @@ are the option critics' returns of the trials in progress.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -110,6 +111,13 @@ class TeseoLoss(LossModule):
         # option critics: return so far in the trial, and at each region's first entry
         self.register_buffer("trial_return", torch.zeros(batch, dtype=torch.float64))
         self.register_buffer("entry_return", torch.zeros(batch, regions, dtype=torch.float64))
+        # with crossings, every choice of a trial (a region's first, and each after an option
+        # was given up) is credited with the return-to-go from it: NaN where none was made
+        if self.crossings is not None:
+            k = policy.options.valid.shape[1]
+            self.register_buffer(
+                "choice_return", torch.full((batch, regions, k), math.nan, dtype=torch.float64)
+            )
         # the trial gradient's record of the trials in progress (empty at every trial boundary,
         # where runs are saved, so it is not part of the state)
         self.record: TrialRecord | None = None
@@ -151,6 +159,10 @@ class TeseoLoss(LossModule):
                 rows = np.flatnonzero(entered)
                 region = read(td, k.region).numpy()
                 self.entry_return.numpy()[rows, region[rows]] = self.trial_return.numpy()[rows]
+                if self.crossings is not None:
+                    option = read(td, "option").numpy()
+                    self.choice_return.numpy()[rows, region[rows], option[rows]] = (
+                        self.trial_return.numpy()[rows])
         self.trial_return.numpy()[:] += r
         if self.crossings is not None:
             self._observe_crossings(td, nxt)
@@ -276,7 +288,15 @@ class TeseoLoss(LossModule):
             if self.record is not None:
                 self._trial_gradient_step(rows_np)
             self.experts.clear_trial(rows)
-        if self.critic is not None:
+        if self.critic is not None and self.crossings is not None:
+            chosen = self.choice_return.numpy()[rows_np]  # (k, R, K)
+            i, r, o = np.nonzero(~np.isnan(chosen))
+            self.critic.learn_choices(
+                rows_np[i], r, o, self.trial_return.numpy()[rows_np[i]] - chosen[i, r, o])
+            self.critic.end_trials(rows_np)
+            self.choice_return.numpy()[rows_np] = math.nan
+            self.entry_return.numpy()[rows_np] = 0.0
+        elif self.critic is not None:
             returns = self.trial_return.numpy()[rows_np, None] - self.entry_return.numpy()[rows_np]
             self.critic.learn(rows_np, self.options.trial_choices(rows_np), returns)
             self.entry_return.numpy()[rows_np] = 0.0

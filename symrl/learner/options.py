@@ -112,7 +112,7 @@ class SubgoalOptions(BufferViews):
         # learned across trials; with the region limit, an option given up is not chosen again
         self.critic = OptionCritic(
             batch, r, k, explore.epsilon, explore.epsilon_decay, explore.critic,
-            stalls=slack is not None or self.crossings is not None,
+            stalls=slack is not None and self.crossings is None,
         )  # fmt: skip
         self._zero_turn = np.zeros(batch, dtype=bool)
         self.register_buffer("choice", torch.full((batch, r), -1, dtype=torch.long))
@@ -170,6 +170,10 @@ class SubgoalOptions(BufferViews):
         self._aim_key = np.full((*shape, 2), -1, dtype=np.int64)
         self._best = np.full(shape, math.inf)
         self._lining_up = np.zeros(batch, dtype=bool)  # aiming in front of a crossing
+        # per trial: the options given up (the critic learns what they cost from the returns
+        # of every choice, so none is banned for good), and who chose anew at this step
+        self._trial_stalled = np.zeros(shape, dtype=bool)
+        self._rechose = np.zeros(batch, dtype=bool)
         self._since = np.zeros(shape, dtype=np.int64)
 
     def _rehop(self, b: int) -> None:
@@ -210,6 +214,15 @@ class SubgoalOptions(BufferViews):
                 return fresh
         return open_
 
+    def _stall(self, b: int, region: int, option: int) -> None:
+        """Controller ``b`` gives ``option`` up in ``region`` (for the trial with crossings,
+        for good without)."""
+        if self.crossings is not None:
+            self._trial_stalled[b, region, option] = True
+            self._rechose[b] = True
+        else:
+            self.critic.stall(b, region, option)
+
     def _cross_point(
         self, b: int, region: int, option: int, xy: np.ndarray
     ) -> tuple[np.ndarray, tuple[int, int]] | None:
@@ -231,7 +244,8 @@ class SubgoalOptions(BufferViews):
         t1 = crossings.lo[j] + (last + 1) * crossings.resolution - crossings.radius
         here = xy[border.axis] - border.intercept  # signed distance to the line
         ahead = -side * here  # how far before the line, on the robot's side
-        if ahead > 0 and t0 <= t1:
+        import os
+        if ahead > 0 and t0 <= t1 and not os.environ.get("NOLINEUP"):
             along = xy[1 - border.axis]
             hit = along + (t - along) * ahead / (ahead + self._beyond)
             if not t0 <= hit <= t1:
@@ -259,7 +273,7 @@ class SubgoalOptions(BufferViews):
                     break
                 self._blocked[b, self._border[r, chosen[b]]] = True
                 self._rehop(b)
-                self.critic.stall(b, r, int(chosen[b]))
+                self._stall(b, r, int(chosen[b]))
                 chosen[b] = choice[b, r] = self._choose(b, r, greedy=True)
                 stage[b] = _FIRST_STAGE
             if self._patience is None:
@@ -285,7 +299,7 @@ class SubgoalOptions(BufferViews):
             if j >= 0 and stage[b] != _GOAL_STAGE:
                 crossings.give_up(b, j, stretch[0], stretch[1])
             else:
-                self.critic.stall(b, r, int(chosen[b]))
+                self._stall(b, r, int(chosen[b]))
                 chosen[b] = choice[b, r] = self._choose(b, r, greedy=True)
                 stage[b] = _FIRST_STAGE
 
@@ -304,6 +318,8 @@ class SubgoalOptions(BufferViews):
         a = self.arrays  # the buffers' numpy views
         region_np = region.numpy()
         rows = np.arange(len(region_np))
+        if self.crossings is not None:
+            self._rechose[:] = False
         choice = a["choice"]
         chosen = choice[rows, region_np]
         entered = chosen < 0
@@ -325,7 +341,7 @@ class SubgoalOptions(BufferViews):
             late = (steps[rows, region_np] > self._timeout) & ~on_route
             for b in np.flatnonzero(late).tolist():
                 here = int(region_np[b])
-                self.critic.stall(b, here, int(chosen[b]))
+                self._stall(b, here, int(chosen[b]))
                 choice[b, here] = self._choose(b, here, greedy=True)
                 steps[b, here], stage[b] = 0, _FIRST_STAGE
             chosen = choice[rows, region_np]
@@ -358,6 +374,8 @@ class SubgoalOptions(BufferViews):
         start_turn = self._zero_turn
         if self._start_turn is not None:
             start_turn = (starting | on_route) & (np.abs(angle) > self._start_turn)
+        if self.crossings is not None:  # every choice is credited with what followed it
+            entered = entered | self._rechose
         return (torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered),
                 torch.from_numpy(aim), start_turn)
 
@@ -368,7 +386,7 @@ class SubgoalOptions(BufferViews):
         a, learned = self.arrays, self.critic.arrays
         valid = a["valid"][region].tolist()
         if self.crossings is not None:
-            valid = self._offered(b, region, valid, learned["stalled"][b, region].tolist())
+            valid = self._offered(b, region, valid, self._trial_stalled[b, region].tolist())
         elif self.critic.stalls:  # a stalled option is as if not offered
             valid = [ok and not stalled for ok, stalled in
                      zip(valid, learned["stalled"][b, region].tolist(), strict=True)]  # fmt: skip
@@ -406,6 +424,7 @@ class SubgoalOptions(BufferViews):
         if self.crossings is not None:  # what is found blocked, from the learned evidence
             self.crossings.forget(r)
             self._aim_key[r] = -1
+            self._trial_stalled[r] = False
             for b in r.tolist():
                 self._blocked[b] = [self.crossings.crossing(b, j, self._start_xy, self.goal)
                                     is None for j in range(len(self._border_options.borders))]
