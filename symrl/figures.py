@@ -44,6 +44,7 @@ __all__ = [
     "plot_learning_curves",
     "draw_in_parallel",
     "crossings_figure",
+    "plot_crossings",
 ]
 
 _MARKERS = "osD^vP*Xh<>"
@@ -423,7 +424,8 @@ def crossings_figure(world: WorldMap, records: Sequence[dict[str, Any]], panels:
                     continue
                 colour, label = _CROSSING_COLOURS[state]
                 ax.plot(*zip(border.at(t0), border.at(t1)), color=colour, lw=2.2, label=label)
-        _draw_xy(ax, record["path"], color="tab:blue", label="path")
+        if record.get("path"):
+            _draw_xy(ax, record["path"], color="tab:blue", label="path")
         handles, labels = ax.get_legend_handles_labels()
         seen = dict(zip(labels, handles, strict=True))
         ax.legend(seen.values(), seen.keys(), loc="upper left", fontsize=7)
@@ -436,3 +438,10 @@ def crossings_figure(world: WorldMap, records: Sequence[dict[str, Any]], panels:
     fig.suptitle(f"{world.name}: where the robot believes each border can be crossed")
     fig.tight_layout()
     return fig
+
+
+def plot_crossings(world: WorldMap, records: Sequence[dict[str, Any]], path: Path | str) -> None:
+    """:func:`crossings_figure`, saved to ``path``."""
+    fig = crossings_figure(world, records)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

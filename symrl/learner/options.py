@@ -216,9 +216,11 @@ class SubgoalOptions(BufferViews):
 
     def _stall(self, b: int, region: int, option: int) -> None:
         """Controller ``b`` gives ``option`` up in ``region`` (for the trial with crossings,
-        for good without)."""
+        for good without); with crossings, the goal in the goal's region is never given up."""
         if self.crossings is not None:
-            self._trial_stalled[b, region, option] = True
+            # in the goal's region the goal is the way on: the reflex finds its way round
+            if not (region == self._target and self._border[region, option] < 0):
+                self._trial_stalled[b, region, option] = True
             self._rechose[b] = True
         else:
             self.critic.stall(b, region, option)

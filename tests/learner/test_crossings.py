@@ -211,3 +211,54 @@ def test_an_aim_not_approached_for_patience_actions_is_given_up():
     # given up and the next one along the border is aimed at
     assert torch.equal(aims[0], aims[3])
     assert not torch.equal(aims[3], aims[5])
+
+
+def test_an_option_given_up_is_given_up_for_the_trial_only():
+    opts = _office_options()
+    r = opts.region_names.index("west_office")
+    k = opts.labels[r].index("wc>middle_office")
+    opts._stall(0, r, k)
+    assert opts._trial_stalled[0, r, k]
+    assert not opts.critic.stalls  # nothing is banned for good
+    opts.begin_trial(torch.tensor([0]))
+    assert not opts._trial_stalled.any()
+
+
+def test_in_the_goals_region_the_goal_is_never_given_up():
+    opts = _office_options()
+    r = opts.region_names.index("east_office")
+    opts._stall(0, r, 0)
+    assert not opts._trial_stalled[0, r, 0]
+    w = opts.region_names.index("west_office")
+    opts._stall(0, w, 0)
+    assert opts._trial_stalled[0, w, 0]
+
+
+def test_every_choice_is_credited_with_the_return_to_go_from_it():
+    """A region's first option, given up after 4 actions of reward -1, and the one chosen then,
+    which reaches the goal 2 actions later: the first is credited with -6, the second -2."""
+    from tensordict import TensorDict
+
+    from symrl.learner.loss import TeseoLoss
+    from symrl.learner.policy import MixtureOfExpertsPolicy
+
+    config = load_config("paper", ["crossings.enabled=true", "experts.learning=false"])
+    policy = MixtureOfExpertsPolicy(config, OFFICE, [0])
+    loss = TeseoLoss(policy)
+    r = policy.region_names.index("west_office")
+    first, second = 0, policy.options.labels[r].index("wc>middle_office")
+    pose, sonar = torch.tensor([[2.0, 4.5, 0.0]]), torch.ones(1, ROBOT.n_sensors)
+    for step in range(6):
+        td = TensorDict({
+            "option_entry": torch.tensor([step in (0, 4)]), "region": torch.tensor([r]),
+            "option": torch.tensor([first if step < 4 else second]), "pose": pose,
+            "sonar": sonar,
+            "next": TensorDict({"reward": torch.tensor([[-1.0]]), "pose": pose, "sonar": sonar,
+                                "region": torch.tensor([r])}, [1]),
+        }, [1])  # fmt: skip
+        loss(td)
+    loss.end_trial(torch.tensor([0]), torch.tensor([-6.0]), torch.tensor([True]))
+    q, count = policy.options.critic.q[0, r], policy.options.critic.n[0, r]
+    assert count[first] == 1 and q[first] == pytest.approx(-6.0)
+    assert count[second] == 1 and q[second] == pytest.approx(-2.0)
+    assert torch.isnan(loss.choice_return).all()  # ready for the next trial
