@@ -389,8 +389,7 @@ def draw_in_parallel(jobs: Sequence[Callable[[], None]], workers: int | None = N
             job()
 
 
-_CROSSING_COLOURS = {1: ("tab:green", "seen open"), 2: ("tab:red", "seen blocked"),
-                     3: ("black", "given up")}  # fmt: skip
+_CROSSING_COLOURS = {1: ("tab:green", "seen open"), 2: ("tab:red", "seen blocked")}
 
 
 def crossings_figure(world: WorldMap, records: Sequence[dict[str, Any]], panels: int = 6):
@@ -409,21 +408,22 @@ def crossings_figure(world: WorldMap, records: Sequence[dict[str, Any]], panels:
     fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 4.2 * rows), squeeze=False)
     doors = find_passages(world)
     xmin, xmax, ymin, ymax = world.bounds
-    for ax, i in zip(axes.flat, picks):
+    for ax, i in zip(axes.flat, picks, strict=False):
         record = records[i]
         draw_map(ax, world)
         for p in doors:
             a, b = (p.intercept, p.lo), (p.intercept, p.hi)
             if p.axis == 1:
                 a, b = (p.lo, p.intercept), (p.hi, p.intercept)
-            ax.plot(*zip(a, b), color="gold", lw=7, alpha=0.45, solid_capstyle="butt",
+            ax.plot(*zip(a, b, strict=True), color="gold", lw=7, alpha=0.45, solid_capstyle="butt",
                     label="true door" if p is doors[0] else None)  # fmt: skip
         for border, runs in zip(borders, record.get("stretches", []), strict=False):
             for t0, t1, state in runs:
                 if state not in _CROSSING_COLOURS:
                     continue
                 colour, label = _CROSSING_COLOURS[state]
-                ax.plot(*zip(border.at(t0), border.at(t1)), color=colour, lw=2.2, label=label)
+                ends = zip(border.at(t0), border.at(t1), strict=True)
+                ax.plot(*ends, color=colour, lw=2.2, label=label)
         if record.get("path"):
             _draw_xy(ax, record["path"], color="tab:blue", label="path")
         handles, labels = ax.get_legend_handles_labels()

@@ -231,12 +231,9 @@ class CrossingsConfig(_Section):
     robot has not found blocked, and a border found blocked is routed around."""
 
     enabled: StrictBool = False
-    """False: a border option aims at one fixed point of the border (``symrl.knowledge.borders``)."""
+    """False: a border option aims at one fixed point of it (``symrl.knowledge.borders``)."""
     resolution: float = Field(0.1, gt=0, le=1)
     """Bin width (m) of the evidence kept along each border's line."""
-    patience: StrictInt | None = Field(15, ge=1, le=10_000)
-    """An aim the robot got no nearer to (by half an action's move) in this many actions is
-    given up: a border stretch is marked unreachable, the goal option stalls. None: never."""
 
 
 _SOURCE_RUNG = {"rules": "regions", "passages": "passages", "map": "map"}

@@ -3,25 +3,28 @@
 The region rules fix where two regions meet (a *border*, :class:`symrl.knowledge.borders.Border`)
 but not whether a wall stands on it or where its door is. A robot told only the rules
 (``knowledge: regions``) finds that out as it drives: every sonar ray that meets a border's line
-says something about the point where it meets it. A ray that passes the line (its echo comes
-from beyond it) shows the line *open* there; a ray whose echo comes from the line itself, or from
-less than a body radius before it, shows it *blocked* there (the robot could not reach the line
-at that point); a ray that ends well before the line shows the point *hidden* behind another
-wall. Where the robot actually
-crosses a border (its odometry pose changes region across the line) the line is open for a body
-width. The evidence is kept per robot, per border, in bins of ``resolution`` metres along the
-line, across trials: it is learned, as the experts are.
+says something about the point where it meets it. A ray whose echo comes from beyond the line
+shows the line *open* there; an echo from the line itself, or from less than a body radius before
+it, shows it *blocked* there (the robot could not reach the line at that point); an echo from
+farther before the line shows the point *hidden* behind another wall. Where the robot crosses a
+border (its believed pose changes region across the line) the line is open for a body width.
 
-From the evidence, a border's crossings are the stretches of bins not shown blocked that are at
-least the robot's diameter wide; the robot aims at a point of one of them, kept a body radius
-plus the reward's close distance from its ends (the middle of a narrower stretch). Stretches
-seen open are preferred to stretches not seen at all, and a stretch only ever seen hidden is
-none (the robot looked that way and a wall stands between); among them the one that makes the
-straight way robot -> crossing -> goal shortest. A stretch the robot could not get to (it made no
-progress toward it for a while, :class:`symrl.learner.options.SubgoalOptions` decides) is given
-up; a border with no stretch left is blocked, and the options re-route the region graph around
-it. Nothing here reads the walls: only the rules' lines, the robot's size, its sensors' geometry
-and readings, and its odometry.
+The evidence is kept per robot and border, in bins of ``resolution`` metres along the line,
+across trials: it is learned, as the experts are. The pose it is placed from is the odometry's,
+which drifts as a trial goes on (the rotation noise integrates), so a ray counts by how sure its
+point is to a bin (the robot's own motion model says how far the odometry may have drifted after
+n actions), and the latest scan also counts at full weight: it is in the frame the robot steers
+by now, however far that frame has drifted.
+
+A border's crossings are the stretches of bins not shown blocked that are at least the robot's
+diameter wide; the robot aims at a point of one of them, kept a body radius plus the reward's
+close distance from its ends (the middle of a narrower stretch). Stretches seen open are
+preferred; else stretches never seen; a stretch seen only behind other walls is none (the robot
+looked that way and something stands between). Among them it takes the one that makes the
+straight way robot -> crossing -> goal shortest. A border with no crossing left is *blocked*,
+and the options (:class:`symrl.learner.options.SubgoalOptions`) route the region graph around
+it. Nothing here reads the walls: only the rules' lines, the robot's size, sensors and motion
+model, its readings and its odometry.
 """
 
 from __future__ import annotations
@@ -47,17 +50,14 @@ Crossing = tuple[float, float, float]
 class CrossingMap(BufferViews):
     """The crossing evidence of B robots over the borders ``borders``.
 
-    Buffers (per robot): ``open``, ``blocked`` and ``hidden`` (B, J, N) float32, the rays (and
-    crossings) that showed each bin of each border open, blocked, or behind another wall
-    (learned, kept across trials), and
-    ``given_up`` (B, J, N) bool, the bins of stretches the robot could not get to in this
-    trial. J borders, N bins (the longest
-    border's; ``bins`` (J,) says how many each has).
+    Buffers (per robot, J borders, N bins: the longest border's; ``bins`` (J,) says how many
+    each has): ``open``, ``blocked`` and ``hidden`` (B, J, N) float32, the weight of the rays
+    (and crossings) that showed each bin open, blocked, or behind another wall (learned, kept
+    across trials), and ``fresh_*`` the same of the latest scan alone (not saved).
     """
 
     open: torch.Tensor
     blocked: torch.Tensor
-    given_up: torch.Tensor
 
     def __init__(
         self,
@@ -109,10 +109,6 @@ class CrossingMap(BufferViews):
         for name in ("fresh_open", "fresh_blocked", "fresh_hidden"):
             self.register_buffer(name, torch.zeros(batch, j, n, dtype=torch.float32),
                                  persistent=False)  # fmt: skip
-        # per trial (a stretch out of reach from where the robot was may not be from elsewhere)
-        self.register_buffer(
-            "given_up", torch.zeros(batch, j, n, dtype=torch.bool), persistent=False
-        )
         self._angles = np.arange(n_sensors, dtype=np.float64) * (2 * math.pi / n_sensors)
         self._exists = np.arange(n)[None, :] < self.bins[:, None]  # (J, N)
         self._rows = np.arange(batch)
@@ -210,14 +206,9 @@ class CrossingMap(BufferViews):
         if first <= last:
             self.arrays["open"][row, border, first : last + 1] += 1.0
 
-    def give_up(self, row: int, border: int, first: int, last: int) -> None:
-        """Robot ``row`` could not get to the stretch of bins ``first..last`` of ``border``."""
-        self.arrays["given_up"][row, border, first : last + 1] = True
-
     def forget(self, rows: np.ndarray) -> None:
-        """Robots ``rows`` start a trial: the stretches they gave up are worth a new try."""
+        """Robots ``rows`` start a trial: their odometry is exact again, and no scan is new."""
         a = self.arrays
-        a["given_up"][rows] = False
         for name in ("fresh_open", "fresh_blocked", "fresh_hidden"):
             a[name][rows] = 0.0
         self._seen_steps[rows] = 0
@@ -235,10 +226,8 @@ class CrossingMap(BufferViews):
         """Where robot ``row`` at ``xy`` should cross ``border`` on its way to ``goal``: the
         point ``t`` along the line and the stretch it lies in (first and last bin); None when
         the robot has found the border blocked."""
-        a = self.arrays
-        n = int(self.bins[border])
         opened, shut, behind = self._states(row, border)
-        free = ~(shut | a["given_up"][row, border, :n])
+        free = ~shut
         if not free.any():
             return None
         # runs of free bins: starts and ends (inclusive)
@@ -251,8 +240,9 @@ class CrossingMap(BufferViews):
         starts, ends = starts[wide], ends[wide]
         # stretches seen open first; else stretches never seen, not those seen only behind
         # other walls (the robot has looked that way, and something stands between)
-        seen_open = np.array([bool(opened[s : e + 1].any()) for s, e in zip(starts, ends)])
-        hidden = np.array([bool(behind[s : e + 1].any()) for s, e in zip(starts, ends)])
+        runs = list(zip(starts.tolist(), ends.tolist(), strict=True))
+        seen_open = np.array([bool(opened[s : e + 1].any()) for s, e in runs])
+        hidden = np.array([bool(behind[s : e + 1].any()) for s, e in runs])
         keep = seen_open if seen_open.any() else ~hidden
         if not keep.any():
             return None
@@ -261,7 +251,7 @@ class CrossingMap(BufferViews):
         goal_t = goal[1] if b.axis == 0 else goal[0]
         best: Crossing | None = None
         best_cost = math.inf
-        for s, e in zip(starts.tolist(), ends.tolist()):
+        for s, e in zip(starts.tolist(), ends.tolist(), strict=True):
             t0, t1 = lo + s * res, lo + (e + 1) * res
             inset = min(self.inset, (t1 - t0) / 2)
             t = min(max(goal_t, t0 + inset), t1 - inset)
@@ -274,14 +264,13 @@ class CrossingMap(BufferViews):
 
     def seen(self, row: int, border: int) -> tuple[np.ndarray, np.ndarray]:
         """Robot ``row``'s view of ``border``: the bins' centres along the line (n,) and their
-        state (n,) int: 0 unknown, 1 open, 2 blocked, 3 given up (figures, logging)."""
+        state (n,) int: 0 unknown, 1 open, 2 blocked (figures, logging)."""
         n = int(self.bins[border])
         centres = self.lo[border] + (np.arange(n) + 0.5) * self.resolution
         opened, shut, _ = self._states(row, border)
         state = np.zeros(n, dtype=np.int64)
         state[opened] = 1
         state[shut] = 2
-        state[self.arrays["given_up"][row, border, :n]] = 3
         return centres, state
 
     def summary(self, row: int) -> dict[str, object]:

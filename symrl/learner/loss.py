@@ -113,7 +113,7 @@ class TeseoLoss(LossModule):
         self.register_buffer("entry_return", torch.zeros(batch, regions, dtype=torch.float64))
         # with crossings, every choice of a trial (a region's first, and each after an option
         # was given up) is credited with the return-to-go from it: NaN where none was made
-        if self.crossings is not None:
+        if policy.options is not None and self.crossings is not None:
             k = policy.options.valid.shape[1]
             self.register_buffer(
                 "choice_return", torch.full((batch, regions, k), math.nan, dtype=torch.float64)

@@ -151,8 +151,6 @@ class SubgoalOptions(BufferViews):
         )  # fmt: skip
         self._beyond = 0.4
         self._start_xy = np.array([float(start.x), float(start.y)])
-        self._patience = config.patience
-        self._progress = robot.step / 2
         names = list(knowledge.regions.names)
         self._region_of = {n: i for i, n in enumerate(names)}
         self._target = names.index(knowledge.regions.region_of(knowledge.goal.x,
@@ -163,18 +161,12 @@ class SubgoalOptions(BufferViews):
         self._hops = np.zeros((batch, len(names)))
         for b in range(batch):
             self._rehop(b)
-        # per trial and region's option (its visits added up): the aim approached (the
-        # stretch's first bin, and whether past the sub-goal), its best distance, the actions
-        # since
         shape = (batch, len(names), k)
-        self._aim_key = np.full((*shape, 2), -1, dtype=np.int64)
-        self._best = np.full(shape, math.inf)
         self._lining_up = np.zeros(batch, dtype=bool)  # aiming in front of a crossing
         # per trial: the options given up (the critic learns what they cost from the returns
         # of every choice, so none is banned for good), and who chose anew at this step
         self._trial_stalled = np.zeros(shape, dtype=bool)
         self._rechose = np.zeros(batch, dtype=bool)
-        self._since = np.zeros(shape, dtype=np.int64)
 
     def _rehop(self, b: int) -> None:
         """Robot ``b``'s hops from the goal's region over the borders it has not found blocked."""
@@ -208,7 +200,8 @@ class SubgoalOptions(BufferViews):
             other = border.high if names[region] == border.low else border.low
             theirs = self._hops[b, self._region_of[other]]
             ahead.append(not math.isfinite(mine) or theirs <= mine)
-        for wanted in (ahead, [ok and j >= 0 for ok, j in zip(open_, self._border[region])]):
+        back = [ok and j >= 0 for ok, j in zip(open_, self._border[region].tolist(), strict=True)]
+        for wanted in (ahead, back):
             fresh = [ok and not s for ok, s in zip(wanted, stalled, strict=True)]
             if any(fresh):
                 return fresh
@@ -227,9 +220,9 @@ class SubgoalOptions(BufferViews):
 
     def _cross_point(
         self, b: int, region: int, option: int, xy: np.ndarray
-    ) -> tuple[np.ndarray, tuple[int, int]] | None:
+    ) -> np.ndarray | None:
         """Robot ``b``'s aim for a border option: past the line at the crossing it believes
-        best, and the stretch (first, last bin); None when it found the border blocked."""
+        best (or in front of it, to line up with it); None when it found the border blocked."""
         assert self.crossings is not None
         j = int(self._border[region, option])
         found = self.crossings.crossing(b, j, xy, self.goal)
@@ -246,61 +239,33 @@ class SubgoalOptions(BufferViews):
         t1 = crossings.lo[j] + (last + 1) * crossings.resolution - crossings.radius
         here = xy[border.axis] - border.intercept  # signed distance to the line
         ahead = -side * here  # how far before the line, on the robot's side
-        import os
-        if ahead > 0 and t0 <= t1 and not os.environ.get("NOLINEUP"):
+        if ahead > 0 and t0 <= t1:
             along = xy[1 - border.axis]
             hit = along + (t - along) * ahead / (ahead + self._beyond)
             if not t0 <= hit <= t1:
                 x, y = border.at(t, -side * min(crossings.inset, ahead))
                 self._lining_up[b] = True
-        return np.array([x, y]), (int(first), int(last))
+        return np.array([x, y])
 
     def _cross(
         self, region: np.ndarray, chosen: np.ndarray, stage: np.ndarray, xy: np.ndarray,
         point: np.ndarray, greedy: bool,
     ) -> None:
         """Aim the robots on a border option at their crossing (re-choosing where a border turns
-        out blocked), and give up what a robot gets no nearer to (``crossings.patience``)."""
+        out blocked)."""
         crossings = self.crossings
         assert crossings is not None
         choice = self.arrays["choice"]
         self._lining_up[:] = False
         for b in range(len(region)):
             r = int(region[b])
-            stretch = (-1, -1)
             while stage[b] != _GOAL_STAGE and self._border[r, chosen[b]] >= 0:
                 found = self._cross_point(b, r, int(chosen[b]), xy[b])
                 if found is not None:
-                    point[b], stretch = found
+                    point[b] = found
                     break
                 self._blocked[b, self._border[r, chosen[b]]] = True
                 self._rehop(b)
-                self._stall(b, r, int(chosen[b]))
-                chosen[b] = choice[b, r] = self._choose(b, r, greedy=True)
-                stage[b] = _FIRST_STAGE
-            if self._patience is None:
-                continue
-            o = int(chosen[b])
-            past = stage[b] == _GOAL_STAGE
-            key = (stretch[0], int(past))
-            aim = self._goal if past else point[b]
-            d = math.hypot(aim[0] - xy[b, 0], aim[1] - xy[b, 1])
-            if tuple(self._aim_key[b, r, o].tolist()) != key:
-                self._aim_key[b, r, o] = key
-                self._best[b, r, o], self._since[b, r, o] = d, 0
-                continue
-            if d < self._best[b, r, o] - self._progress:
-                self._best[b, r, o], self._since[b, r, o] = d, 0
-                continue
-            self._since[b, r, o] += 1
-            if self._since[b, r, o] <= self._patience:
-                continue
-            # no nearer for `patience` actions: give the stretch (or the option) up
-            self._aim_key[b, r, o] = -1
-            j = int(self._border[r, o])
-            if j >= 0 and stage[b] != _GOAL_STAGE:
-                crossings.give_up(b, j, stretch[0], stretch[1])
-            else:
                 self._stall(b, r, int(chosen[b]))
                 chosen[b] = choice[b, r] = self._choose(b, r, greedy=True)
                 stage[b] = _FIRST_STAGE
@@ -425,7 +390,6 @@ class SubgoalOptions(BufferViews):
             self.route.forget(r)
         if self.crossings is not None:  # what is found blocked, from the learned evidence
             self.crossings.forget(r)
-            self._aim_key[r] = -1
             self._trial_stalled[r] = False
             for b in r.tolist():
                 self._blocked[b] = [self.crossings.crossing(b, j, self._start_xy, self.goal)

@@ -13,7 +13,7 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from symrl.knowledge.borders import Border, border_options, region_borders
+from symrl.knowledge.borders import Border, region_borders
 from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import CrossingsConfig, OptionCriticConfig, OptionsConfig, load_config
 from symrl.learner.crossings import CrossingMap
@@ -24,7 +24,7 @@ from symrl.world.worldmap import load_map
 
 OFFICE = load_map("office")  # west door x in [1.5, 2.5] on y = 2.05 (offices line)
 ROBOT = RobotConfig()
-UNKNOWN, OPEN, BLOCKED, GIVEN_UP = 0, 1, 2, 3
+UNKNOWN, OPEN, BLOCKED = 0, 1, 2
 
 
 def _map(borders, batch: int = 1, origin=(2.0, 4.5)) -> CrossingMap:
@@ -112,20 +112,6 @@ def test_a_crossing_from_odometry_opens_a_body_width_and_only_that_robots():
     assert (cmap.seen(1, 0)[1][np.abs(centres - 3.0) < 0.5] == UNKNOWN).all()
 
 
-def test_a_stretch_given_up_is_skipped_for_the_trial_then_tried_again():
-    border = Border("l", 0, 1.0, -5.0, 5.0, "a", "b")
-    cmap = _map([border], origin=(0.0, 0.0))
-    cmap.arrays["blocked"][0, 0, 40:60] = 2.0  # a wall from -1 to 1: two stretches either side
-    t, first, last = cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.5))
-    assert t > 1.0
-    cmap.give_up(0, 0, int(first), int(last))
-    t2, _, _ = cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.5))
-    assert t2 < -1.0
-    cmap.forget(np.array([0]))
-    assert cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.5))[0] == pytest.approx(t)
-    assert "given_up" not in cmap.state_dict()  # per trial, not learned
-
-
 @settings(max_examples=40, deadline=None)
 @given(x=st.floats(0.4, 3.6), y=st.floats(2.5, 5.6), heading=st.floats(-math.pi, math.pi))
 def test_no_ray_from_the_west_office_shows_its_walls_open(x, y, heading):
@@ -197,20 +183,6 @@ def test_a_robot_aims_at_the_door_it_saw_not_at_the_wall():
     assert int(option[0]) == k
     assert aim[0, 0].item() == pytest.approx(2.0, abs=0.2)  # the door, not x = 3.5
     assert aim[0, 1].item() == pytest.approx(2.05 - 0.4, abs=1e-6)
-
-
-def test_an_aim_not_approached_for_patience_actions_is_given_up():
-    opts = _office_options(patience=3)
-    r = opts.region_names.index("west_office")
-    k = opts.labels[r].index("wc>middle_office")
-    opts.begin_trial(torch.tensor([0]))
-    opts.arrays["choice"][0, r] = k
-    pose = torch.tensor([[3.0, 4.5, 0.0]])
-    aims = [opts.steer(torch.tensor([r]), pose, False)[3][0].clone() for _ in range(6)]
-    # standing still: after the first step and three more without progress, the stretch is
-    # given up and the next one along the border is aimed at
-    assert torch.equal(aims[0], aims[3])
-    assert not torch.equal(aims[3], aims[5])
 
 
 def test_an_option_given_up_is_given_up_for_the_trial_only():

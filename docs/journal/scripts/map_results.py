@@ -2,10 +2,10 @@
 regions).
 
 For every shipped world: the planner's optimum; ``reflex_only``; ``paper`` with the map's hand
-regions; ``paper`` and ``paper_map`` with ``regions: auto`` (a copy of the map with its regions removed). Each is
-one batched run of ``sets`` sets x ``trials`` trials, set k seeded ``seed + k`` (default 10 x 20,
-seeds 100-109). Prints the Markdown table: last-5-trial means over sets (± sd), collisions,
-failed trials from trial 5 on and actions divided by the optimum.
+regions; ``paper`` and ``paper_map`` with ``regions: auto`` (a copy of the map with its regions
+removed). Each is one batched run of ``sets`` sets x ``trials`` trials, set k seeded
+``seed + k`` (default 10 x 20, seeds 100-109). Prints the Markdown table: last-5-trial means over
+sets (± sd), collisions, failed trials from trial 5 on and actions divided by the optimum.
 
     python docs/journal/scripts/map_results.py [--sets 10] [--trials 20] [--seed 100] [--maps a,b]
         [--variants reflex,hand,auto] [KEY=VALUE ...]
