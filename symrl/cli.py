@@ -400,6 +400,15 @@ def _ablate(args: argparse.Namespace) -> int:
                 + "; name them (e.g. paper,reflex_only) or leave the flag out for all six"
             )
     _output_folder("--out", args.out)
+    if args.maps is not None:
+        from symrl.studies.ladder_worlds import ladder_worlds_command, parse_maps
+
+        if not args.ladder or args.map != "hailu2001":  # a --map other than the default
+            raise ValueError(f"--maps {args.maps!r}: runs the ladder on several worlds; give "
+                             "it with --ladder and without --map")
+        for name in parse_maps(args.maps):
+            _plannable(name)
+        return ladder_worlds_command(args)
     _plannable(args.map)
     return ablate_command(args)
 
@@ -407,7 +416,13 @@ def _ablate(args: argparse.Namespace) -> int:
 def _plan(args: argparse.Namespace) -> int:
     from symrl.studies.plan import plan_command
 
-    _output_folder("--out", args.out, ("plan.json", "plan.png"), args.overwrite, "plan")
+    for flag, value, low in (("--beam", args.beam, 1), ("--headings", args.headings, 4)):
+        if not low <= value <= 100_000:
+            raise ValueError(f"{flag} {value}: must be an integer from {low} to 100000")
+    results = ("plan.json", "plan.png")
+    if args.reward:
+        results += ("reward_optimum.json", "reward_optimum.png")
+    _output_folder("--out", args.out, results, args.overwrite, "plan")
     _plannable(args.map)
     with _naming_start(args.start):
         return plan_command(args)
@@ -557,6 +572,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the recipe --changes-of puts settings back to (default paper_literal)")
     p.add_argument("--map", default="hailu2001",
                    help="built-in map name or map file (env.map; default hailu2001)")
+    p.add_argument("--maps", default=None, metavar="M1,M2,...",
+                   help="with --ladder: the ladder on each of these worlds (built-in names, "
+                   "suite/world names or map files), one sub-folder each, and one table and "
+                   "figure of them all (ladder-worlds.md, ladder-worlds.png)")
     p.add_argument("--out", default="results/ablate",
                    help="results folder (default results/ablate)")
     p.set_defaults(handler=_ablate)
@@ -573,6 +592,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="results folder for plan.json and plan.png (default results/plan)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a plan.json / plan.png already in --out")
+    p.add_argument("--reward", action="store_true",
+                   help="also search for the best total reinforcement of a noise-free trial "
+                   "(writes reward_optimum.json and reward_optimum.png)")
+    p.add_argument("--beam", type=int, default=100,
+                   help="with --reward: partial sequences kept per action (default 100)")
+    p.add_argument("--headings", type=int, default=144,
+                   help="with --reward: headings tried per action (default 144, every 2.5 "
+                   "degrees)")
     p.set_defaults(handler=_plan)
 
     p = sub.add_parser(

@@ -42,6 +42,8 @@ __all__ = [
     "plot_map_comparison",
     "plot_baseline",
     "plot_learning_curves",
+    "plot_reward_optimum",
+    "plot_ladder_worlds",
     "draw_in_parallel",
     "crossings_figure",
     "plot_crossings",
@@ -138,6 +140,71 @@ def plot_plan(world: WorldMap, plan: Plan, walk: np.ndarray, path: Path | str) -
         ax.add_patch(plt.Circle((x, y), plan.clearance, fill=False, ec="0.6", lw=0.5))
     ax.set_title(f"Optimum: {plan.actions} actions (clearance {plan.clearance:.3f} m)")
     ax.legend(loc="upper left", fontsize=8)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+
+
+def plot_reward_optimum(world: WorldMap, result: dict[str, Any], path: Path | str) -> None:
+    """The best-total path of ``symrl plan --reward`` (one dot per action, red where a sonar
+    reads below d_c) beside the shortest path's walk."""
+    fig, ax = plt.subplots(figsize=(6, 6))
+    draw_map(ax, world)
+    short = result.get("shortest_path") or {}
+    if short.get("path"):
+        xy = np.asarray(short["path"])
+        ax.plot(xy[:, 0], xy[:, 1], "-", color="0.55", lw=1,
+                label=f"shortest path: {short['actions']} actions, "
+                f"total {short['total_reinforcement']:.2f}")
+    xy = np.asarray(result["path"])
+    near = np.asarray(result["per_action"]["f1"]) < 0
+    ax.plot(xy[:, 0], xy[:, 1], "-", color="tab:blue", lw=1.5,
+            label=f"best total found: {result['actions']} actions, "
+            f"total {result['total_reinforcement']:.2f}")
+    ax.plot(xy[1:][~near, 0], xy[1:][~near, 1], "o", ms=3, color="tab:blue")
+    ax.plot(xy[1:][near, 0], xy[1:][near, 1], "o", ms=4, color="tab:red", label="f1 < 0")
+    _start(ax, xy, None)
+    ax.set_title(f"Best total reinforcement: {result['total_reinforcement']:.3f} "
+                 f"(f1 {result['f1_walls']:.2f}, f2 {result['f2_heading']:.2f})")
+    ax.legend(loc="upper left", fontsize=8)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+
+
+def plot_ladder_worlds(entries: Sequence[Mapping[str, Any]], path: Path | str,
+                       top: float = 2.5) -> None:  # fmt: skip
+    """Grouped bars: per world, each recipe's actions over the last trials divided by the
+    world's optimum (mean over sets, sd as the error bar); 1 is the optimum. Bars above ``top``
+    are cut there and labelled with their value; a number over a bar counts its failed trials
+    (from trial 5 on)."""
+    worlds = list(dict.fromkeys(e["world"] for e in entries))
+    recipes = list(dict.fromkeys(e["recipe"] for e in entries))
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(worlds) + 2.5), 4.2))
+    width = 0.8 / max(len(recipes), 1)
+    labelled: set[str] = set()
+    for e in entries:
+        i, j = recipes.index(e["recipe"]), worlds.index(e["world"])
+        x = j + (i - (len(recipes) - 1) / 2) * width
+        ratio = min(e["ratio"], top)
+        ax.bar(x, ratio, width, color=f"C{i}",
+               label=None if e["recipe"] in labelled else e["recipe"])  # fmt: skip
+        labelled.add(e["recipe"])
+        cut = e["ratio"] > top
+        if cut:
+            ax.text(x, top, f"{e['ratio']:.1f}", ha="center", va="bottom", fontsize=7)
+        else:
+            ax.errorbar(x, ratio, yerr=e["ratio_sd"], color="black", lw=0.8, capsize=2)
+        if e.get("failed_from"):
+            ax.text(x, top * 0.97 if cut else ratio + e["ratio_sd"] + 0.03,
+                    f"✗{e['failed_from']}", ha="center", va="top" if cut else "bottom",
+                    fontsize=6, color="white" if cut else "tab:red", rotation=90)  # fmt: skip
+    ax.axhline(1.0, color="black", lw=0.8, ls="--", label="optimum (planner)")
+    slanted = len(worlds) > 4
+    ax.set_xticks(range(len(worlds)), worlds, rotation=20 if slanted else 0,
+                  ha="right" if slanted else "center")  # fmt: skip
+    ax.set_ylabel("actions, last 5 trials / optimum")
+    ax.set_ylim(0, top * 1.12)
+    ax.set_title("The knowledge ladder per world (mean over sets ± sd; ✗ failed trials from 5)")
+    ax.legend(fontsize=8, ncol=2, loc="upper left")
     fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
 

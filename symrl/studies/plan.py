@@ -159,4 +159,8 @@ def plan_command(args: argparse.Namespace) -> int:
         + (f"; env replay (no noise): {replay}" if replay else "; env not available for a replay")
     )
     print(f"wrote {out / 'plan.json'} and {out / 'plan.png'} in {result['wall_time_s']} s")
+    if getattr(args, "reward", False):
+        from symrl.studies.reward_optimum import reward_command
+
+        reward_command(args, world, start, walk)
     return 0
