@@ -482,15 +482,16 @@ def crossings_figure(world: WorldMap, records: Sequence[dict[str, Any]], panels:
             a, b = (p.intercept, p.lo), (p.intercept, p.hi)
             if p.axis == 1:
                 a, b = (p.lo, p.intercept), (p.hi, p.intercept)
-            ax.plot(*zip(a, b, strict=True), color="gold", lw=7, alpha=0.45, solid_capstyle="butt",
-                    label="true door" if p is doors[0] else None)  # fmt: skip
+            ax.plot(*zip(a, b, strict=True), color="gold", lw=11, alpha=0.5,
+                    solid_capstyle="butt", zorder=1,
+                    label="true door (map, not told)" if p is doors[0] else None)  # fmt: skip
         for border, runs in zip(borders, record.get("stretches", []), strict=False):
             for t0, t1, state in runs:
                 if state not in _CROSSING_COLOURS:
                     continue
                 colour, label = _CROSSING_COLOURS[state]
                 ends = zip(border.at(t0), border.at(t1), strict=True)
-                ax.plot(*ends, color=colour, lw=2.2, label=label)
+                ax.plot(*ends, color=colour, lw=3.5, label=label, zorder=3)
         if record.get("path"):
             _draw_xy(ax, record["path"], color="tab:blue", label="path")
         handles, labels = ax.get_legend_handles_labels()
