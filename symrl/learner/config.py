@@ -321,10 +321,11 @@ class RunConfig(_Section):
                     f"{key}=true needs knowledge={needed} or higher, but the recipe declares "
                     f"knowledge={self.knowledge}"
                 )
-        if self.crossings.enabled and not (o.enabled and o.source == "rules"):
+        if self.crossings.enabled and o.enabled and o.source != "rules":
             raise ValueError(
-                "crossings.enabled=true needs options.enabled=true and options.source=rules "
-                f"(got options.enabled={o.enabled}, options.source={o.source})"
+                "crossings.enabled=true learns where the region rules' borders can be crossed: "
+                f"it needs options.source=rules, got options.source={o.source} "
+                "(or set crossings.enabled=false)"
             )
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")

@@ -137,8 +137,9 @@ def test_the_crossing_map_is_built_from_the_rules_alone():
 
 
 def test_crossings_need_the_rules_options():
-    with pytest.raises(ValueError, match="crossings.enabled=true needs options.enabled=true"):
+    with pytest.raises(ValueError, match="it needs options.source=rules, got options.source=map"):
         load_config("paper_map", ["crossings.enabled=true"])
+    assert load_config("paper", ["options.enabled=false"]).crossings.enabled  # inert
 
 
 def _office_options(**cfg) -> SubgoalOptions:
