@@ -45,6 +45,8 @@ __all__ = [
     "plot_reward_optimum",
     "plot_ladder_worlds",
     "draw_in_parallel",
+    "crossings_figure",
+    "plot_crossings",
 ]
 
 _MARKERS = "osD^vP*Xh<>"
@@ -452,3 +454,62 @@ def draw_in_parallel(jobs: Sequence[Callable[[], None]], workers: int | None = N
     for i, job in enumerate(jobs):
         if not finished[i]:
             job()
+
+
+_CROSSING_COLOURS = {1: ("tab:green", "seen open"), 2: ("tab:red", "seen blocked")}
+
+
+def crossings_figure(world: WorldMap, records: Sequence[dict[str, Any]], panels: int = 6):
+    """Where a robot believed each border could be crossed, trial by trial: up to ``panels``
+    trials of ``records`` (the first, the last and some between), each with its path and its
+    crossing evidence along the region rules' borders, over the true doors (the passages a map
+    tool finds in the walls: drawn for the reader, never told to the robot)."""
+    from symrl.knowledge.borders import region_borders
+    from symrl.knowledge.subgoals import find_passages
+
+    borders = region_borders(world.regions)
+    picks = sorted({0, len(records) - 1, *np.linspace(0, len(records) - 1, panels).astype(int)})
+    picks = picks[:panels] if len(picks) > panels else picks
+    cols = min(3, len(picks))
+    rows = (len(picks) + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 4.2 * rows), squeeze=False)
+    doors = find_passages(world)
+    xmin, xmax, ymin, ymax = world.bounds
+    for ax, i in zip(axes.flat, picks, strict=False):
+        record = records[i]
+        draw_map(ax, world)
+        for p in doors:
+            a, b = (p.intercept, p.lo), (p.intercept, p.hi)
+            if p.axis == 1:
+                a, b = (p.lo, p.intercept), (p.hi, p.intercept)
+            ax.plot(*zip(a, b, strict=True), color="gold", lw=11, alpha=0.5,
+                    solid_capstyle="butt", zorder=1,
+                    label="true door (map, not told)" if p is doors[0] else None)  # fmt: skip
+        for border, runs in zip(borders, record.get("stretches", []), strict=False):
+            for t0, t1, state in runs:
+                if state not in _CROSSING_COLOURS:
+                    continue
+                colour, label = _CROSSING_COLOURS[state]
+                ends = zip(border.at(t0), border.at(t1), strict=True)
+                ax.plot(*ends, color=colour, lw=3.5, label=label, zorder=3)
+        if record.get("path"):
+            _draw_xy(ax, record["path"], color="tab:blue", label="path")
+        handles, labels = ax.get_legend_handles_labels()
+        seen = dict(zip(labels, handles, strict=True))
+        ax.legend(seen.values(), seen.keys(), loc="upper left", fontsize=7)
+        ax.set_xlim(xmin - 0.3, xmax + 0.3)
+        ax.set_ylim(ymin - 0.3, ymax + 0.3)
+        ax.set_title(f"trial {record.get('trial', i + 1)}: {record['steps']} actions, "
+                     f"{record.get('borders_blocked', 0)} borders found blocked", fontsize=9)
+    for ax in axes.flat[len(picks):]:
+        ax.axis("off")
+    fig.suptitle(f"{world.name}: where the robot believes each border can be crossed")
+    fig.tight_layout()
+    return fig
+
+
+def plot_crossings(world: WorldMap, records: Sequence[dict[str, Any]], path: Path | str) -> None:
+    """:func:`crossings_figure`, saved to ``path``."""
+    fig = crossings_figure(world, records)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

@@ -63,7 +63,9 @@ _SCALARS = (
     ("trial/collisions", "collisions"), ("trial/shielded", "shielded"),
     ("trial/reached_goal", "reached_goal"), ("network/neurons", "neurons"),
     ("explore/temperature", "temperature"), ("learn/mean_abs_td_error", "mean_abs_td_error"),
-    ("learn/replaced_actions", "replaced"),
+    ("learn/replaced_actions", "replaced"), ("crossings/open_m", "crossings_open_m"),
+    ("crossings/blocked_m", "crossings_blocked_m"),
+    ("crossings/borders_blocked", "borders_blocked"),
 )  # fmt: skip
 """TensorBoard tag of each trial column logged per trial."""
 
@@ -81,6 +83,8 @@ def trial_columns(config: RunConfig, world: Any) -> list[str]:
     columns += [f"neurons_{name}" for name in expert_names(config, world)]
     if config.options.enabled:
         columns += [f"option_{name}" for name in world.regions.names]
+    if config.crossings.enabled:
+        columns += ["crossings_open_m", "crossings_blocked_m", "borders_blocked"]
     return columns
 
 
@@ -492,6 +496,12 @@ class RunWriter:
 
             fig = trajectory_figure(self.world, record)
             self.logger.experiment.add_figure("trial/trajectory", fig, global_step=n, close=True)
+            if "stretches" in record:
+                from symrl.figures import crossings_figure
+
+                fig = crossings_figure(self.world, [record])
+                self.logger.experiment.add_figure("trial/crossings", fig, global_step=n,
+                                                  close=True)  # fmt: skip
 
     def finish(self, policy: Any, seed: int, state: dict[str, Any] | None = None) -> None:
         """Checkpoint (with the run state ``state`` if given: the run can be resumed), last
@@ -508,6 +518,12 @@ class RunWriter:
             fig = trajectory_figure(self.world, self.trials[-1])
             fig.savefig(self.dir / "trajectory.png", dpi=120)
             plt.close(fig)
+            if "stretches" in self.trials[-1]:
+                from symrl.figures import crossings_figure
+
+                fig = crossings_figure(self.world, self.trials)
+                fig.savefig(self.dir / "crossings.png", dpi=100)
+                plt.close(fig)
             last = self.trials[-5:]
             metrics = {
                 "hparam/last5_total_reinforcement": float(

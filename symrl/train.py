@@ -200,6 +200,9 @@ def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor],
         extra.update({f"neurons_{n}": c for n, c in zip(policy.expert_names, counts[j],
                                                          strict=True)})  # fmt: skip
         extra.update(temperature=temperature[j], replaced=replaced[j], improved=improved[j])
+        crossings = policy.options.crossings if policy.options is not None else None
+        if crossings is not None:
+            extra.update(crossings.summary(int(index[j])))
         if choices is not None:
             labels = policy.options.labels
             for r, name in enumerate(policy.region_names):

@@ -26,7 +26,10 @@ from dataclasses import dataclass
 from symrl.knowledge.subgoals import SubgoalTable, find_passages
 from symrl.world.worldmap import Goal, RegionSpec, WorldMap
 
-__all__ = ["Border", "region_borders", "passages_of", "region_hops", "border_subgoals"]
+__all__ = [
+    "Border", "region_borders", "passages_of", "region_hops", "hops_from", "border_subgoals",
+    "BorderOptions", "border_options",
+]
 
 
 @dataclass(frozen=True)
@@ -95,7 +98,12 @@ def passages_of(world: WorldMap) -> tuple[Border, ...]:
 def region_hops(spec: RegionSpec, borders: Sequence[Border], goal: Goal) -> dict[str, int]:
     """Each region's distance from the goal's region in the region graph, in borders crossed
     (a region with no way there is left out)."""
-    target = spec.region_of(goal.x, goal.y)
+    return hops_from(spec.region_of(goal.x, goal.y), borders)
+
+
+def hops_from(target: str, borders: Sequence[Border]) -> dict[str, int]:
+    """Each region's distance from ``target`` over ``borders``, in borders crossed (a region
+    with no way there is left out)."""
     hops = {target: 0}
     queue = deque([target])
     while queue:
@@ -140,3 +148,50 @@ def border_subgoals(
             cands.append((xy, f"{b.line}>{other}"))
         per_region.append(cands)
     return SubgoalTable.of(tuple(spec.names), per_region)
+
+
+@dataclass(frozen=True)
+class BorderOptions:
+    """Every border of every region as an option, for a robot that learns where each can be
+    crossed (``symrl.learner.crossings``): ``table`` holds, per region, the goal and then one
+    option per border of the region (its point as :func:`border_subgoals` places it, the start
+    of the robot's search); ``border[r][k]`` is the index in ``borders`` of option k of region
+    r (-1: the goal), ``side[r][k]`` +1 when the option leads to the border's ``high`` side."""
+
+    table: SubgoalTable
+    borders: tuple[Border, ...]
+    border: tuple[tuple[int, ...], ...]
+    side: tuple[tuple[float, ...], ...]
+
+
+def border_options(
+    spec: RegionSpec, goal: Goal, borders: Sequence[Border] | None = None, inset: float = 0.5,
+    beyond: float = 0.4,
+) -> BorderOptions:
+    """Per region (in the order of ``spec.names``): the goal, then every border of the region,
+    whichever way it leads (which ones lead on toward the goal is the robot's to find out, as
+    it learns which borders are walls)."""
+    borders = tuple(region_borders(spec) if borders is None else borders)
+    g = (float(goal.x), float(goal.y))
+    per_region, index, sides = [], [], []
+    for region in spec.names:
+        cands: list[tuple[tuple[float, float], str]] = [(g, "goal")]
+        ids, signs = [-1], [0.0]
+        for j, b in enumerate(borders):
+            if region not in (b.low, b.high):
+                continue
+            other = b.high if region == b.low else b.low
+            goal_t = g[1] if b.axis == 0 else g[0]
+            if b.hi - b.lo <= 2 * inset:
+                t = (b.lo + b.hi) / 2
+            else:
+                t = min(max(goal_t, b.lo + inset), b.hi - inset)
+            sign = 1.0 if other == b.high else -1.0
+            cands.append((b.at(t, sign * beyond), f"{b.line}>{other}"))
+            ids.append(j)
+            signs.append(sign)
+        per_region.append(cands)
+        index.append(tuple(ids))
+        sides.append(tuple(signs))
+    table = SubgoalTable.of(tuple(spec.names), per_region)
+    return BorderOptions(table, borders, tuple(index), tuple(sides))

@@ -19,6 +19,7 @@ _EXPORTS = {
     "UpdateConfig": "config",
     "OptionsConfig": "config",
     "OptionCriticConfig": "config",
+    "CrossingsConfig": "config",
     "ShieldSection": "config",
     "RunSection": "config",
     "load_config": "config",

@@ -51,6 +51,7 @@ __all__ = [
     "TrialGradientConfig",
     "OptionsConfig",
     "OptionCriticConfig",
+    "CrossingsConfig",
     "LocalizeSection",
     "ShieldSection",
     "RunSection",
@@ -224,6 +225,18 @@ class OptionsConfig(_Section):
     line earns it at little cost to the route. 0: at the sub-goal from the region's entry."""
 
 
+class CrossingsConfig(_Section):
+    """Where each border can be crossed, learned by each robot from its own sonar readings,
+    odometry and progress (``symrl.learner.crossings``), for options made of the region rules'
+    borders (``options.source: rules``): a border option aims at a stretch of the border the
+    robot has not found blocked, and a border found blocked is routed around."""
+
+    enabled: StrictBool = False
+    """False: a border option aims at one fixed point of it (``symrl.knowledge.borders``)."""
+    resolution: float = Field(0.1, gt=0, le=1)
+    """Bin width (m) of the evidence kept along each border's line."""
+
+
 _SOURCE_RUNG = {"rules": "regions", "passages": "passages", "map": "map"}
 """The knowledge each ``options.source`` needs."""
 
@@ -289,6 +302,7 @@ class RunConfig(_Section):
     update: UpdateConfig = Field(default_factory=UpdateConfig)
     trial_gradient: TrialGradientConfig = Field(default_factory=TrialGradientConfig)
     options: OptionsConfig = Field(default_factory=OptionsConfig)
+    crossings: CrossingsConfig = Field(default_factory=CrossingsConfig)
     option_critic: OptionCriticConfig = Field(default_factory=OptionCriticConfig)
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
@@ -310,6 +324,12 @@ class RunConfig(_Section):
                     f"{what} needs knowledge={needed} or higher, but the recipe declares "
                     f"knowledge={self.knowledge}"
                 )
+        if self.crossings.enabled and o.enabled and o.source != "rules":
+            raise ValueError(
+                "crossings.enabled=true learns where the region rules' borders can be crossed: "
+                f"it needs options.source=rules, got options.source={o.source} "
+                "(or set crossings.enabled=false)"
+            )
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
         robot = self.env.robot

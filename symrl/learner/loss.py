@@ -35,6 +35,7 @@ are the option critics' returns of the trials in progress.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -101,12 +102,22 @@ class TeseoLoss(LossModule):
         self.__dict__["progress"] = policy.progress
         self.__dict__["options"] = policy.options
         self.__dict__["critic"] = policy.options.critic if policy.options is not None else None
+        self.__dict__["crossings"] = (
+            policy.options.crossings if policy.options is not None else None
+        )
         self.config = policy.config
         batch = policy.batch
         regions = len(policy.region_names)
         # option critics: return so far in the trial, and at each region's first entry
         self.register_buffer("trial_return", torch.zeros(batch, dtype=torch.float64))
         self.register_buffer("entry_return", torch.zeros(batch, regions, dtype=torch.float64))
+        # with crossings, every choice of a trial (a region's first, and each after an option
+        # was given up) is credited with the return-to-go from it: NaN where none was made
+        if policy.options is not None and self.crossings is not None:
+            k = policy.options.valid.shape[1]
+            self.register_buffer(
+                "choice_return", torch.full((batch, regions, k), math.nan, dtype=torch.float64)
+            )
         # the trial gradient's record of the trials in progress (empty at every trial boundary,
         # where runs are saved, so it is not part of the state)
         self.record: TrialRecord | None = None
@@ -148,7 +159,13 @@ class TeseoLoss(LossModule):
                 rows = np.flatnonzero(entered)
                 region = read(td, k.region).numpy()
                 self.entry_return.numpy()[rows, region[rows]] = self.trial_return.numpy()[rows]
+                if self.crossings is not None:
+                    option = read(td, "option").numpy()
+                    self.choice_return.numpy()[rows, region[rows], option[rows]] = (
+                        self.trial_return.numpy()[rows])
         self.trial_return.numpy()[:] += r
+        if self.crossings is not None:
+            self._observe_crossings(td, nxt)
         if not cfg.experts.learning:
             zero = torch.zeros(batch, dtype=torch.float64)
             return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
@@ -225,6 +242,28 @@ class TeseoLoss(LossModule):
             batch_size=torch.Size([batch]),
         )  # fmt: skip
 
+    def _observe_crossings(self, td: TensorDictBase, nxt: TensorDictBase) -> None:
+        """The crossing evidence of the state reached (and of a trial's first state): the
+        sonar rays from the believed pose, and where the robot crossed a border."""
+        k, crossings, policy = self.tensor_keys, self.crossings, self.policy
+        scale = policy.config.env.robot.sonar_range
+        pose = read(td, k.pose).numpy().astype(np.float64)
+        pose_next = read(nxt, k.pose).numpy().astype(np.float64)
+        first = read(td, "is_init", None)
+        if first is not None and first.any():
+            rows = np.flatnonzero(first.numpy().reshape(-1))
+            sonar = read(td, k.sonar).numpy()[rows].astype(np.float64) * scale
+            crossings.observe_rows(rows, pose[rows], sonar)
+        sonar_next = read(nxt, k.sonar).numpy().astype(np.float64) * scale
+        crossings.observe(pose_next, sonar_next)
+        region, region_next = read(td, k.region).numpy(), read(nxt, k.region).numpy()
+        moved = region != region_next
+        if moved.any():
+            names = policy.region_names
+            for b in np.flatnonzero(moved).tolist():
+                crossings.cross(b, names[int(region[b])], names[int(region_next[b])],
+                                pose[b, :2], pose_next[b, :2])  # fmt: skip
+
     @no_grad
     def end_trial(
         self, rows: torch.Tensor, totals: torch.Tensor, reached: torch.Tensor
@@ -249,7 +288,15 @@ class TeseoLoss(LossModule):
             if self.record is not None:
                 self._trial_gradient_step(rows_np)
             self.experts.clear_trial(rows)
-        if self.critic is not None:
+        if self.critic is not None and self.crossings is not None:
+            chosen = self.choice_return.numpy()[rows_np]  # (k, R, K)
+            i, r, o = np.nonzero(~np.isnan(chosen))
+            self.critic.learn_choices(
+                rows_np[i], r, o, self.trial_return.numpy()[rows_np[i]] - chosen[i, r, o])
+            self.critic.end_trials(rows_np)
+            self.choice_return.numpy()[rows_np] = math.nan
+            self.entry_return.numpy()[rows_np] = 0.0
+        elif self.critic is not None:
             returns = self.trial_return.numpy()[rows_np, None] - self.entry_return.numpy()[rows_np]
             self.critic.learn(rows_np, self.options.trial_choices(rows_np), returns)
             self.entry_return.numpy()[rows_np] = 0.0

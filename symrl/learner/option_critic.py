@@ -61,11 +61,17 @@ class OptionCritic(BufferViews):
         return-to-go from each region's first entry; then epsilon decays (an option that timed
         out was stalled when it did, :meth:`stall`)."""
         # numpy on the buffers' memory: a few advanced indexes of a handful of rows
-        a = self.arrays
         entered = choice >= 0
         i, r = np.nonzero(entered)  # row-major, as a mask of the broadcast indices
-        b = rows[i]
-        k, ret = choice[entered], returns[entered]
+        self.learn_choices(rows[i], r, choice[entered], returns[entered])
+        self.end_trials(rows)
+
+    def learn_choices(
+        self, b: np.ndarray, r: np.ndarray, k: np.ndarray, ret: np.ndarray
+    ) -> None:
+        """Critic step for the choices ``(b, r, k)`` (controller, region, option; each triple
+        once) with their returns-to-go ``ret`` from the moment each was chosen."""
+        a = self.arrays
         n, q = a["n"], a["q"]
         n[b, r, k] += 1  # (b, r) pairs are distinct: one option per region and trial
         if self.critic == "best":
@@ -73,5 +79,9 @@ class OptionCritic(BufferViews):
             q[b, r, k] = np.where(first, ret, np.maximum(q[b, r, k], ret))
         else:
             q[b, r, k] += (ret - q[b, r, k]) / n[b, r, k]
+
+    def end_trials(self, rows: np.ndarray) -> None:
+        """The trials of controllers ``rows`` are over: epsilon decays, the count grows."""
+        a = self.arrays
         a["epsilon"][rows] *= self.epsilon_decay
         a["trials"][rows] += 1

@@ -28,11 +28,14 @@ import torch
 
 from symrl.buffers import BufferViews
 from symrl.grad import no_grad
+from symrl.knowledge.borders import border_options, hops_from
 from symrl.knowledge.route import ROUTE, Route, option_table
 from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalTable
-from symrl.learner.config import OptionCriticConfig, OptionsConfig
+from symrl.learner.config import CrossingsConfig, OptionCriticConfig, OptionsConfig
+from symrl.learner.crossings import CrossingMap
 from symrl.learner.option_critic import OptionCritic
+from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap
 
 __all__ = ["SubgoalOptions"]
@@ -65,17 +68,28 @@ class SubgoalOptions(BufferViews):
         seeds: list[int],
         table: SubgoalTable | None = None,
         explore: OptionCriticConfig | None = None,
+        crossings: CrossingsConfig | None = None,
+        robot: RobotConfig | None = None,
+        max_actions: int = 200,
     ) -> None:
         """``knowledge``: what the robot is told (a ``WorldMap``: told the whole map);
         ``table``: its option table if already built (``option_table``); ``explore``: the
-        option critic's settings (defaults without)."""
+        option critic's settings (defaults without); ``crossings``: learn where each border
+        can be crossed (``options.source: rules``), for a robot ``robot`` whose trials last at
+        most ``max_actions`` actions."""
         super().__init__()
         if not isinstance(knowledge, Knowledge):
             knowledge = Knowledge.told(knowledge, "map")
         self.config = config
         explore = explore if explore is not None else OptionCriticConfig()
         self.explore = explore
-        self.table = table if table is not None else option_table(knowledge, config.source)
+        self.crossings: CrossingMap | None = None
+        if crossings is not None and crossings.enabled:
+            self._init_crossings(knowledge, batch, crossings, robot or RobotConfig(), max_actions)
+        elif table is None:
+            table = option_table(knowledge, config.source)
+        self.table = self._border_options.table if self.crossings is not None else table
+        assert self.table is not None
         r, k = self.table.valid.shape
         self.labels = self.table.labels
         self.region_names = self.table.region_names
@@ -98,7 +112,7 @@ class SubgoalOptions(BufferViews):
         # learned across trials; with the region limit, an option given up is not chosen again
         self.critic = OptionCritic(
             batch, r, k, explore.epsilon, explore.epsilon_decay, explore.critic,
-            stalls=slack is not None,
+            stalls=slack is not None and self.crossings is None,
         )  # fmt: skip
         self._zero_turn = np.zeros(batch, dtype=bool)
         self.register_buffer("choice", torch.full((batch, r), -1, dtype=torch.long))
@@ -111,6 +125,150 @@ class SubgoalOptions(BufferViews):
         # a trial in its region (reset with every trial: not in the state dict)
         self._timeout = slack
         self._region_steps = np.zeros((batch, r), dtype=np.int64)
+
+    def _init_crossings(
+        self, knowledge: Knowledge, batch: int, config: CrossingsConfig, robot: RobotConfig,
+        max_actions: int,
+    ) -> None:
+        """Every border of a region is an option; where each can be crossed is learned."""
+        opts = border_options(knowledge.regions, knowledge.goal)
+        self._border_options = opts
+        k = opts.table.valid.shape[1]
+        self._border = np.full((len(opts.border), k), -1, dtype=np.int64)
+        self._side = np.zeros((len(opts.border), k), dtype=np.float64)
+        for r, (ids, signs) in enumerate(zip(opts.border, opts.side, strict=True)):
+            self._border[r, : len(ids)] = ids
+            self._side[r, : len(signs)] = signs
+        start = knowledge.start
+        self.crossings = CrossingMap(
+            opts.borders, batch, radius=robot.radius, close_distance=robot.close_distance,
+            sonar_range=robot.sonar_range, n_sensors=robot.n_sensors,
+            origin=(float(start.x), float(start.y)),
+            reach=max_actions * robot.step + robot.sonar_range + robot.radius,
+            resolution=config.resolution, step=robot.step,
+            translation_noise=robot.translation_noise,
+            rotation_noise=math.radians(robot.rotation_noise_deg),
+        )  # fmt: skip
+        self._beyond = 0.4
+        self._start_xy = np.array([float(start.x), float(start.y)])
+        names = list(knowledge.regions.names)
+        self._region_of = {n: i for i, n in enumerate(names)}
+        self._target = names.index(knowledge.regions.region_of(knowledge.goal.x,
+                                                                knowledge.goal.y))
+        j = len(opts.borders)
+        # per robot: the borders found blocked, the region graph's hops without them
+        self._blocked = np.zeros((batch, j), dtype=bool)
+        self._hops = np.zeros((batch, len(names)))
+        for b in range(batch):
+            self._rehop(b)
+        shape = (batch, len(names), k)
+        self._lining_up = np.zeros(batch, dtype=bool)  # aiming in front of a crossing
+        # per trial: the options given up (the critic learns what they cost from the returns
+        # of every choice, so none is banned for good), and who chose anew at this step
+        self._trial_stalled = np.zeros(shape, dtype=bool)
+        self._rechose = np.zeros(batch, dtype=bool)
+
+    def _rehop(self, b: int) -> None:
+        """Robot ``b``'s hops from the goal's region over the borders it has not found blocked."""
+        opts = self._border_options
+        open_borders = [x for x, shut in zip(opts.borders, self._blocked[b], strict=True)
+                        if not shut]  # fmt: skip
+        names = opts.table.region_names
+        hops = hops_from(names[self._target], open_borders)
+        self._hops[b] = [hops.get(n, math.inf) for n in names]
+
+    def _offered(
+        self, b: int, region: int, valid: list[bool], stalled: list[bool]
+    ) -> list[bool]:
+        """Which of ``region``'s options robot ``b`` is offered: the goal and the borders it has
+        not found blocked that lead no farther from the goal's region, where one of them has
+        not stalled; else every border not found blocked that has not stalled (the ways back
+        out of a dead end); else the goal and every border not found blocked."""
+        names = self._border_options.table.region_names
+        mine = self._hops[b, region]
+        ahead, open_ = [], []
+        for k, j in enumerate(self._border[region].tolist()):
+            if not valid[k] or (j >= 0 and self._blocked[b, j]):
+                ahead.append(False)
+                open_.append(False)
+                continue
+            open_.append(True)
+            if j < 0:
+                ahead.append(True)
+                continue
+            border = self._border_options.borders[j]
+            other = border.high if names[region] == border.low else border.low
+            theirs = self._hops[b, self._region_of[other]]
+            ahead.append(not math.isfinite(mine) or theirs <= mine)
+        back = [ok and j >= 0 for ok, j in zip(open_, self._border[region].tolist(), strict=True)]
+        for wanted in (ahead, back):
+            fresh = [ok and not s for ok, s in zip(wanted, stalled, strict=True)]
+            if any(fresh):
+                return fresh
+        return open_
+
+    def _stall(self, b: int, region: int, option: int) -> None:
+        """Controller ``b`` gives ``option`` up in ``region`` (for the trial with crossings,
+        for good without); with crossings, the goal in the goal's region is never given up."""
+        if self.crossings is not None:
+            # in the goal's region the goal is the way on: the reflex finds its way round
+            if not (region == self._target and self._border[region, option] < 0):
+                self._trial_stalled[b, region, option] = True
+            self._rechose[b] = True
+        else:
+            self.critic.stall(b, region, option)
+
+    def _cross_point(
+        self, b: int, region: int, option: int, xy: np.ndarray
+    ) -> np.ndarray | None:
+        """Robot ``b``'s aim for a border option: past the line at the crossing it believes
+        best (or in front of it, to line up with it); None when it found the border blocked."""
+        assert self.crossings is not None
+        j = int(self._border[region, option])
+        found = self.crossings.crossing(b, j, xy, self.goal)
+        if found is None:
+            return None
+        t, first, last = found
+        border = self._border_options.borders[j]
+        side = self._side[region, option]
+        x, y = border.at(t, side * self._beyond)
+        # straight at the point past the line where that way crosses the stretch with a body
+        # radius to spare; else first to the point in front of the crossing, to line up with it
+        crossings = self.crossings
+        t0 = crossings.lo[j] + first * crossings.resolution + crossings.radius
+        t1 = crossings.lo[j] + (last + 1) * crossings.resolution - crossings.radius
+        here = xy[border.axis] - border.intercept  # signed distance to the line
+        ahead = -side * here  # how far before the line, on the robot's side
+        if ahead > 0 and t0 <= t1:
+            along = xy[1 - border.axis]
+            hit = along + (t - along) * ahead / (ahead + self._beyond)
+            if not t0 <= hit <= t1:
+                x, y = border.at(t, -side * min(crossings.inset, ahead))
+                self._lining_up[b] = True
+        return np.array([x, y])
+
+    def _cross(
+        self, region: np.ndarray, chosen: np.ndarray, stage: np.ndarray, xy: np.ndarray,
+        point: np.ndarray, greedy: bool,
+    ) -> None:
+        """Aim the robots on a border option at their crossing (re-choosing where a border turns
+        out blocked)."""
+        crossings = self.crossings
+        assert crossings is not None
+        choice = self.arrays["choice"]
+        self._lining_up[:] = False
+        for b in range(len(region)):
+            r = int(region[b])
+            while stage[b] != _GOAL_STAGE and self._border[r, chosen[b]] >= 0:
+                found = self._cross_point(b, r, int(chosen[b]), xy[b])
+                if found is not None:
+                    point[b] = found
+                    break
+                self._blocked[b, self._border[r, chosen[b]]] = True
+                self._rehop(b)
+                self._stall(b, r, int(chosen[b]))
+                chosen[b] = choice[b, r] = self._choose(b, r, greedy=True)
+                stage[b] = _FIRST_STAGE
 
     # -- acting (called by the policy) ----------------------------------------------------
     def steer(
@@ -127,6 +285,8 @@ class SubgoalOptions(BufferViews):
         a = self.arrays  # the buffers' numpy views
         region_np = region.numpy()
         rows = np.arange(len(region_np))
+        if self.crossings is not None:
+            self._rechose[:] = False
         choice = a["choice"]
         chosen = choice[rows, region_np]
         entered = chosen < 0
@@ -148,17 +308,24 @@ class SubgoalOptions(BufferViews):
             late = (steps[rows, region_np] > self._timeout) & ~on_route
             for b in np.flatnonzero(late).tolist():
                 here = int(region_np[b])
-                self.critic.stall(b, here, int(chosen[b]))
+                self._stall(b, here, int(chosen[b]))
                 choice[b, here] = self._choose(b, here, greedy=True)
                 steps[b, here], stage[b] = 0, _FIRST_STAGE
             chosen = choice[rows, region_np]
             on_route = chosen == self._route_option[region_np]
         points = a["points"]
         point = points.reshape(-1, 2)[region_np * points.shape[1] + chosen]
+        if self.crossings is not None:
+            chosen = chosen.copy()
+            self._cross(region_np, chosen, stage, xy, point, greedy)
+            on_route = chosen == self._route_option[region_np]
         if self.route is not None and on_route.any():
             point[on_route] = self.route.aim(np.flatnonzero(on_route), xy[on_route])
         distance = torch.linalg.vector_norm(torch.from_numpy(point - xy), dim=-1).numpy()
-        stage[(distance < self.config.reach) & ~on_route] = _GOAL_STAGE
+        reached = (distance < self.config.reach) & ~on_route
+        if self.crossings is not None:
+            reached &= ~self._lining_up  # in front of a crossing is not past it
+        stage[reached] = _GOAL_STAGE
         at_goal = stage == _GOAL_STAGE
         if self._lead > 0:
             first = stage == _FIRST_STAGE
@@ -174,6 +341,8 @@ class SubgoalOptions(BufferViews):
         start_turn = self._zero_turn
         if self._start_turn is not None:
             start_turn = (starting | on_route) & (np.abs(angle) > self._start_turn)
+        if self.crossings is not None:  # every choice is credited with what followed it
+            entered = entered | self._rechose
         return (torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered),
                 torch.from_numpy(aim), start_turn)
 
@@ -183,7 +352,9 @@ class SubgoalOptions(BufferViews):
         explore = self.explore
         a, learned = self.arrays, self.critic.arrays
         valid = a["valid"][region].tolist()
-        if self.critic.stalls:  # a stalled option is as if not offered
+        if self.crossings is not None:
+            valid = self._offered(b, region, valid, self._trial_stalled[b, region].tolist())
+        elif self.critic.stalls:  # a stalled option is as if not offered
             valid = [ok and not stalled for ok, stalled in
                      zip(valid, learned["stalled"][b, region].tolist(), strict=True)]  # fmt: skip
             if not any(valid):
@@ -217,6 +388,13 @@ class SubgoalOptions(BufferViews):
         self._region_steps[r] = 0
         if self.route is not None:
             self.route.forget(r)
+        if self.crossings is not None:  # what is found blocked, from the learned evidence
+            self.crossings.forget(r)
+            self._trial_stalled[r] = False
+            for b in r.tolist():
+                self._blocked[b] = [self.crossings.crossing(b, j, self._start_xy, self.goal)
+                                    is None for j in range(len(self._border_options.borders))]
+                self._rehop(b)
 
     # -- what the update learns from -----------------------------------------------------
     def trial_choices(self, rows: np.ndarray) -> np.ndarray:

@@ -62,7 +62,7 @@ OBS_KEYS = ("sonar", "ir", "odometry", "goal", "state_reward")
 _GREEDY = (ExplorationType.DETERMINISTIC, ExplorationType.MODE, ExplorationType.MEAN)
 _PI = math.pi
 _PER_ROBOT = {"options.choice", "options.stage", "options.visit"}
-_PER_ROBOT_MODULES = ("experts.", "progress.", "options.critic.")
+_PER_ROBOT_MODULES = ("experts.", "progress.", "options.critic.", "options.crossings.")
 """State-dict entries with one row per robot: those named, and every buffer of those modules."""
 _BLOCK = 1024  # random draws per robot per refill: one call per robot instead of one per step
 
@@ -152,8 +152,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         )  # fmt: skip
         self.options = None
         if config.options.enabled:
-            self.options = SubgoalOptions(knowledge, batch, config.options, self.seeds, subgoals,
-                                          config.option_critic)  # fmt: skip
+            self.options = SubgoalOptions(
+                knowledge, batch, config.options, self.seeds, subgoals, config.option_critic,
+                config.crossings, robot, config.env.max_actions,
+            )  # fmt: skip
         self.shield = (
             IRShield(ShieldConfig(margin=config.shield.margin), robot)
             if config.shield.enabled

@@ -253,8 +253,14 @@ def write_figures(study: StudyResult) -> None:
         )
     ghosts_figure: drawing.Figure = ("plot_paths", (world, panels, out / "ghosts.png"),
                                      {"columns": 2})  # fmt: skip
+    figures = [ghosts_figure, curves_figure, trajectories_figure]
+    set0 = [r for r in rows if int(r["set"]) == s0.index]
+    if world is not None and set0 and "stretches" in set0[0]:
+        # where set 0 believed each border could be crossed, with the paths the study kept
+        records = [{**r, "path": s0.paths.get(int(r["trial"]), [])} for r in set0]
+        figures.append(("plot_crossings", (world, records, out / "crossings.png"), {}))
     # largest first: the ghosts' four panels take about as long as the other two figures
-    drawing.draw([ghosts_figure, curves_figure, trajectories_figure])
+    drawing.draw(figures)
 
 
 def study_command(args: argparse.Namespace) -> int:

@@ -117,8 +117,9 @@ def test_below_the_map_nothing_builds_the_route():
     world = load_map("hailu2001")
     for rung, source in (("regions", "rules"), ("passages", "passages")):
         told = Knowledge.told(world, rung)
-        opt = SubgoalOptions(told, 1, load_config("paper", [f"options.source={source}"]
-                                                    + [f"knowledge={rung}"]).options, [0])
+        config = load_config("paper", [f"options.source={source}", f"knowledge={rung}",
+                                       "crossings.enabled=false"])  # fmt: skip
+        opt = SubgoalOptions(told, 1, config.options, [0])
         assert opt.route is None and all(ROUTE not in row for row in opt.labels)
         refused = f"route option needs knowledge=map .* knowledge={rung}$"
         with pytest.raises(ValueError, match=refused):

@@ -2,10 +2,10 @@
 regions).
 
 For every shipped world: the planner's optimum; ``reflex_only``; ``paper`` with the map's hand
-regions; ``paper`` with ``regions: auto`` (a copy of the map with its regions removed). Each is
-one batched run of ``sets`` sets x ``trials`` trials, set k seeded ``seed + k`` (default 10 x 20,
-seeds 100-109). Prints the Markdown table: last-5-trial means over sets (± sd), collisions,
-failed trials from trial 5 on and actions divided by the optimum.
+regions; ``paper`` and ``paper_map`` with ``regions: auto`` (a copy of the map with its regions
+removed). Each is one batched run of ``sets`` sets x ``trials`` trials, set k seeded
+``seed + k`` (default 10 x 20, seeds 100-109). Prints the Markdown table: last-5-trial means over
+sets (± sd), collisions, failed trials from trial 5 on and actions divided by the optimum.
 
     python docs/journal/scripts/map_results.py [--sets 10] [--trials 20] [--seed 100] [--maps a,b]
         [--variants reflex,hand,auto] [KEY=VALUE ...]
@@ -42,6 +42,7 @@ once each by then on the paper's world)."""
 VARIANTS = {
     "reflex": ("reflex alone", "reflex_only"),
     "rules": ("`paper` (regions rung), hand regions", "paper"),
+    "rules_auto": ("`paper` (regions rung), `regions: auto`", "paper"),
     "passages": ("`paper_passages` (passages rung), hand regions", "paper_passages"),
     "hand": ("`paper_map`, hand regions", "paper_map"),
     "auto": ("`paper_map`, `regions: auto`", "paper_map"),
@@ -112,7 +113,8 @@ def main() -> None:
             title = load_map(name).name
             for variant in variants:
                 label, recipe = VARIANTS[variant]
-                world = str(auto_copy(name, Path(tmp))) if variant == "auto" else name
+                auto = variant in ("auto", "rules_auto")
+                world = str(auto_copy(name, Path(tmp))) if auto else name
                 t0 = time.perf_counter()
                 overrides = [f"env.map={world}", *args.overrides]
                 sets = run_sets(recipe, args.sets, args.trials, args.seed, overrides,

@@ -1,0 +1,237 @@
+"""The crossing map: sonar evidence along the region rules' borders at known poses, the
+crossing chosen from it, crossings recorded from odometry, stretches given up, and the options
+routing around a border found blocked. The walls are used here only to make the sonar readings
+(the env's own noise-free ``sense``); the map itself never sees them."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from symrl.knowledge.borders import Border, region_borders
+from symrl.knowledge.rungs import Knowledge
+from symrl.learner.config import CrossingsConfig, OptionCriticConfig, OptionsConfig, load_config
+from symrl.learner.crossings import CrossingMap
+from symrl.learner.options import SubgoalOptions
+from symrl.world.env import Hailu2001Env
+from symrl.world.robot import RobotConfig
+from symrl.world.worldmap import load_map
+
+OFFICE = load_map("office")  # west door x in [1.5, 2.5] on y = 2.05 (offices line)
+ROBOT = RobotConfig()
+UNKNOWN, OPEN, BLOCKED = 0, 1, 2
+
+
+def _map(borders, batch: int = 1, origin=(2.0, 4.5)) -> CrossingMap:
+    return CrossingMap(
+        borders, batch, radius=ROBOT.radius, close_distance=ROBOT.close_distance,
+        sonar_range=ROBOT.sonar_range, n_sensors=ROBOT.n_sensors, origin=origin, reach=20.0,
+        resolution=0.1,
+    )  # fmt: skip
+
+
+def _office_door() -> tuple[int, Border]:
+    """The border between the west office and its door region: the offices line, x < 4."""
+    for j, b in enumerate(region_borders(OFFICE.regions)):
+        if {b.low, b.high} == {"west_office", "west_door"}:
+            return j, b
+    raise AssertionError("office has no west office border")
+
+
+def _look(cmap: CrossingMap, poses) -> None:
+    env = Hailu2001Env(OFFICE, noise=False)
+    for x, y, h in poses:
+        rim, _ = env.sense(x, y, h)
+        cmap.observe(np.array([[x, y, h]]), rim[None, :].astype(np.float64))
+
+
+def test_rays_show_the_door_open_and_the_wall_beside_it_blocked():
+    j, border = _office_door()
+    cmap = _map(region_borders(OFFICE.regions))
+    _look(cmap, [(2.0, 3.0, -math.pi / 2), (1.0, 3.2, -math.pi / 2), (3.2, 3.0, -math.pi / 2)])
+    centres, state = cmap.seen(0, j)
+    door = (centres > 1.6) & (centres < 2.4)
+    walls = ((centres > 0.3) & (centres < 1.3)) | ((centres > 2.7) & (centres < 3.8))
+    seen_door = state[door][state[door] != UNKNOWN]
+    seen_wall = state[walls][state[walls] != UNKNOWN]
+    assert len(seen_door) > 3 and (seen_door == OPEN).all()
+    assert len(seen_wall) > 5 and (seen_wall == BLOCKED).all()
+
+
+def test_the_crossing_is_the_middle_of_the_door_seen_open():
+    j, border = _office_door()
+    cmap = _map(region_borders(OFFICE.regions))
+    _look(cmap, [(2.0, 3.0, -math.pi / 2), (1.0, 3.2, -math.pi / 2), (3.2, 3.0, -math.pi / 2)])
+    # the goal lies east: the fixed rule point would be at x = 3.5, on the wall
+    found = cmap.crossing(0, j, np.array([2.0, 3.0]), (10.0, 4.5))
+    assert found is not None
+    t, first, last = found
+    assert 1.8 < t < 2.2  # the door (1 m) is narrower than two insets: its middle
+    assert 1.3 < cmap.lo[j] + first * 0.1 <= 1.6 and 2.4 <= cmap.lo[j] + (last + 1) * 0.1 < 2.7
+
+
+def test_with_no_evidence_the_crossing_is_nearest_the_goal():
+    border = Border("l", 0, 1.0, -10.0, 10.0, "a", "b")
+    cmap = _map([border], origin=(0.0, 0.0))
+    t, _, _ = cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 2.0))
+    assert t == pytest.approx(2.0, abs=0.06)
+
+
+def test_a_border_seen_blocked_everywhere_has_no_crossing():
+    border = Border("l", 0, 1.0, -1.0, 1.0, "a", "b")
+    cmap = _map([border], origin=(0.0, 0.0))
+    cmap.arrays["blocked"][0, 0, :] = 3.0
+    assert cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.0)) is None
+    cmap.arrays["open"][0, 0, 5:12] = 4.0  # 0.7 m seen open: wider than the body
+    assert cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.0)) is not None
+
+
+def test_a_gap_narrower_than_the_body_is_no_crossing():
+    border = Border("l", 0, 1.0, -1.0, 1.0, "a", "b")
+    cmap = _map([border], origin=(0.0, 0.0))
+    cmap.arrays["blocked"][0, 0, :] = 3.0
+    cmap.arrays["open"][0, 0, 8:12] = 4.0  # 0.4 m < 2 x 0.26 m
+    assert cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.0)) is None
+
+
+def test_a_crossing_from_odometry_opens_a_body_width_and_only_that_robots():
+    border = Border("l", 0, 1.0, -5.0, 5.0, "a", "b")
+    cmap = _map([border], batch=2, origin=(0.0, 0.0))
+    cmap.cross(1, "a", "b", np.array([0.9, 0.3]), np.array([1.1, 0.5]))
+    centres, state = cmap.seen(1, 0)
+    opened = centres[state == OPEN]
+    assert opened.min() == pytest.approx(0.4 - 0.26, abs=0.1)
+    assert opened.max() == pytest.approx(0.4 + 0.26, abs=0.1)
+    assert (cmap.seen(0, 0)[1] == UNKNOWN).all()
+    cmap.cross(1, "a", "c", np.array([0.9, 3.0]), np.array([1.1, 3.0]))  # not this border
+    assert (cmap.seen(1, 0)[1][np.abs(centres - 3.0) < 0.5] == UNKNOWN).all()
+
+
+@settings(max_examples=40, deadline=None)
+@given(x=st.floats(0.4, 3.6), y=st.floats(2.5, 5.6), heading=st.floats(-math.pi, math.pi))
+def test_no_ray_from_the_west_office_shows_its_walls_open(x, y, heading):
+    """Wherever the robot stands in the west office, the offices line is never shown open
+    outside the door (a ray that passes the line went through the door)."""
+    j, border = _office_door()
+    cmap = _map(region_borders(OFFICE.regions))
+    _look(cmap, [(x, y, heading)])
+    centres, state = cmap.seen(0, j)
+    opened = centres[state == OPEN]
+    assert ((opened > 1.5 - 0.1) & (opened < 2.5 + 0.1)).all()
+
+
+def test_the_crossing_map_is_built_from_the_rules_alone():
+    config = load_config("paper", ["crossings.enabled=true"])
+    told = Knowledge.told(OFFICE, "regions")
+    assert told.world is None
+    opts = SubgoalOptions(
+        told, 1, config.options, [0], None, config.option_critic, config.crossings, ROBOT, 200
+    )
+    assert opts.crossings is not None
+    assert len(opts.crossings.borders) == len(region_borders(OFFICE.regions))
+
+
+def test_crossings_need_the_rules_options():
+    with pytest.raises(ValueError, match="it needs options.source=rules, got options.source=map"):
+        load_config("paper_map", ["crossings.enabled=true"])
+    assert load_config("paper", ["options.enabled=false"]).crossings.enabled  # inert
+
+
+def _office_options(**cfg) -> SubgoalOptions:
+    told = Knowledge.told(OFFICE, "regions")
+    config = OptionsConfig(enabled=True, source="rules")
+    explore = OptionCriticConfig(epsilon=0.0, try_untried=False)
+    return SubgoalOptions(told, 1, config, [0], None, explore, CrossingsConfig(enabled=True, **cfg),
+                          ROBOT, 200)  # fmt: skip
+
+
+def _labels(opts: SubgoalOptions, region: str) -> list[str]:
+    r = opts.region_names.index(region)
+    offered = opts._offered(0, r, opts.valid[r].tolist(), [False] * opts.valid.shape[1])
+    return [label for label, ok in zip(opts.labels[r], offered, strict=False) if ok]
+
+
+def test_a_border_found_blocked_is_routed_around():
+    """The rules say the west office borders the middle office (through the wall between
+    them, line wc); told so, the west door leads farther from the goal and is not offered.
+    Once the robot finds the wc border blocked, the region graph goes round by the door."""
+    opts = _office_options()
+    assert _labels(opts, "west_office") == ["goal", "wc>middle_office"]
+    j = next(i for i, b in enumerate(opts.crossings.borders)
+             if {b.low, b.high} == {"west_office", "middle_office"})  # fmt: skip
+    opts.crossings.arrays["blocked"][0, j, :] = 5.0
+    opts.begin_trial(torch.tensor([0]))
+    assert _labels(opts, "west_office") == ["goal", "offices>west_door"]
+
+
+def test_a_robot_aims_at_the_door_it_saw_not_at_the_wall():
+    opts = _office_options()
+    _look(opts.crossings, [(2.0, 3.0, -math.pi / 2), (1.0, 3.2, -math.pi / 2),
+                           (3.2, 3.0, -math.pi / 2)])  # fmt: skip
+    j = next(i for i, b in enumerate(opts.crossings.borders)
+             if {b.low, b.high} == {"west_office", "middle_office"})  # fmt: skip
+    opts.crossings.arrays["blocked"][0, j, :] = 5.0
+    opts.begin_trial(torch.tensor([0]))
+    r = opts.region_names.index("west_office")
+    k = opts.labels[r].index("offices>west_door")
+    opts.arrays["choice"][0, r] = k  # the door's option in force
+    _, option, _, aim, _ = opts.steer(torch.tensor([r]), torch.tensor([[2.0, 3.0, -1.5]]), False)
+    assert int(option[0]) == k
+    assert aim[0, 0].item() == pytest.approx(2.0, abs=0.2)  # the door, not x = 3.5
+    assert aim[0, 1].item() == pytest.approx(2.05 - 0.4, abs=1e-6)
+
+
+def test_an_option_given_up_is_given_up_for_the_trial_only():
+    opts = _office_options()
+    r = opts.region_names.index("west_office")
+    k = opts.labels[r].index("wc>middle_office")
+    opts._stall(0, r, k)
+    assert opts._trial_stalled[0, r, k]
+    assert not opts.critic.stalls  # nothing is banned for good
+    opts.begin_trial(torch.tensor([0]))
+    assert not opts._trial_stalled.any()
+
+
+def test_in_the_goals_region_the_goal_is_never_given_up():
+    opts = _office_options()
+    r = opts.region_names.index("east_office")
+    opts._stall(0, r, 0)
+    assert not opts._trial_stalled[0, r, 0]
+    w = opts.region_names.index("west_office")
+    opts._stall(0, w, 0)
+    assert opts._trial_stalled[0, w, 0]
+
+
+def test_every_choice_is_credited_with_the_return_to_go_from_it():
+    """A region's first option, given up after 4 actions of reward -1, and the one chosen then,
+    which reaches the goal 2 actions later: the first is credited with -6, the second -2."""
+    from tensordict import TensorDict
+
+    from symrl.learner.loss import TeseoLoss
+    from symrl.learner.policy import MixtureOfExpertsPolicy
+
+    config = load_config("paper", ["crossings.enabled=true", "experts.learning=false"])
+    policy = MixtureOfExpertsPolicy(config, OFFICE, [0])
+    loss = TeseoLoss(policy)
+    r = policy.region_names.index("west_office")
+    first, second = 0, policy.options.labels[r].index("wc>middle_office")
+    pose, sonar = torch.tensor([[2.0, 4.5, 0.0]]), torch.ones(1, ROBOT.n_sensors)
+    for step in range(6):
+        td = TensorDict({
+            "option_entry": torch.tensor([step in (0, 4)]), "region": torch.tensor([r]),
+            "option": torch.tensor([first if step < 4 else second]), "pose": pose,
+            "sonar": sonar,
+            "next": TensorDict({"reward": torch.tensor([[-1.0]]), "pose": pose, "sonar": sonar,
+                                "region": torch.tensor([r])}, [1]),
+        }, [1])  # fmt: skip
+        loss(td)
+    loss.end_trial(torch.tensor([0]), torch.tensor([-6.0]), torch.tensor([True]))
+    q, count = policy.options.critic.q[0, r], policy.options.critic.n[0, r]
+    assert count[first] == 1 and q[first] == pytest.approx(-6.0)
+    assert count[second] == 1 and q[second] == pytest.approx(-2.0)
+    assert torch.isnan(loss.choice_return).all()  # ready for the next trial
