@@ -84,7 +84,8 @@ def _output_folder(
 ) -> Path:
     """Check, before any work, that the output folder ``path`` of ``flag`` can be made and
     written, and that it holds none of the ``results`` files of an earlier run of ``command``
-    unless ``overwrite``: each fault one line. Nothing is created here."""
+    unless ``overwrite`` (or the run was stopped after writing some: ``--resume`` finishes it):
+    each fault one line. Nothing is created here."""
     import os
 
     folder = Path(path)
@@ -97,8 +98,10 @@ def _output_folder(
         raise ValueError(f"{flag} {str(path)!r}: cannot make it ({str(probe)!r} is a file)")
     if not os.access(probe, os.W_OK | os.X_OK):
         raise ValueError(f"{flag} {str(path)!r}: cannot write in {str(probe)!r} (read-only)")
+    from symrl.studies.checkpointing import STOPPED_NAME
+
     held = [name for name in results if (folder / name).exists()]
-    if held and not overwrite:
+    if held and not overwrite and not (folder / STOPPED_NAME).is_file():  # a stopped one: resume
         raise ValueError(
             f"{flag} {str(path)!r}: holds the results of an earlier `symrl {command}` "
             f"({', '.join(held)}); pass --overwrite to replace them, or another {flag}"
@@ -914,10 +917,11 @@ def _signals_stop(on: bool):
     def stop(signum: int, frame: Any) -> None:
         import multiprocessing
 
-        if os.getpid() == main_pid:
-            for child in multiprocessing.active_children():
-                with contextlib.suppress(OSError):
-                    os.kill(child.pid, signal.SIGINT)
+        if os.getpid() != main_pid:  # a worker forked with this handler: the command reports
+            os._exit(128 + signum)  # the stop; its progress is in the files it saved
+        for child in multiprocessing.active_children():
+            with contextlib.suppress(OSError):
+                os.kill(child.pid, signal.SIGINT)
         raise _Stopped(signum)
 
     main_pid = os.getpid()

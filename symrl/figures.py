@@ -16,6 +16,7 @@ figures: 0.22 / 0.13 / 0.14 s -> 0.15 / 0.09 / 0.09 s).
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -443,7 +444,11 @@ def draw_in_parallel(jobs: Sequence[Callable[[], None]], workers: int | None = N
             jobs[i]()
             finished[i] = 1
 
-    helpers = [ctx.Process(target=take_jobs, daemon=True) for _ in range(workers - 1)]
+    def help_quietly() -> None:  # a stop (Ctrl-C, SIGTERM) is the command's to report
+        with contextlib.suppress(KeyboardInterrupt):
+            take_jobs()
+
+    helpers = [ctx.Process(target=help_quietly, daemon=True) for _ in range(workers - 1)]
     for h in helpers:
         h.start()
     try:

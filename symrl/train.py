@@ -432,7 +432,6 @@ def run_snapshot(collector, policy, loss, trials: list[dict[str, Any]]) -> dict[
 
 
 BATCH_SNAPSHOT_FORMAT = 1
-_KEEP_PATH_OF = ("first", "first_success")
 
 
 def _numpy_fields(obj: Any) -> dict[str, Any] | None:
@@ -474,11 +473,11 @@ def batch_snapshot(collector, policy, loss, recorder: TrialRecorder,
     in progress (the recorder's accumulators, the trial gradient's record, the localiser's warm
     start, the observation the next step acts on with its perception), the controllers of the
     robots that are done, and every robot's trial rows (the paths of its first trial and first
-    trial to reach the goal kept: a study draws them)."""
+    trial to reach the goal and its last trial so far kept: a study draws them)."""
     rows_out = []
     for rows in trials:
         first_success = next((r["trial"] for r in rows if r["reached_goal"]), None)
-        keep = {1, first_success}
+        keep = {1, first_success, rows[-1]["trial"] if rows else None}
         rows_out.append([dict(r) if r["trial"] in keep else
                          {k: v for k, v in r.items() if k not in _ROW_SKIP} for r in rows])
     collected = collector.state_dict()

@@ -155,9 +155,10 @@ class CrossingMap(BufferViews):
         # a ray counts as much as its point on the line is sure to a bin: an odometry that has
         # drifted by several bins places it nowhere in particular
         weight = 1.0 / (1.0 + (drift / self.resolution) ** 2)
-        passed = valid & (~seen | (echo > s + tolerance))
-        stopped = valid & seen & (echo >= s - self.radius) & (echo <= s + tolerance)
-        hidden = valid & seen & (echo < s - self.radius)
+        with np.errstate(invalid="ignore"):  # rays parallel to a line: not valid, masked here
+            passed = valid & (~seen | (echo > s + tolerance))
+            stopped = valid & seen & (echo >= s - self.radius) & (echo <= s + tolerance)
+            hidden = valid & seen & (echo < s - self.radius)
         self._seen_steps[rows] += 1
         a, one = self.arrays, np.ones_like(weight)
         for name, mask in (("open", passed), ("blocked", stopped), ("hidden", hidden)):
