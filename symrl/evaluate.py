@@ -19,10 +19,12 @@ __all__ = ["rollout", "evaluate"]
 
 
 @torch.inference_mode()
-def rollout(policy: Any, env: Any) -> list[dict[str, Any]]:
+def rollout(policy: Any, env: Any, progress: str | None = None) -> list[dict[str, Any]]:
     """One greedy trial per robot of ``env`` (batch size = ``policy.batch``); their records
-    (inference mode: no op needs autograd, as in the training loop)."""
+    (inference mode: no op needs autograd, as in the training loop). ``progress``: the label of
+    a bar counting the batch's steps (on a big world these trials take minutes)."""
     from torchrl.envs.utils import ExplorationType, set_exploration_type
+    from tqdm.auto import tqdm
 
     from symrl.train import TrialRecorder
 
@@ -30,7 +32,8 @@ def rollout(policy: Any, env: Any) -> list[dict[str, Any]]:
     recorder = TrialRecorder(batch)
     records: list[dict[str, Any] | None] = [None] * batch
     policy.begin_trial(torch.arange(batch))
-    with set_exploration_type(ExplorationType.DETERMINISTIC):
+    bar = tqdm(desc=progress, unit="step", leave=False, disable=progress is None)
+    with set_exploration_type(ExplorationType.DETERMINISTIC), bar:
         td = env.reset()
         while any(r is None for r in records):
             policy(td)
@@ -42,6 +45,7 @@ def rollout(policy: Any, env: Any) -> list[dict[str, Any]]:
                     record["reached_goal"] = bool(recorder.reached[b])
                     records[b] = record
             td = next_td
+            bar.update()
     return records  # type: ignore[return-value]
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import os
+import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -110,17 +111,19 @@ def evaluate_states(
     starts: Sequence[tuple[float, float, float]],
     seeds: Sequence[int],
     env_world: Any = None,
+    progress: str | None = None,
 ) -> list[dict[str, Any]]:
     """Greedy trials of controller ``states[i]`` from ``starts[i]`` with noise seed ``seeds[i]``,
     all in one batch; one compact record (with its path) per run. The agent knows ``world``,
-    the robots drive in ``env_world`` (default ``world``): :func:`evaluation_batch`."""
+    the robots drive in ``env_world`` (default ``world``): :func:`evaluation_batch`.
+    ``progress``: the label of a bar counting their steps."""
     from symrl.evaluate import rollout
 
     if not states:
         return []
     policy, env = evaluation_batch(config, world, states, starts, seeds, env_world)
     try:
-        records = rollout(policy, env)
+        records = rollout(policy, env, progress)
     finally:
         env.close()
     return [
@@ -182,6 +185,8 @@ def _run_batch(
         evs = evaluate_states(
             config, world, [s.controller for s, _ in pairs], [starts[k] for _, k in pairs],
             [s.seed + 1000 * (k + 1) for s, k in pairs],
+            progress=f"{config.recipe}: {len(pairs)} greedy trials from other starts"
+            if progress else None,
         )  # fmt: skip
         for (s, _), ev in zip(pairs, evs, strict=True):
             s.evaluations.append(ev)
@@ -244,7 +249,7 @@ def run_sets(
     if len(jobs) == 1:
         finished(_run_batch(*jobs[0][:4], progress=progress, kept_in=keep))
         for fn in waiting:
-            fn()
+            _while_saying("the table's yardstick (the map's optimum)", fn, progress)
         _drop_batch_states(keep)
         return [done[k] for k in range(sets)]
     import queue
@@ -267,7 +272,8 @@ def run_sets(
                         r.controller = {k: torch.from_numpy(v) for k, v in r.controller.items()}
                     finished(batch)
                 if ended and waiting:
-                    waiting.pop()()
+                    _while_saying("the table's yardstick (the map's optimum)", waiting.pop(),
+                                  progress and bool(pending))  # fmt: skip
                 while trials_done is not None:
                     try:
                         bar.update(trials_done.get_nowait())
@@ -284,6 +290,20 @@ def run_sets(
             trials_done.close()
     _drop_batch_states(keep)
     return [done[k] for k in range(sets)]
+
+
+def _while_saying(what: str, fn: Callable[[], Any], say: bool) -> None:
+    """``fn()``, said on stderr first when ``say`` (a long step no bar counts: on a big world
+    the optimum takes a while)."""
+    if not say:
+        fn()
+        return
+    from tqdm.auto import tqdm
+
+    t0 = time.perf_counter()
+    tqdm.write(f"computing {what} ...", file=sys.stderr)
+    fn()
+    tqdm.write(f"computed {what} in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
 
 
 def _drop_batch_states(keep: Any) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import torch
@@ -119,3 +120,19 @@ def test_the_reflex_alone_can_be_the_recipe_under_test():
     (row,) = transfer("reflex_only", sets=1, trials=1, seed=3)
     assert set(row) == {"set", "seed", "learned", "reflex_only"}
     assert row["learned"]["home"] == row["reflex_only"]["home"]  # nothing to learn in one trial
+
+
+def test_greedy_trials_count_their_steps_on_a_bar_and_drive_the_same_without_it(capsys):
+    """On a big world the greedy trials after training take minutes: with a label they show a
+    bar of the batch's steps on stderr, and the records are those driven without one."""
+    config = load_config("paper", [])
+    world = load_map("hailu2001")
+    state = MixtureOfExpertsPolicy(config, world, [0]).robot_state(0)
+    starts = [world_start(world), (1.0, -1.8, 0.0)]
+    quiet = evaluate_states(config, world, [state, state], starts, [5, 6])
+    assert capsys.readouterr().err == ""
+    shown = evaluate_states(config, world, [state, state], starts, [5, 6], progress="greedy")
+    err = capsys.readouterr().err
+    assert shown == quiet
+    counts = [int(n) for n in re.findall(r"greedy: (\d+)step", err)]
+    assert counts and 0 < max(counts) <= max(r["steps"] for r in quiet)
