@@ -5,7 +5,7 @@ Commands are read from fenced code blocks (one per line, ``\\`` continuations jo
 ``&&``/``;``/``|`` split) and from inline code spans in the prose. A full command is parsed by
 symrl's own argparse parser, never run. A usage synopsis (``[--trials N]``, ``RECIPE``,
 ``drive|train``) is checked more loosely: its command and every ``--flag`` it names must exist.
-The journal (``docs/journal/``, ``docs/LEARNING.md``) is history and exempt.
+The journal (``docs/journal/``) is history and exempt.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ def published_pages() -> list[Path]:
     pages = [ROOT / "README.md", ROOT / "RESULTS.md"]
     for page in sorted(DOCS.rglob("*.md")):
         rel = page.relative_to(DOCS).as_posix()
-        if rel == "LEARNING.md" or rel.startswith(("journal/", "hooks/")):
+        if rel.startswith(("journal/", "hooks/")):
             continue
         pages.append(page)
     return [p for p in pages if p.is_file()]

@@ -44,7 +44,13 @@ def test_every_page_in_the_navigation_exists():
     config = _config()
     assert config["docs_dir"] == "docs"
     pages = _nav_pages(config["nav"])
-    assert {"index.md", "ARCHITECTURE.md", "ALGORITHM.md", "MAPS.md"} <= set(pages)
+    assert {
+        "index.md",
+        "explanation/architecture.md",
+        "explanation/algorithm.md",
+        "explanation/baselines.md",
+        "reference/map-format.md",
+    } <= set(pages)
     for page in pages:
         assert (DOCS / page).is_file(), page
     in_api = {f"api/{p.name}" for p in (DOCS / "api").glob("*.md")}
@@ -75,8 +81,17 @@ def test_docstrings_parsed_as_google_without_style_warnings():
     assert options["show_submodules"] is True
 
 
-JOURNAL = [DOCS / "LEARNING.md", *sorted((DOCS / "journal").glob("*.md"))]
+JOURNAL = sorted((DOCS / "journal").glob("*.md"))
 """The lab notebook: history, kept out of the navigation."""
+
+
+def test_the_docs_top_level_holds_only_the_home_page():
+    """Every other page lives in its purpose's folder (tutorials, how-to, reference, explanation)
+    or in the journal."""
+    pages = sorted(p.name for p in DOCS.iterdir() if p.is_file())
+    assert pages == ["index.md"]
+    folders = {p.name for p in DOCS.iterdir() if p.is_dir()}
+    assert {"tutorials", "how-to", "reference", "explanation", "journal"} <= folders
 
 
 def test_the_navigation_is_sorted_by_purpose():
@@ -88,7 +103,7 @@ def test_the_journal_is_outside_the_navigation_and_marked_as_history():
     config = _config()
     pages = set(_nav_pages(config["nav"]))
     hidden = config["not_in_nav"].split()
-    assert hidden == ["/journal/", "/LEARNING.md"]
+    assert hidden == ["/journal/"]
     assert len(JOURNAL) >= 4
     for page in JOURNAL:
         name = page.relative_to(DOCS).as_posix()
@@ -109,11 +124,12 @@ def test_user_pages_do_not_read_as_a_work_log():
         assert not log.search(text), (page, log.search(text))
 
 
-def _hook():
-    """The mkdocs hook that generates the reference tables (docs/hooks/reference.py)."""
+def _hook(name: str = "reference"):
+    """An mkdocs hook of docs/hooks/: ``reference`` generates the reference tables, ``modules``
+    the architecture page's module tree."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("docs_reference", DOCS / "hooks" / "reference.py")
+    spec = importlib.util.spec_from_file_location(f"docs_{name}", DOCS / "hooks" / f"{name}.py")
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -182,3 +198,55 @@ def test_the_readme_is_an_overview_with_the_command_ci_runs():
     assert "## What each piece of knowledge buys" in readme
     for recipe in ("reflex_only", "paper_literal", "paper", "paper_map"):
         assert f"`{recipe}`" in readme
+
+
+def test_the_module_tree_lists_every_module_of_the_package():
+    import importlib.util
+    import pkgutil
+
+    import symrl
+
+    rows = _hook("modules").module_rows()
+    names = [name for name, _file, _summary in rows]
+    assert len(names) == len(set(names))
+    found = {m.name for m in pkgutil.walk_packages(symrl.__path__, "symrl.")}
+    assert found | {"symrl", "symrl.recipes"} <= set(names), found - set(names)
+    for name, file, summary in rows:
+        spec = importlib.util.find_spec(name)
+        assert spec is not None and spec.origin is not None, name
+        assert Path(spec.origin).resolve() == (ROOT / file).resolve(), (name, file)
+        assert summary, f"{file} has no docstring"
+    for module in ("symrl.collector", "symrl.learner.perception", "symrl.learner.progress",
+                   "symrl.learner.option_critic", "symrl.studies.sweep"):  # fmt: skip
+        assert module in names
+
+
+def test_the_module_tree_follows_the_code(tmp_path, monkeypatch):
+    """A module added to a package is a row on the next build, with its docstring's first
+    sentence; a package moved by ``package-dir`` is read from its folder."""
+    (tmp_path / "pyproject.toml").write_text(
+        '[tool.setuptools]\npackages = ["pkg", "pkg.data"]\npackage-dir = { "pkg.data" = "data" }\n'
+    )
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "data").mkdir()
+    (tmp_path / "pkg" / "__init__.py").write_text('"""The package."""\n')
+    (tmp_path / "pkg" / "new.py").write_text('"""A new module. More about it.\n\nDetails."""\n')
+    (tmp_path / "data" / "__init__.py").write_text("")
+    hook = _hook("modules")
+    monkeypatch.setattr(hook, "ROOT", tmp_path)
+    assert hook.module_rows() == [
+        ("pkg", "pkg/__init__.py", "The package."),
+        ("pkg.new", "pkg/new.py", "A new module."),
+        ("pkg.data", "data/__init__.py", ""),
+    ]
+
+
+def test_the_architecture_page_has_the_generated_tree_and_no_hand_written_one():
+    assert "docs/hooks/modules.py" in _config()["hooks"]
+    page = (DOCS / "explanation" / "architecture.md").read_text()
+    hook = _hook("modules")
+    assert hook.MARKER in page
+    assert "\nsymrl/\n" not in page and "  cli.py " not in page
+    built = hook.on_page_markdown(page, page=None, config=None, files=None)
+    assert hook.MARKER not in built
+    assert "| `symrl/learner/perception.py` | What the robot makes of an observation" in built

@@ -1,4 +1,5 @@
-"""The reflex alone drives the robot to the goal (ALGORITHM.md §4); `symrl drive` reports it."""
+"""The reflex alone drives the robot to the goal (docs/explanation/algorithm.md §4); `symrl drive`
+reports it."""
 
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ def clean_trial():
 
 def test_reflex_reaches_the_goal_without_noise(clean_trial):
     assert clean_trial["reached_goal"]
-    assert clean_trial["steps"] < 60  # ALGORITHM.md measured 32; the budget is 200
+    assert clean_trial["steps"] < 60  # docs/explanation/algorithm.md measured 32; the budget is 200
     assert clean_trial["total_reinforcement"] < 0
     assert clean_trial["start"] == [0.0, 0.0, 0.0]
 

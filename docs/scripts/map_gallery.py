@@ -2,7 +2,7 @@
 
 Run from the repository root: ``python docs/scripts/map_gallery.py`` writes
 ``docs/figures/maps/<name>.png`` (hand regions) and ``<name>_auto.png`` (regions found from the
-walls, ``regions: auto``) and prints the Markdown tables used in ``docs/MAPS.md``.
+walls, ``regions: auto``) and prints the Markdown tables used in ``docs/reference/map-format.md``.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ The robot steers by the pose it believes, and its odometry drifts: 0.5 degrees o
 noise per action add up to decimetres over a trial. On the paper's world that drift, not the
 motion noise itself, is what separates ``paper`` from the noise-free learner: with the same
 motion noise and the true pose as belief, the last-5 total goes from -7.11 to -6.83 (tuning
-seeds 0-39, ``docs/LEARNING.md``). The map is knowledge the robot already has, and its 24
+seeds 0-39, ``docs/journal/learning.md``). The map is knowledge the robot already has, and its 24
 sonars see the walls to within a centimetre, so it can tell where it is.
 
 Each step, for every robot at once, the believed pose is the pose that best explains the

@@ -3,15 +3,15 @@
 Two fuzzy behaviours vote on three output sets (LEFT, FORWARD, RIGHT): obstacle avoidance
 reads the sonars, goal following reads the signed goal angle. Their activation vectors are
 fused with constant desirabilities (Eq. 5) and defuzzified to one crisp turning angle.
-The paper gives the architecture but not the rules; the rule base here is the reconstruction
-of ``docs/ALGORITHM.md`` section 4, with its two crucial details. The FL/FR rules are guarded
-by "and not F", and a blocked front turns to ONE side, the crisp turning side ``SIDE_L`` /
-``SIDE_R`` (the freer side, else the goal's side): otherwise a robot facing a concave corner
+The paper gives the architecture but not the rules; the rule base here is the reconstruction of
+``docs/explanation/algorithm.md`` section 4, with its two crucial details. The FL/FR rules are
+guarded by "and not F", and a blocked front turns to ONE side, the crisp turning side ``SIDE_L``
+/ ``SIDE_R`` (the freer side, else the goal's side): otherwise a robot facing a concave corner
 gets LEFT = RIGHT, the votes cancel into "forward", and it rams the corner. The rule base is
 mirror-symmetric: mirroring the sonar ring (ray k <-> ray -k) and negating the goal angle
 negates the output exactly; no side is preferred. The whole reflex is a few tensor operations
-over any leading batch shape (fuzzy libraries that take milliseconds per inference are what
-we avoid).
+over any leading batch shape (fuzzy libraries that take milliseconds per inference are what we
+avoid).
 """
 
 from __future__ import annotations
@@ -77,7 +77,8 @@ def _default_peaks() -> tuple[float, float, float]:
 
 @dataclass
 class ReflexConfig:
-    """Every number of the reflex (ALGORITHM.md section 4); angles in radians, left positive."""
+    """Every number of the reflex (docs/explanation/algorithm.md section 4); angles in radians,
+    left positive."""
 
     sectors: dict[str, tuple[int, ...]] = field(default_factory=_default_sectors)
     """Sonar sectors by ray index (ray k points at heading + k*15 deg, CCW); a sector's
@@ -115,7 +116,7 @@ class ReflexConfig:
 
     d_a: float = 0.7
     """Desirability of obstacle avoidance (Eq. 5). Must exceed d_g: with 0.5/0.5 the robot
-    deadlocks in the concave corner (ALGORITHM.md section 4)."""
+    deadlocks in the concave corner (docs/explanation/algorithm.md section 4)."""
 
     d_g: float = 0.3
     """Desirability of goal following (Eq. 5)."""

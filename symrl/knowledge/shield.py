@@ -8,9 +8,9 @@ the action by the nearest angle that keeps it (shielding, Alshiekh et al. 2018).
 else is left alone, so the learner, the reflex and the reward are those of the paper; only
 moves into a wall are vetoed.
 
-Why it is needed (docs/LEARNING.md): the remaining collisions of the learned controller are the
-reflex's own swerves at the 1 m door (a post seen by a front ray, a 55 deg turn into the other
-post). They are rare (1-5 % of trials per option), so a critic that averages a few trials per
+Why it is needed (docs/journal/learning.md): the remaining collisions of the learned controller
+are the reflex's own swerves at the 1 m door (a post seen by a front ray, a 55 deg turn into the
+other post). They are rare (1-5 % of trials per option), so a critic that averages a few trials per
 option cannot see them.
 
 Geometry, in the robot frame (x ahead, angles left-positive): IR sensor k looks along

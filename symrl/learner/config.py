@@ -1,8 +1,8 @@
 """Typed run configuration: read and merged by OmegaConf, validated by pydantic.
 
 A recipe (``recipes/<name>.yaml``) sets a few fields of :class:`RunConfig`; the defaults
-are the literal rules of the paper (``docs/ALGORITHM.md``), so a recipe lists only what it
-changes. ``key=value`` overrides (``update.gamma=0.9``, each key once) are merged on top;
+are the literal rules of the paper (``docs/explanation/algorithm.md``), so a recipe lists only
+what it changes. ``key=value`` overrides (``update.gamma=0.9``, each key once) are merged on top;
 mappings merge entry by entry (``reflex.near`` keeps the sectors a recipe does not name), anything
 else replaces. OmegaConf reads, parses and merges (so ``${shield.margin}`` refers to another key);
 pydantic validates. Every error is one line naming the key and the value (:class:`ConfigError`).

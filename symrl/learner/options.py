@@ -1,8 +1,8 @@
 """Sub-goal options per region for B controllers: an averaging critic and an epsilon-greedy actor.
 
-Why this exists (docs/LEARNING.md): the literal learner keeps the best single trial, so it locks
-onto lucky reflex trials, and its new neurons start from the reflex, which folds into the concave
-corner. Here each controller *chooses*, once per region and trial, where the reflex's goal
+Why this exists (docs/journal/learning.md): the literal learner keeps the best single trial, so
+it locks onto lucky reflex trials, and its new neurons start from the reflex, which folds into the
+concave corner. Here each controller *chooses*, once per region and trial, where the reflex's goal
 following points: at the goal or at a point of a border or passage toward the goal's region
 (``symrl.knowledge.borders``), and told the map also the *route*: a point ahead on the shortest
 path re-planned from where the robot believes it is (``symrl.knowledge.route``). Obstacle

@@ -1,8 +1,8 @@
 """The mixture-of-experts controller of B robots (paper Fig. 4, sections 6-8): it acts, it does
 not learn.
 
-Per step, for every robot of the batch at once (``docs/ALGORITHM.md``); steps 0-2 are the
-robot's perception (:class:`symrl.learner.perception.Perception`, a TorchRL env transform the
+Per step, for every robot of the batch at once (``docs/explanation/algorithm.md``); steps 0-2 are
+the robot's perception (:class:`symrl.learner.perception.Perception`, a TorchRL env transform the
 policy builds from what the robot is told: the env writes them once per observation):
 
 0. the pose the robot believes: its odometry pose, or with map localisation the pose its sonar

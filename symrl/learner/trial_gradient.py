@@ -1,7 +1,7 @@
 """The gradient of a finished trial's reward with respect to each action, through the robot's
 own odometry and the reflex: the experts' second actor rule (config section ``trial_gradient``).
 
-Why (docs/LEARNING.md, "The trial gradient"): a one-step perturbation of an action hardly
+Why (docs/journal/learning.md, "The trial gradient"): a one-step perturbation of an action hardly
 changes a trial's return, because the reflex steers back at its target on the next steps, so
 REINFORCE from 20 noisy trials sees noise. What a *persistent* correction does is known to the
 robot, though: its odometry moves exactly as commanded, the heading term f2 of its reward is a

@@ -3,7 +3,7 @@
 Residual reinforcement learning (Johannink et al. 2019; Silver et al. 2018): the learned policy
 outputs a *correction* that is added to a hand-made controller's action. Here the controller is
 symrl's fuzzy reflex steering toward the goal, and the IR shield stays the last step of the data
-flow, as in the paper's learner (docs/ARCHITECTURE.md):
+flow, as in the paper's learner (docs/explanation/architecture.md):
 
     residual:   action = shield(clip(reflex(sonar, goal angle) + correction * pi * control))
     scratch:    action = pi * control

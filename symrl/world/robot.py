@@ -1,7 +1,8 @@
 """The B21 robot model (paper sections 3.1 and 4): body, action, sensors, noise.
 
 Every number that shapes the simulated robot lives in :class:`RobotConfig`, with the paper's
-value (or a documented choice where the paper is silent, docs/ALGORITHM.md) as its default.
+value (or a documented choice where the paper is silent, docs/explanation/algorithm.md) as its
+default.
 """
 
 from __future__ import annotations

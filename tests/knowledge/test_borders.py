@@ -147,8 +147,8 @@ def test_told_the_passages_the_options_are_the_doors():
 
 
 def test_the_paper_worlds_table_told_the_map_is_pinned():
-    """``paper_map``'s options on the paper's world (docs/MAPS.md): the route, the goal, and
-    the point 0.4 m past the passage toward the goal's region."""
+    """``paper_map``'s options on the paper's world (docs/reference/map-format.md): the route, the
+    goal, and the point 0.4 m past the passage toward the goal's region."""
     table = option_table(Knowledge.told(load_map("hailu2001"), "map"), "map")
     assert table.region_names == ("room", "concave", "door", "corridor")
     assert table.labels == [

@@ -1,4 +1,5 @@
-"""The fuzzy reflex on hand-made sonar patterns, with hand-computed outputs (ALGORITHM.md §4).
+"""The fuzzy reflex on hand-made sonar patterns, with hand-computed outputs
+(docs/explanation/algorithm.md §4).
 
 Default config: NEAR_F(0.25, 0.70), NEAR_FL/FR(0.20, 0.50), NEAR_L/R(0.10, 0.35) metres,
 d_a = 0.7, d_g = 0.3, peaks (LEFT, FORWARD, RIGHT) = (pi/2, 0, -pi/2), sonar_range 5 m.
@@ -168,7 +169,8 @@ UNGUARDED = (
 
 
 def test_concave_corner_trap_without_the_not_f_guards():
-    # The trap of ALGORITHM.md §4: without "and not F", FR -> LEFT and FL -> RIGHT both fire,
+    # The trap of docs/explanation/algorithm.md §4: without "and not F", FR -> LEFT and
+    # FL -> RIGHT both fire,
     # avoid (1, 0, 1), fused (0.7, 0.15, 0.85), sum 1.7 -> -0.15 * (pi/2) / 1.7 = -0.044 pi:
     # almost straight into the corner (the guarded base turns 0.425 pi right, test above).
     trap = FuzzyReflex(ReflexConfig(rules=UNGUARDED))

@@ -1,5 +1,6 @@
 """How far the odometry drifts along a trial, and how far the map localisation's pose is from
-the true one (a script, not a test: the numbers behind docs/LEARNING.md, "Map localisation").
+the true one (a script, not a test: the numbers behind docs/journal/learning.md,
+"Map localisation").
 
 For each map, ``drives`` robots (noise seeds ``seed`` ...) start at the map's start, and the
 shielded reflex drives them toward the goal by their odometry, as ``reflex_only`` does. At every

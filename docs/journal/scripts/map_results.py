@@ -1,5 +1,5 @@
-"""Per-world numbers for docs/MAPS.md: the reflex alone, `paper` and `paper_map` (hand and found
-regions).
+"""Per-world numbers for docs/journal/maps.md: the reflex alone, `paper` and `paper_map` (hand
+and found regions).
 
 For every shipped world: the planner's optimum; ``reflex_only``; ``paper`` with the map's hand
 regions; ``paper`` and ``paper_map`` with ``regions: auto`` (a copy of the map with its regions

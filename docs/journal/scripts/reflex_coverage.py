@@ -1,4 +1,5 @@
-"""How well does the fuzzy reflex alone drive? (the numbers ALGORITHM.md section 4 reports)
+"""How well does the fuzzy reflex alone drive? (the numbers docs/explanation/algorithm.md
+section 4 reports)
 
 From the map's start: 20 seeds with noise on, and once with noise off: success rate, mean
 actions, total reinforcement and collisions. Then the success rate from random free start
@@ -8,8 +9,8 @@ once without noise and once with noise (seed = pose index).
     python docs/journal/scripts/reflex_coverage.py [--seeds 20] [--poses 150] [--pose-seed S]
         [--out FILE]
 
-Reference (ALGORITHM.md): 20/20 from the start in ~37 actions, total ~-16, ~0.7 collisions;
-32 actions without noise; 150/150 from random free poses.
+Reference (docs/explanation/algorithm.md): 20/20 from the start in ~37 actions, total ~-16,
+~0.7 collisions; 32 actions without noise; 150/150 from random free poses.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ start, goal and starts turn about the origin; each region line becomes the line 
 axis and each rule's comparisons follow it, so every point keeps its region. The learner should
 do as well on the turned world as on the original (up to the motion noise's draws): a check of
 everything that could prefer one direction (the reflex, the regions, the sub-goals), used for
-the check worlds of docs/LEARNING.md, "Worlds never seen before".
+the check worlds of docs/journal/learning.md, "Worlds never seen before".
 """
 
 from __future__ import annotations
