@@ -132,20 +132,20 @@ def test_resume_adopts_a_foreign_checkpoint_only_when_asked(tmp_path, capsys):
     assert "recipe: reflex_only" in (ours / "config.yaml").read_text()
 
 
-def test_ctrl_c_in_a_command_is_one_line(monkeypatch, capsys):
-    import symrl.cli
+def test_ctrl_c_in_a_command_is_one_line(monkeypatch, capsys, tmp_path):
+    import symrl.studies.plan
 
     def interrupted(args):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(symrl.cli, "_plan", interrupted)
-    assert main(["plan"]) == 130
+    monkeypatch.setattr(symrl.studies.plan, "plan_command", interrupted)
+    assert main(["plan", "--out", str(tmp_path / "plan")]) == 130
     assert capsys.readouterr().err == "symrl plan: stopped by Ctrl-C; what was finished is kept\n"
 
 
 def test_a_negative_start_reaches_the_command():
     """argparse alone reads `--start -1.4,0,0` as a flag without its value."""
-    from symrl.cli import _negative_values
+    from symrl.cli.parser import negative_values
 
-    assert _negative_values(["drive", "--start", "-1.4,0,0", "--seed", "-1"]) == [
+    assert negative_values(["drive", "--start", "-1.4,0,0", "--seed", "-1"]) == [
         "drive", "--start=-1.4,0,0", "--seed", "-1"]  # fmt: skip
