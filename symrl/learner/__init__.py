@@ -30,6 +30,7 @@ _EXPORTS = {
     "MixtureOfExpertsPolicy": "policy",
     "Perception": "policy",
     "TeseoLoss": "loss",
+    "TeseoUpdate": "update",
 }
 
 __all__ = sorted(_EXPORTS)
