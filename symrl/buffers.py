@@ -24,24 +24,28 @@ __all__ = ["BufferViews"]
 class BufferViews(nn.Module):
     """An ``nn.Module`` whose CPU buffers are also readable as numpy arrays: ``self.arrays``.
 
-    A subclass that keeps views of its own derived from the buffers (reshaped, say) names the
-    attribute in ``_view_caches``; it is dropped whenever the arrays are."""
+    The views live in one plain dict, ``self._views`` (an ordinary attribute: ``nn.Module``
+    stores a dict as is); a subclass that keeps views of its own derived from the buffers
+    (reshaped, say) keeps them there under its own key, and they are dropped with the arrays."""
 
-    _view_caches: tuple[str, ...] = ("_buffer_arrays",)
+    def __init__(self) -> None:
+        super().__init__()
+        self._views: dict[str, Any] = {}
 
     @property
     def arrays(self) -> dict[str, np.ndarray]:
         """``{name: buffer.numpy()}`` of this module's own buffers (not its children's); the
         arrays share the buffers' memory."""
-        views = self.__dict__.get("_buffer_arrays")
+        views = self._views.get("arrays")
         if views is None:
             views = {name: b.numpy() for name, b in self._buffers.items() if b is not None}
-            self.__dict__["_buffer_arrays"] = views
+            self._views["arrays"] = views
         return views
 
     def _forget_arrays(self) -> None:
-        for name in self._view_caches:
-            self.__dict__[name] = None
+        views = vars(self).get("_views")  # absent while ``__init__`` runs
+        if views:
+            views.clear()
 
     def __setattr__(self, name: str, value: Any) -> None:
         self._forget_arrays()  # a buffer may be replaced: views taken again
@@ -57,7 +61,7 @@ class BufferViews(nn.Module):
 
     def __getstate__(self) -> dict[str, Any]:  # a copy or a pickle has buffers of its own
         state = dict(super().__getstate__())
-        state.update(dict.fromkeys(self._view_caches))
+        state["_views"] = {}
         return state
 
     def _load_from_state_dict(self, *args, **kwargs):  # type: ignore[no-untyped-def]

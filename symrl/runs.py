@@ -567,7 +567,9 @@ def _purge_from(experiment: Any, step: int) -> None:
     repeats the trial that was cut short); what ``SummaryWriter(purge_step=step)`` writes."""
     from tensorboard.compat.proto.event_pb2 import Event, SessionLog
 
-    writer = experiment._get_file_writer()
+    from symrl.fastpaths import file_writer
+
+    writer = file_writer(experiment)
     writer.add_event(Event(step=step, file_version="brain.Event:2"))
     writer.add_event(Event(step=step, session_log=SessionLog(status=SessionLog.START)))
 

@@ -6,10 +6,10 @@ Readable top to bottom, as TorchRL's own recipes read:
     policy = MixtureOfExpertsPolicy(config, seeds)                  acts (gate, experts, reflex)
     env = env.append_transform(policy.perception_transform())      what the robot perceives
     collector = StepCollector(env, policy)                          one step of B robots a batch
-    loss = TeseoLoss(policy)                                        learns (TESEO update)
+    update = TeseoUpdate(policy)                                    learns (TESEO update)
     for batch in collector:
-        loss(batch)                                                 per-transition update
-        for robots whose trial ended: loss.end_trial, record the trial
+        update(batch)                                               per-transition update
+        for robots whose trial ended: update.end_trial, record the trial
 
 The collector (:class:`symrl.collector.StepCollector`, a TorchRL collector) steps the env with
 ``step_and_maybe_reset``, restarting the robots whose trial ended (partial resets); why it is
@@ -183,15 +183,15 @@ class TrialRecorder:
             self._offset += drop
 
 
-def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor],
-                  temperature: list[float]) -> list[dict[str, Any]]:
+def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor]) -> list[dict[str, Any]]:
     """The learner columns of the trial records of robots ``rows`` (``out``: what
-    ``loss.end_trial`` returned for them; ``temperature``: the one each trial explored with,
-    read before the cooling at its end). Tensors are read once per call, not per robot."""
+    ``update.end_trial`` returned for them, with the temperature each trial explored with).
+    Tensors are read once per call, not per robot."""
     # numpy on the buffers' memory: a small tensor's indexing costs a torch dispatch
     index = rows.numpy()
     counts = policy.experts.count.numpy()[index].tolist()
     replaced, improved = out["replaced"].tolist(), out["improved"].tolist()
+    temperature = out["temperature"].tolist()
     choices = (policy.options.choice.numpy()[index].tolist()
                if policy.options is not None else None)  # fmt: skip
     extras = []
@@ -279,8 +279,8 @@ def train_batch(
     from tqdm.auto import tqdm
 
     from symrl.collector import StepCollector
-    from symrl.learner.loss import TeseoLoss
     from symrl.learner.policy import MixtureOfExpertsPolicy
+    from symrl.learner.update import TeseoUpdate
 
     seeds = [int(s) for s in seeds]
     batch, n_trials = len(seeds), config.run.trials
@@ -296,16 +296,16 @@ def train_batch(
     env = env.append_transform(policy.perception_transform())
     # one step of the B robots per batch; the policy draws its exploration noise
     collector = StepCollector(env, policy, exploration_type=ExplorationType.RANDOM)
-    loss = TeseoLoss(policy)
+    update = TeseoUpdate(policy)
     recorder = TrialRecorder(batch)
     trials: list[list[dict[str, Any]]] = [[] for _ in seeds]
     finals: list[dict[str, torch.Tensor] | None] = [None] * batch
     if resume_batch is not None:
-        restore_batch_snapshot(resume_batch, collector, policy, loss, recorder)
+        restore_batch_snapshot(resume_batch, collector, policy, update, recorder)
         trials = [[dict(r) for r in rows] for rows in resume_batch["trials"]]
         finals = [None if f is None else dict(f) for f in resume_batch["finals"]]
     if resume is not None:
-        restore_snapshot(resume, collector, policy, loss)
+        restore_snapshot(resume, collector, policy, update)
         trials[0] = [dict(r) for r in resume["trials"]]
         if len(trials[0]) >= n_trials:
             raise ValueError(
@@ -325,7 +325,7 @@ def train_batch(
         contexts.callback(collector.shutdown)
         contexts.callback(bar.close)
         for td in collector:
-            stats = loss(td)
+            stats = update(td)
             frames += batch
             done = recorder.step(td, read(stats, "td_error"))
             if not done.any():
@@ -343,10 +343,8 @@ def train_batch(
                 np.array([r["total_reinforcement"] for r in records], dtype=np.float32)
             )
             reached_np = recorder.reached.numpy()[ended]
-            # the temperature the trials explored with, read before end_trial cools it
-            explored = policy.progress.temperature.numpy()[ended].tolist()
-            out = loss.end_trial(rows, totals, torch.from_numpy(reached_np))
-            extras = _trial_extras(policy, rows, out, explored)
+            out = update.end_trial(rows, totals, torch.from_numpy(reached_np))
+            extras = _trial_extras(policy, rows, out)
             for j, b in enumerate(ended_list):
                 if finals[b] is not None:
                     continue  # this robot has done its trials: only driving on
@@ -363,9 +361,9 @@ def train_batch(
                 if len(trials[b]) == n_trials:
                     finals[b] = policy.robot_state(b)
             if on_snapshot is not None:
-                on_snapshot(run_snapshot(collector, policy, loss, trials[0]))
+                on_snapshot(run_snapshot(collector, policy, update, trials[0]))
             if on_boundary is not None:
-                on_boundary(lambda: batch_snapshot(collector, policy, loss, recorder, trials,
+                on_boundary(lambda: batch_snapshot(collector, policy, update, recorder, trials,
                                                    finals))  # fmt: skip
             if all(f is not None for f in finals):
                 break
@@ -409,7 +407,7 @@ SNAPSHOT_FORMAT = 2
 _ROW_SKIP = ("path", "ghosts")
 
 
-def run_snapshot(collector, policy, loss, trials: list[dict[str, Any]]) -> dict[str, Any]:
+def run_snapshot(collector, policy, update, trials: list[dict[str, Any]]) -> dict[str, Any]:
     """Everything a one-robot run needs to go on from a trial boundary: the controller and
     the update's buffers, every random stream (the policy's exploration and option generators
     and its pre-drawn noise blocks, the robot's world generator), the robot's physics state and
@@ -424,7 +422,7 @@ def run_snapshot(collector, policy, loss, trials: list[dict[str, Any]]) -> dict[
         "format": SNAPSHOT_FORMAT,
         "trials": rows,
         "policy": _trimmed(policy.state_dict(), int(policy.experts.count.max())),
-        "loss": {k: v.clone() for k, v in loss.state_dict().items()},
+        "loss": {k: v.clone() for k, v in update.state_dict().items()},
         **policy.random_state(),
         **collected["env_state_dict"],
         "td": collected["carrier"],
@@ -457,15 +455,15 @@ def _load_numpy_fields(obj: Any, state: dict[str, Any] | None) -> None:
                 if isinstance(v, list) else v.numpy().copy())  # fmt: skip
 
 
-def _working_parts(policy, loss) -> dict[str, Any]:
+def _working_parts(policy, update) -> dict[str, Any]:
     """The objects whose attributes hold a trial in progress beyond the state dicts: the trial
     gradient's record, the localiser's warm start, the options' step counts and route."""
     options = policy.options
-    return {"loss_record": loss.record, "tracker": policy.perception.tracker,
+    return {"loss_record": update.record, "tracker": policy.perception.tracker,
             "options": options, "route": getattr(options, "route", None)}  # fmt: skip
 
 
-def batch_snapshot(collector, policy, loss, recorder: TrialRecorder,
+def batch_snapshot(collector, policy, update, recorder: TrialRecorder,
                    trials: list[list[dict[str, Any]]],
                    finals: list[dict[str, torch.Tensor] | None]) -> dict[str, Any]:
     """Everything a batch of robots needs to go on from between two steps, robots in the middle
@@ -486,8 +484,8 @@ def batch_snapshot(collector, policy, loss, recorder: TrialRecorder,
         "trials": rows_out,
         "finals": [None if f is None else {k: v.clone() for k, v in f.items()} for f in finals],
         "policy": _trimmed(policy.state_dict(), int(policy.experts.count.max())),
-        "loss": {k: v.clone() for k, v in loss.state_dict().items()},
-        "working": {k: _numpy_fields(v) for k, v in _working_parts(policy, loss).items()},
+        "loss": {k: v.clone() for k, v in update.state_dict().items()},
+        "working": {k: _numpy_fields(v) for k, v in _working_parts(policy, update).items()},
         "recorder": recorder.state(),
         "random": policy.random_state(),
         "collector": {**collected, "frames": int(collected["frames"]),
@@ -495,15 +493,15 @@ def batch_snapshot(collector, policy, loss, recorder: TrialRecorder,
     }
 
 
-def restore_batch_snapshot(state: dict[str, Any], collector, policy, loss,
+def restore_batch_snapshot(state: dict[str, Any], collector, policy, update,
                            recorder: TrialRecorder) -> None:
     """Put a fresh batch (same config and seeds) into the state of :func:`batch_snapshot`."""
     if state.get("format") != BATCH_SNAPSHOT_FORMAT:
         raise ValueError(f"batch snapshot format {state.get('format')!r}, this symrl resumes "
                          f"format {BATCH_SNAPSHOT_FORMAT}")  # fmt: skip
     policy.load_state_dict(state["policy"])
-    loss.load_state_dict(state["loss"])
-    for name, part in _working_parts(policy, loss).items():
+    update.load_state_dict(state["loss"])
+    for name, part in _working_parts(policy, update).items():
         _load_numpy_fields(part, state["working"].get(name))
     policy.load_random_state(state["random"])
     recorder.load_state(state["recorder"])
@@ -521,13 +519,13 @@ def _trimmed(state: dict[str, torch.Tensor], neurons: int) -> dict[str, torch.Te
     }
 
 
-def restore_snapshot(state: dict[str, Any], collector, policy, loss) -> None:
-    """Put ``collector`` (its env), ``policy`` and ``loss`` (fresh, same config and seed) into
+def restore_snapshot(state: dict[str, Any], collector, policy, update) -> None:
+    """Put ``collector`` (its env), ``policy`` and ``update`` (fresh, same config and seed) into
     the state of :func:`run_snapshot`."""
     from tensordict import TensorDict
 
     policy.load_state_dict(state["policy"])
-    loss.load_state_dict(state["loss"])
+    update.load_state_dict(state["loss"])
     policy.load_random_state(state)
     td = TensorDict(state["td"], batch_size=collector.env.batch_size).clone()
     # the perception of the trial's first observation again: its localisation starts afresh

@@ -2,7 +2,7 @@
 TESEO update (learns), configs.
 
 Names are imported lazily so ``from symrl.learner import load_config`` does not pay for
-importing TorchRL (several seconds); the policy and the loss load it on first use.
+importing TorchRL (several seconds); the policy and the update load it on first use.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ _EXPORTS = {
     "MixtureOfExpertsPolicy": "policy",
     "Perception": "policy",
     "TeseoLoss": "loss",
+    "TeseoUpdate": "update",
 }
 
 __all__ = sorted(_EXPORTS)

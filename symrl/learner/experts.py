@@ -75,8 +75,6 @@ class FlatViews(NamedTuple):
 class ExpertBank(BufferViews):
     """B controllers x E experts of growing RBF neurons in padded tensors."""
 
-    _view_caches = (*BufferViews._view_caches, "_flat")  # ``flat`` follows the buffers too
-
     centres: torch.Tensor
     actions: torch.Tensor
     utilities: torch.Tensor
@@ -140,7 +138,7 @@ class ExpertBank(BufferViews):
         """Numpy views of the storage for the control loop's arithmetic (a ``.numpy()`` call
         costs about a microsecond and the loop asks ~40 times a step). Cached until a buffer
         is replaced: growth beyond the capacity, ``.to()``, loading with ``assign``."""
-        views = self.__dict__.get("_flat")
+        views = self._views.get("flat")  # dropped with the buffers' arrays
         if views is None:
             views = FlatViews(
                 centres=self.centres.numpy().reshape(-1, self.dim),
@@ -155,7 +153,7 @@ class ExpertBank(BufferViews):
                 capacity=self.capacity,
                 banks=self.centres.numpy().reshape(-1, self.capacity, self.dim),
             )
-            self.__dict__["_flat"] = views
+            self._views["flat"] = views
         return views
 
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):  # type: ignore[override]
@@ -259,6 +257,48 @@ class ExpertBank(BufferViews):
         flat.used[slot] = False
         flat.counts[row] = index + 1
         return index
+
+    # -- the update's steps ---------------------------------------------------------------
+    def mark_taken(self, index: np.ndarray, taken: np.ndarray) -> None:
+        """The neurons at flat ``index`` (:meth:`flat_index_np`) took actions ``taken``
+        (relative to their base): remembered for action replacement at the trial's end."""
+        flat = self.flat
+        flat.taken[index] = taken
+        flat.used[index] = True
+
+    def learn(
+        self,
+        index: np.ndarray,
+        utility: np.ndarray,
+        step: np.ndarray,
+        xi: np.ndarray,
+        x: np.ndarray,
+        shift: np.ndarray,
+        rates: tuple[float, float, float],
+    ) -> None:
+        """The TD(0) and REINFORCE steps of the neurons at flat ``index``, whose utility was
+        ``utility``, by the TD errors ``step`` (0 where a row does not learn) and the
+        exploration draws ``xi``; the neurons where ``shift`` move their centre toward their
+        input ``x``. ``rates``: (eta, beta, kappa). Numpy on the storage (a handful of rows),
+        the centre shift a torch ``lerp``."""
+        eta, beta, kappa = rates
+        flat = self.flat
+        flat.utilities[index] = utility + eta * step
+        means = flat.means
+        mu = means[index]
+        means[index] = mu + beta * step * (xi - mu)
+        if shift.any():  # the gathers and the scatter in numpy, the lerp torch's
+            a = np.flatnonzero(shift)
+            slots = index[a]
+            centres = flat.centres
+            moved = torch.from_numpy(centres[slots])
+            moved.lerp_(torch.from_numpy(x[a]), kappa)
+            centres[slots] = moved.numpy()
+
+    def step_means(self, index: np.ndarray, step: np.ndarray, limit: float) -> None:
+        """mu += ``step`` at the flat ``index`` (distinct), kept within +-``limit``."""
+        means = self.flat.means
+        means[index] = np.minimum(np.maximum(means[index] + step, -limit), limit)
 
     # -- end of trial ---------------------------------------------------------------------
     @no_grad

@@ -1,7 +1,7 @@
 """The critic of the sub-goal options of B controllers: what they learn across trials.
 
 The options (:class:`symrl.learner.options.SubgoalOptions`, part of the policy) read it to choose
-a region's option; the update (:class:`symrl.learner.loss.TeseoLoss`) steps it at the end of a
+a region's option; the update (:class:`symrl.learner.update.TeseoUpdate`) steps it at the end of a
 trial. It is one module handed to both, and only its own methods write its buffers.
 """
 

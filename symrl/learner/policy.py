@@ -21,7 +21,7 @@ policy builds from what the robot is told: the env writes them once per observat
 6. with the shield, an action whose move would graze a wall becomes the nearest safe angle.
 
 It writes what it decided into the TensorDict (``out_keys``); the update
-(:class:`symrl.learner.loss.TeseoLoss`) reads those keys and the transition. What is learned
+(:class:`symrl.learner.update.TeseoUpdate`) reads those keys and the transition. What is learned
 lives in modules the policy holds and hands to the update: the experts (whose parameters the
 update steps, as an optimiser steps a network's), ``progress``
 (:class:`~symrl.learner.progress.TrialProgress`: the temperature, the best total, the trials
@@ -87,6 +87,21 @@ class PerceptionResult(NamedTuple):
     """(B,) bool: no neuron within the novelty radius."""
 
 
+_PERCEPTION = "perception."
+
+
+def _without_perception(module: Any, state: dict[str, Any], prefix: str, metadata: Any) -> None:
+    """Drop the perception's entries from a policy's state dict (they are its ``mapper.``)."""
+    for key in [k for k in state if k.startswith(prefix + _PERCEPTION)]:
+        del state[key]
+
+
+def _perception_not_missing(module: Any, incompatible: Any) -> None:
+    """A state dict of a policy holds no perception entries: none is missing."""
+    incompatible.missing_keys[:] = [k for k in incompatible.missing_keys
+                                    if f".{_PERCEPTION}" not in f".{k}"]  # fmt: skip
+
+
 class MixtureOfExpertsPolicy(TensorDictModuleBase):
     """Region-gated growing RBF experts acting through Gullapalli's Gaussian unit (Eq. 6).
 
@@ -137,10 +152,13 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         robot = config.env.robot
         xc = config.experts
         # what the robot makes of an observation: a TorchRL env transform built from what it
-        # is told (kept out of the state dict but for the region rules and the goal codes,
-        # which are saved with the controller as before)
+        # is told. A submodule (``.to()`` and the module tree reach it) whose entries stay out
+        # of the state dict: its region rules and goal codes are saved as ``mapper.`` and
+        # ``code_centres``, the keys of every saved controller
         perception = Perception(knowledge, config, batch)
-        self.__dict__["perception"] = perception
+        self.perception = perception
+        self.register_state_dict_post_hook(_without_perception)
+        self.register_load_state_dict_post_hook(_perception_not_missing)
         self.mapper = perception.mapper
         self.region_names: tuple[str, ...] = tuple(self.mapper.names)
         self.expert_names = self.region_names if config.gate.partition else ("all",)

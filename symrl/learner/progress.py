@@ -1,7 +1,7 @@
 """What B controllers count across trials besides their experts and options.
 
 The policy reads the exploration temperature when it acts; the update
-(:class:`symrl.learner.loss.TeseoLoss`) closes trials through this module's methods. It is one
+(:class:`symrl.learner.update.TeseoUpdate`) closes trials through this module's methods. It is one
 module handed to both (the policy holds it, so a controller's state dict carries it), and only
 its own methods write its buffers.
 """
@@ -45,6 +45,14 @@ class TrialProgress(BufferViews):
         """T <- max(minimum, cooling * T) for robots ``rows``."""
         temperature = self.arrays["temperature"]
         temperature[rows] = np.maximum(cooling * temperature[rows], minimum)
+
+    def temperatures(self, rows: np.ndarray) -> np.ndarray:
+        """The temperatures of robots ``rows`` now (a copy)."""
+        return self.arrays["temperature"][rows]
+
+    def best_totals(self, rows: np.ndarray) -> np.ndarray:
+        """The best successful totals of robots ``rows`` (a copy; -inf before the first)."""
+        return self.arrays["best_total"][rows]
 
     def count(self, rows: np.ndarray) -> None:
         """One trial more done by robots ``rows``."""

@@ -17,11 +17,18 @@ from typing import Any
 
 import numpy as np
 import torch
-from tensordict import TensorDict, TensorDictBase
+from tensordict import TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase, TransformedEnv
 
-from symrl.tensordicts import read, tensordict_items, write
+from symrl.fastpaths import (
+    new_tensordict,
+    read,
+    tensordict_items,
+    transform_reset,
+    transform_step,
+    write,
+)
 from symrl.world.physics import Readings, RobotBatch
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap, load_map
@@ -222,9 +229,9 @@ class BatchedWorldEnv(EnvBase):
         root = tensordict_items(tensordict, self.batch_size)
         if root is None or "next" in root or "_step" in root:
             return super().step_and_maybe_reset(tensordict)
-        return self._step_and_reset(tensordict, root)
+        return self.step_and_reset_entries(tensordict, root)
 
-    def _step_and_reset(
+    def step_and_reset_entries(
         self, tensordict: TensorDictBase, root: dict[str, torch.Tensor]
     ) -> tuple[TensorDictBase, TensorDictBase]:
         """:meth:`step_and_maybe_reset` of a TensorDict checked for its fast path (``root``:
@@ -237,7 +244,7 @@ class BatchedWorldEnv(EnvBase):
         restarted = done.numpy().reshape(self.size)
         if restarted.any():  # maybe_reset's values, without writing the TensorDict twice
             carried = self._restarted(carried, done, restarted)
-        following = TensorDict._new_unsafe(carried, batch_size=self.batch_size, device=self.device)
+        following = new_tensordict(carried, self.batch_size, self.device)
         return tensordict, following
 
     def maybe_reset(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -329,10 +336,10 @@ class BatchedWorldEnv(EnvBase):
 
     def _tensordict(self, out: dict[str, np.ndarray]) -> TensorDictBase:
         """The output TensorDict, built directly (no per-key spec encoding: the hot loop)."""
-        return TensorDict._new_unsafe(
+        return new_tensordict(
             {key: torch.from_numpy(value) for key, value in out.items()},
-            batch_size=self.batch_size,
-            device=self.device,
+            self.batch_size,
+            self.device,
         )
 
 
@@ -346,6 +353,17 @@ class BatchedTransformedEnv(TransformedEnv):
     them equal) at a fraction of their cost (half the loop at B = 10, measured with
     ``benchmarks/bench_train.py``). Anything else takes TorchRL's path."""
 
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # what the fast step reads once: see _fast_path and _added_keys (a plain dict, which
+        # nn.Module stores as is; emptied when a transform is added)
+        self._shortcuts: dict[str, Any] = {}
+
+    def _forget_shortcuts(self) -> None:
+        shortcuts = vars(self).get("_shortcuts")  # absent while ``__init__`` runs
+        if shortcuts:
+            shortcuts.clear()
+
     def step_and_maybe_reset(
         self, tensordict: TensorDictBase
     ) -> tuple[TensorDictBase, TensorDictBase]:
@@ -354,44 +372,42 @@ class BatchedTransformedEnv(TransformedEnv):
         if (not isinstance(base, BatchedWorldEnv) or root is None or "next" in root
                 or "_step" in root or added is None):  # fmt: skip
             return super().step_and_maybe_reset(tensordict)
-        tensordict, following = base._step_and_reset(tensordict, root)
-        nxt = transform._step(tensordict, read(tensordict, "next"))
+        tensordict, following = base.step_and_reset_entries(tensordict, root)
+        nxt = transform_step(transform, tensordict, read(tensordict, "next"))
         write(tensordict, {"next": nxt})
         write(following, {key: read(nxt, key) for key in added})
         done = read(nxt, "done")
         if done.numpy().any():
-            marked = TensorDict._new_unsafe({"_reset": done}, batch_size=batch)
-            following = transform._reset(marked, following)
+            marked = new_tensordict({"_reset": done}, batch)
+            following = transform_reset(transform, marked, following)
         return tensordict, following
 
     def _fast_path(self) -> tuple[Any, Any, torch.Size, list[str] | None]:
         """The base env, the transform, the batch size and :meth:`_added_keys`, kept after the
         first call (read through TorchRL's properties and ``nn.Module`` lookups, they cost
         about as much as the rest of the step's glue)."""
-        known = self.__dict__.get("_fast")
+        known = self._shortcuts.get("fast")
         if known is None:
-            known = self.__dict__["_fast"] = (self.base_env, self.transform, self.batch_size,
-                                              self._added_keys())  # fmt: skip
+            known = (self.base_env, self.transform, self.batch_size, self._added_keys())
+            self._shortcuts["fast"] = known
         return known
 
     def append_transform(self, transform: Any) -> BatchedTransformedEnv:
-        self.__dict__.pop("_added", None)  # the keys are read again
-        self.__dict__.pop("_fast", None)
+        self._forget_shortcuts()  # the keys are read again
         return super().append_transform(transform)
 
     def insert_transform(self, index: int, transform: Any) -> BatchedTransformedEnv:
-        self.__dict__.pop("_added", None)
-        self.__dict__.pop("_fast", None)
+        self._forget_shortcuts()
         return super().insert_transform(index, transform)
 
     def _added_keys(self) -> list[str] | None:
         """The observation keys the transforms add (None if one is nested: TorchRL's path
         then), read from the specs once (walking them costs more than a step's physics)."""
-        known = self.__dict__.get("_added")
+        known = self._shortcuts.get("added")
         if known is None:
             base_keys = set(self.base_env.observation_spec.keys())
             added = [key for key in self.observation_spec.keys()  # noqa: SIM118 - a spec
                      if key not in base_keys]  # fmt: skip
             known = (None if any(type(key) is not str for key in added) else added,)
-            self.__dict__["_added"] = known
+            self._shortcuts["added"] = known
         return known[0]

@@ -212,12 +212,12 @@ def test_every_choice_is_credited_with_the_return_to_go_from_it():
     which reaches the goal 2 actions later: the first is credited with -6, the second -2."""
     from tensordict import TensorDict
 
-    from symrl.learner.loss import TeseoLoss
     from symrl.learner.policy import MixtureOfExpertsPolicy
+    from symrl.learner.update import TeseoUpdate
 
     config = load_config("paper", ["crossings.enabled=true", "experts.learning=false"])
     policy = MixtureOfExpertsPolicy(config, OFFICE, [0])
-    loss = TeseoLoss(policy)
+    loss = TeseoUpdate(policy)
     r = policy.region_names.index("west_office")
     first, second = 0, policy.options.labels[r].index("wc>middle_office")
     pose, sonar = torch.tensor([[2.0, 4.5, 0.0]]), torch.ones(1, ROBOT.n_sensors)
@@ -234,4 +234,4 @@ def test_every_choice_is_credited_with_the_return_to_go_from_it():
     q, count = policy.options.critic.q[0, r], policy.options.critic.n[0, r]
     assert count[first] == 1 and q[first] == pytest.approx(-6.0)
     assert count[second] == 1 and q[second] == pytest.approx(-2.0)
-    assert torch.isnan(loss.choice_return).all()  # ready for the next trial
+    assert torch.isnan(loss.returns.choice_return).all()  # ready for the next trial

@@ -51,7 +51,7 @@ def _odometry(*poses) -> torch.Tensor:
 
 
 def _learn(opt: SubgoalOptions, rows: torch.Tensor, returns: torch.Tensor) -> None:
-    """The update's critic step at the end of the trials of ``rows`` (as ``TeseoLoss``)."""
+    """The update's critic step at the end of the trials of ``rows`` (as ``TeseoUpdate``)."""
     opt.critic.learn(rows.numpy(), opt.trial_choices(rows.numpy()), returns.numpy())
 
 

@@ -369,3 +369,15 @@ def test_a_trials_first_action_turns_straight_at_an_aim_behind_the_robot(side):
     assert float(ahead(obs.clone())["action"][0, 0]) == pytest.approx(
         _reflex(ahead, obs, math.atan2(-2.0, 4.0)), abs=1e-5
     )
+
+
+def test_the_perception_is_a_submodule_kept_out_of_the_state_dict():
+    p = policy("paper_map")
+    assert dict(p.named_children())["perception"] is p.perception_transform()
+    keys = list(p.state_dict())
+    assert not any("perception" in k for k in keys)
+    assert any(k.startswith("mapper.") for k in keys) and "code_centres" in keys
+    q = policy("paper_map")
+    q.load_state_dict(p.state_dict())  # strict: nothing missing, nothing unexpected
+    with pytest.raises(RuntimeError, match="Missing key"):
+        q.load_state_dict({k: v for k, v in p.state_dict().items() if k != "code_centres"})

@@ -1,0 +1,338 @@
+"""The TESEO update (paper 8.3): it learns, the policy acts.
+
+Per transition (s, a, r, s') of every robot of the batch, on the neuron i that chose a (grown
+first if the policy met a novel state at s, with p = the policy's ``proto``, u = r(s)):
+
+    delta = r + gamma * u' - u_i        u' = 0 if s' is terminal; r if s' is novel (the utility
+                                        its new neuron will get); else the utility of its winner
+    |delta| > theta:  grow a neuron at x (p = proto, u = u_i + delta, mu = 0)   error-driven
+    else:             u_i  += eta * delta                                       TD(0)
+                      mu_i += beta * delta * (xi - mu_i)                        REINFORCE
+                      c_i  += kappa * (x - c_i)   if delta > 0                  centre shift
+
+The paper adapts the previous winner *before* acting on the present sensation: TorchRL's loop
+gives that order (the update of a transition runs before the policy acts on its next state), so
+no state is handed between the two. What the robot makes of s' (its expert and input x, the
+pose it believes) is read from ``"next"``, where the perception transform wrote it. The steps
+are the gradient steps of 1/2 delta^2 (target detached, lr eta) and of
+-delta * log N(xi; mu, sigma^2) (lr beta * sigma^2);
+``tests/learner/test_update.py`` checks them against autograd. Growth replaces rows, which an
+optimizer cannot follow, so they are applied in place under ``no_grad``. It is no TorchRL
+``LossModule``: there is no loss to differentiate, and no optimizer steps it.
+
+End of a robot's trial (:meth:`end_trial`, called by the loop for the robots whose trial
+ended; it returns the temperature each trial explored with, as the trial's record shows it):
+after a goal-reaching trial whose total beats every earlier successful one, each neuron used
+gets p <- the action it took and mu <- 0; with ``trial_gradient.rate`` > 0, each neuron's mu
+steps along the trial's reward gradient (``symrl.learner.trial_gradient``); then
+T <- max(T_min, cooling * T); with options, the critic of each option chosen in the trial steps
+toward its return-to-go from the region's first entry.
+
+What the update changes across trials lives in modules the policy holds and hands over at
+construction: the experts, ``policy.progress`` (temperature, best total, trials done), the
+options' ``critic`` and crossings; the update changes them only through their own methods
+(``experts.add_np``, ``experts.learn``, ``progress.cool``, ``critic.learn``, ...). Its own state
+is the returns of the trials in progress (:class:`symrl.learner.returns.TrialReturns`), saved
+as :meth:`TeseoUpdate.state_dict`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+import torch
+from tensordict import TensorDict, TensorDictBase
+
+from symrl.fastpaths import new_tensordict, read
+from symrl.grad import no_grad
+from symrl.learner.policy import MixtureOfExpertsPolicy
+from symrl.learner.returns import TrialReturns
+from symrl.learner.trial_gradient import TrialRecord, trial_gradient
+
+__all__ = ["TeseoUpdate", "UpdateKeys"]
+
+
+@dataclass(frozen=True)
+class UpdateKeys:
+    """Keys the update reads; change them with :meth:`TeseoUpdate.set_keys`."""
+
+    expert: str = "expert"
+    winner: str = "winner"
+    novel: str = "novel"
+    x: str = "x"
+    proto: str = "proto"
+    xi: str = "xi"
+    taken: str = "taken"
+    region: str = "region"
+    aim: str = "aim"
+    shielded: str = "shielded"
+    option_entry: str = "option_entry"
+    state_reward: str = "state_reward"
+    sonar: str = "sonar"
+    pose: str = "pose"
+    reward: str = "reward"
+    done: str = "done"
+    terminated: str = "terminated"
+    truncated: str = "truncated"
+
+
+class TeseoUpdate:
+    """Online per-transition update of a :class:`MixtureOfExpertsPolicy` (no optimizer).
+
+    Calling it on a batch [B] of transitions (one per robot) updates every robot's previous
+    winner and returns a TensorDict of diagnostics (``td_error``, ``grown``, ``neurons``);
+    :meth:`end_trial` closes the trials of some robots and returns a TensorDict of what it did
+    (``replaced``, ``improved``, ``best_total``, ``temperature``, one row per robot closed).
+    The keys it reads are renamed with :meth:`set_keys`. A plain object: the policy and its
+    parts are saved with the policy, the update's own state is :attr:`returns`.
+    """
+
+    out_keys = ["td_error", "grown", "neurons"]
+
+    def __init__(self, policy: MixtureOfExpertsPolicy) -> None:
+        self.policy = policy
+        # the modules the policy hands over (saved with it)
+        self.experts = policy.experts
+        self.progress = policy.progress
+        self.options = policy.options
+        self.critic = policy.options.critic if policy.options is not None else None
+        self.crossings = policy.options.crossings if policy.options is not None else None
+        self.config = policy.config
+        self.tensor_keys = UpdateKeys()
+        batch = policy.batch
+        # option critics: the return so far in the trial, at each region's first entry and,
+        # with crossings, at every choice of a trial (a region's first, and each after an
+        # option was given up), credited with the return-to-go from it
+        choices = None
+        if policy.options is not None and self.crossings is not None:
+            choices = policy.options.valid.shape[1]
+        self.returns = TrialReturns(batch, len(policy.region_names), choices)
+        # the trial gradient's record of the trials in progress (empty at every trial boundary,
+        # where runs are saved, so it is not part of the state)
+        self.record: TrialRecord | None = None
+        if self.config.trial_gradient.rate > 0 and self.config.experts.learning:
+            rays = policy.reflex.config.n_rays
+            self.record = TrialRecord(batch, self.config.env.max_actions, rays)
+
+    @property
+    def in_keys(self) -> list:
+        k = self.tensor_keys
+        own = [k.expert, k.winner, k.novel, k.x, k.proto, k.xi, k.taken, k.region,
+               k.option_entry, k.state_reward]  # fmt: skip
+        reached = [k.expert, k.x, k.reward, k.terminated, k.truncated]
+        if self.record is not None:
+            own += [k.sonar, k.pose, k.aim, k.shielded]
+            reached += [k.sonar, k.pose]
+        return own + [("next", key) for key in reached]
+
+    def set_keys(self, **renamed: str) -> None:
+        """Read other keys than :class:`UpdateKeys`' defaults (``set_keys(xi="noise")``)."""
+        known = {f.name for f in fields(UpdateKeys)}
+        for key in renamed:
+            if key not in known:
+                raise ValueError(f"{key!r} is not an accepted tensordict key for the update "
+                                 f"(accepted: {sorted(known)})")  # fmt: skip
+        self.tensor_keys = replace(self.tensor_keys, **renamed)
+
+    def state_dict(self) -> dict[str, torch.Tensor]:
+        """The update's own state (the returns of the trials in progress)."""
+        return self.returns.state_dict()
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.returns.load_state_dict(state)
+
+    def __call__(self, td: TensorDictBase) -> TensorDictBase:
+        return self.forward(td)
+
+    @no_grad
+    def forward(self, td: TensorDictBase) -> TensorDictBase:
+        """Update every robot's previous winner from its transition (batch [B]).
+
+        The arithmetic runs in numpy on the tensors' memory: the batch is a handful of numbers
+        and a numpy call costs a fraction of a torch op's dispatch (the update took about a
+        third of the loop's time in torch ops, ``benchmarks/bench_train.py``). Every step is an
+        exactly rounded IEEE operation in the same order as the formulas, so the numbers are
+        those of the torch version; the centre shift stays a torch ``lerp``."""
+        k = self.tensor_keys
+        policy, cfg = self.policy, self.config
+        batch = policy.batch
+        nxt = read(td, "next")
+        r = read(nxt, k.reward).numpy().reshape(batch).astype(np.float64)
+        if policy.options is not None:
+            entered = read(td, k.option_entry).numpy()
+            if entered.any():
+                option = read(td, "option").numpy() if self.crossings is not None else None
+                self.returns.enter(np.flatnonzero(entered), read(td, k.region).numpy(), option)
+        self.returns.add(r)
+        if self.crossings is not None:
+            self._observe_crossings(td, nxt)
+        if not cfg.experts.learning:
+            zero = torch.zeros(batch, dtype=torch.float64)
+            return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
+                              neurons=policy.neurons().sum(-1), batch_size=[batch])  # fmt: skip
+        bank = self.experts
+        expert, winner = read(td, k.expert).numpy(), read(td, k.winner).numpy()
+        x, proto = read(td, k.x).numpy(), read(td, k.proto).numpy()
+        grown = np.zeros(batch, dtype=np.int64)
+
+        # 1. the neuron the policy acted as at a novel state is born now
+        novel = read(td, k.novel).numpy()
+        if novel.any():
+            new = np.flatnonzero(novel)
+            u0 = read(td, k.state_reward).numpy().reshape(-1)[new]
+            winner = winner.copy()
+            winner[new] = bank.add_np(new, expert[new], x[new], proto[new], u0)
+            grown += novel
+        # flat views of the storage, taken after any growth (the capacity may have doubled)
+        flat = bank.flat
+        utilities = flat.utilities
+        index = bank.flat_index_np(expert, winner)
+        bank.mark_taken(index, read(td, k.taken).numpy())
+
+        if self.record is not None:  # the poses the robot steered by (its belief)
+            self.record.append(
+                read(td, k.pose).numpy(), read(td, k.sonar).numpy(), read(td, k.aim).numpy(),
+                read(td, k.shielded).numpy(), flat.row_base + expert, winner,
+                read(nxt, k.pose).numpy(), read(nxt, k.sonar).numpy(),
+            )  # fmt: skip
+
+        # 2. the utility of the state reached
+        terminated = read(nxt, k.terminated).numpy().reshape(-1)
+        truncated = read(nxt, k.truncated).numpy().reshape(-1)
+        u_prev = utilities[index]
+        # the state reached as the robot perceives it (its perception transform's keys), and
+        # its nearest neuron
+        seen_expert = read(nxt, k.expert).numpy()
+        seen_winner, distance = bank.nearest_np(seen_expert, read(nxt, k.x).numpy())
+        seen_novel = distance > cfg.experts.novelty_radius  # inf for an empty expert
+        u_seen = utilities[bank.flat_index_np(seen_expert, np.maximum(seen_winner, 0))]
+        # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
+        u_trunc = np.where(seen_winner >= 0, u_seen, u_prev)
+        u_next = np.where(seen_novel, r, u_seen)
+        u_next = np.where(truncated, u_trunc, u_next)
+        u_next[terminated] = 0.0
+
+        # 3. TD error; error-driven growth or the TD / REINFORCE / centre steps
+        update = cfg.update
+        delta = r + update.gamma * u_next - u_prev
+        split = np.abs(delta) > update.error_threshold
+        if split.any():
+            s = np.flatnonzero(split)
+            bank.add_np(s, expert[s], x[s], proto[s], (u_prev + delta)[s])
+            grown += split
+            index = bank.flat_index_np(expert, winner)  # the capacity may have doubled
+        # TD(0) and REINFORCE on the rows that did not split (a split row keeps its values),
+        # the centre shift where the error is positive
+        step = np.where(split, 0.0, delta)
+        bank.learn(index, u_prev, step, read(td, k.xi).numpy(), x, ~split & (delta > 0),
+                   (update.eta, update.beta, update.kappa))  # fmt: skip
+        return new_tensordict(
+            {"td_error": torch.from_numpy(delta), "grown": torch.from_numpy(grown),
+             "neurons": torch.from_numpy(bank.flat.counts.reshape(batch, -1).sum(-1))},
+            torch.Size([batch]),
+        )  # fmt: skip
+
+    def _observe_crossings(self, td: TensorDictBase, nxt: TensorDictBase) -> None:
+        """The crossing evidence of the state reached (and of a trial's first state): the
+        sonar rays from the believed pose, and where the robot crossed a border."""
+        k, crossings, policy = self.tensor_keys, self.crossings, self.policy
+        assert crossings is not None
+        scale = policy.config.env.robot.sonar_range
+        pose = read(td, k.pose).numpy().astype(np.float64)
+        pose_next = read(nxt, k.pose).numpy().astype(np.float64)
+        first = read(td, "is_init", None)
+        if first is not None and first.any():
+            rows = np.flatnonzero(first.numpy().reshape(-1))
+            sonar = read(td, k.sonar).numpy()[rows].astype(np.float64) * scale
+            crossings.observe_rows(rows, pose[rows], sonar)
+        sonar_next = read(nxt, k.sonar).numpy().astype(np.float64) * scale
+        crossings.observe(pose_next, sonar_next)
+        region, region_next = read(td, k.region).numpy(), read(nxt, k.region).numpy()
+        moved = region != region_next
+        if moved.any():
+            names = policy.region_names
+            for b in np.flatnonzero(moved).tolist():
+                crossings.cross(b, names[int(region[b])], names[int(region_next[b])],
+                                pose[b, :2], pose_next[b, :2])  # fmt: skip
+
+    @no_grad
+    def end_trial(
+        self, rows: torch.Tensor, totals: torch.Tensor, reached: torch.Tensor
+    ) -> TensorDictBase:
+        """Close the trials of robots ``rows`` (k,) (their totals (k,) and whether they reached
+        the goal (k,) bool): action replacement after a better success, the trial gradient,
+        cooling, the option critics, the trial count. Returns a TensorDict of batch [k]:
+        ``replaced`` (neurons replaced per row), ``improved`` (a better success),
+        ``best_total`` (the best success so far) and ``temperature`` (the one the trial
+        explored with, before this call cools it)."""
+        cfg, progress = self.config, self.progress
+        # numpy on the buffers' memory (a handful of rows), the same operations
+        rows_np, n = rows.numpy(), rows.shape[0]
+        explored = progress.temperatures(rows_np)
+        totals_np = totals.numpy().astype(np.float64)
+        replaced = np.zeros(n, dtype=np.int64)
+        improved = np.zeros(n, dtype=bool)
+        if cfg.experts.learning:
+            improved = progress.improve(rows_np, totals_np, reached.numpy())
+            if cfg.update.replace_actions and improved.any():
+                better = torch.from_numpy(rows_np[improved])
+                replaced[improved] = self.experts.replace_actions(better).numpy()
+            progress.cool(rows_np, cfg.update.cooling, cfg.update.temperature_min)
+            if self.record is not None:
+                self._trial_gradient_step(rows_np)
+            self.experts.clear_trial(rows)
+        if self.critic is not None and self.crossings is not None:
+            self.critic.learn_choices(*self.returns.close_choices(rows_np))
+            self.critic.end_trials(rows_np)
+        elif self.critic is not None:
+            assert self.options is not None
+            returns = self.returns.close_entries(rows_np)
+            self.critic.learn(rows_np, self.options.trial_choices(rows_np), returns)
+        self.returns.close(rows_np)
+        progress.count(rows_np)
+        best = progress.best_totals(rows_np)
+        return new_tensordict(
+            {"replaced": torch.from_numpy(replaced), "improved": torch.from_numpy(improved),
+             "best_total": torch.from_numpy(best), "temperature": torch.from_numpy(explored)},
+            torch.Size([n]),
+        )  # fmt: skip
+
+    def _trial_gradient_step(self, rows: np.ndarray) -> None:
+        """mu_j += clip(rate * sum of dJ/da_t over the steps neuron j acted, +-max_step), kept
+        within +-limit, for every neuron that acted in the finished trials of ``rows``."""
+        rec, policy, cfg = self.record, self.policy, self.config
+        assert rec is not None
+        tg, robot = cfg.trial_gradient, cfg.env.robot
+        goal = policy.knowledge.goal
+        flat = self.experts.flat
+        returns = self.returns.so_far()
+        for b in rows.tolist():
+            n = int(rec.steps[b])
+            if n == 0:
+                continue
+            # the price of one action more: the trial's own mean cost per action
+            cost = tg.step_cost * max(-float(returns[b]), 0.0) / n
+            grad = trial_gradient(
+                policy.reflex, rec.pose[b, : n + 1], rec.sonar[b, : n + 1], rec.aim[b, :n],
+                rec.held[b, :n], (goal.x, goal.y),
+                robot.step, robot.sonar_range, robot.close_distance, cost,
+                reactive=cfg.experts.residual,
+            )  # fmt: skip
+            index = rec.row[b, :n] * flat.capacity + rec.neuron[b, :n]
+            # per neuron, its steps' sum in the steps' order (bincount's), read at the neurons
+            # that acted; clipped by min/max (np.unique and np.clip cost several times as much
+            # on a trial's ~30 steps)
+            used = np.flatnonzero(np.bincount(index))
+            total = np.bincount(index, weights=grad)[used]
+            step = np.minimum(np.maximum(tg.rate * total, -tg.max_step), tg.max_step)
+            self.experts.step_means(used, step, tg.limit)
+        rec.clear(rows)
+
+    def __repr__(self) -> str:
+        u = self.config.update
+        return (
+            f"{type(self).__name__}(gamma={u.gamma}, eta={u.eta}, beta={u.beta}, "
+            f"kappa={u.kappa}, theta={u.error_threshold})"
+        )
