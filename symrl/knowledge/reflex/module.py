@@ -28,14 +28,14 @@ class FuzzyReflex(nn.Module):
       (the S sectors, then ``SIDE_L``, ``SIDE_R``), ``rule_out`` (K, 3) rule weight on its
       output set, ``peaks`` (3,).
 
-    These buffers (the ``state_dict``) are compiled once more into the few index tensors the
-    hot path runs on: sector rays as one padded ``(S, M)`` index (a sector's distance is one
-    gather and one ``amin``), rule antecedents as one padded ``(K, L)`` index into the literal
-    vector ``(mu, 1 - mu)`` (a rule's strength is one gather and one ``amin``); if a rule uses
-    the turning side, ``mu`` is extended by ``(SIDE_L, SIDE_R)`` from the signs of the side keys
-    (``ReflexConfig.side``), weighted 2^(n-1), ..., 1 so the first non-zero one decides.
-    Padding repeats an index of the same row, so a min over the padded row is the min over the
-    set. Constants are cast to each input dtype/device once and cached; the cache is dropped by
+    These buffers (the ``state_dict``) are compiled once more (:mod:`.compiled`) into the few
+    index tensors the hot path runs on: sector rays as one padded ``(S, M)`` index (a sector's
+    distance is one gather and one ``amin``), rule antecedents as one padded ``(K, L)`` index
+    into the literal vector ``(mu, 1 - mu)`` (a rule's strength is one gather and one
+    ``amin``); if a rule uses the turning side, ``mu`` is extended by ``(SIDE_L, SIDE_R)``
+    from the signs of the side keys (``ReflexConfig.side``), weighted 2^(n-1), ..., 1 so the
+    first non-zero one decides.
+    Constants are cast to each input dtype/device once and cached; the cache is dropped by
     ``.to()`` / ``.float()`` etc. and ``load_state_dict``; after editing a buffer in place, call
     :meth:`recompile`. A batched call is a few dozen tensor ops; one float64 sample
     (:meth:`angle`, or the module on a 1-D float64 sonar) runs on Python floats. Both give the
