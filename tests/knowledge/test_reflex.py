@@ -350,3 +350,17 @@ def test_bad_inputs_raise_clear_errors(reflex, sonar_shape, goal_shape, message)
             reflex(s, g)
     with pytest.raises(ValueError, match="non-finite"):
         reflex(torch.full((24,), float("nan")), torch.tensor(0.0))
+
+
+def test_public_names_import_from_the_reflex_package():
+    """Callers import the reflex's names from ``symrl.knowledge.reflex`` itself."""
+    from symrl.knowledge import reflex
+
+    for name in ("OUTPUTS", "SIDES", "ReflexConfig", "FuzzyReflex", "check_finite", "parse_rule"):
+        assert name in reflex.__all__ and hasattr(reflex, name), name
+    assert reflex.FuzzyReflex is FuzzyReflex and reflex.ReflexConfig is ReflexConfig
+    assert reflex.parse_rule("F and not FL -> 0.5 * LEFT", ("F", "FL")) == (
+        [("F", False), ("FL", True)],
+        reflex.OUTPUTS.index("LEFT"),
+        0.5,
+    )

@@ -147,3 +147,16 @@ def test_recompile_after_editing_a_buffer_in_place():
     reflex.recompile()
     assert torch.equal(reflex(s, goal), -before)
     assert reflex.angle(s[0], float(goal[0])) == -single
+
+
+@pytest.mark.parametrize("side", [("goal",), ("L/R", "goal", "FL/FR"), ("goal", "FL/FR")])
+def test_every_path_decides_the_turning_side_in_the_configs_key_order(side):
+    """The tensor, numpy and Python-float paths read the side pairs and their order from one
+    compilation: a reordered ``side`` changes all three alike, as the uncompiled oracle."""
+    reflex = FuzzyReflex(ReflexConfig(side=side, side_margin=0.0))
+    s, goal = samples(600, torch.float64, seed=5)
+    expected = oracle(reflex, s, goal)
+    assert torch.equal(reflex(s, goal), expected)  # numpy path
+    assert torch.equal(reflex(s.view(20, 30, 24), goal.view(20, 30)).flatten(), expected)
+    for i in range(0, len(s), 7):  # one sample against the oracle of that sample alone
+        assert reflex.angle(s[i], float(goal[i])) == float(oracle(reflex, s[i], goal[i])), i
