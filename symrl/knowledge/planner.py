@@ -279,7 +279,7 @@ class _Checker:
 
 
 def _bitangent_candidates(chk: _Checker) -> list[tuple[int, int, list[tuple[float, float]]]]:
-    """:func:`_bitangents` of every pair of vertex circles, less the tangents with an end that
+    """:func:`_bitangents` of every pair of vertex circles, less the tangents whose two ends both
     fail the cone test (their nodes would both be refused): the pairs are screened with numpy,
     row by row, and only the survivors are computed exactly (the same floats as before)."""
     c = chk.walls.vertices
@@ -297,7 +297,7 @@ def _bitangent_candidates(chk: _Checker) -> list[tuple[int, int, list[tuple[floa
         on_i = np.stack([base + half, base - half, base + off, base - off], axis=1)
         on_j = np.stack([base + half, base - half, base + off + math.pi, base - off + math.pi],
                         axis=1)  # fmt: skip
-        keep = index.cone_ok(np.full(on_i.shape, i), on_i) & index.cone_ok(j[:, None], on_j)
+        keep = index.cone_ok(np.full(on_i.shape, i), on_i) | index.cone_ok(j[:, None], on_j)
         keep[:, 2:] &= inner[:, None]
         keep &= (d >= 1e-12)[:, None]
         for row in np.flatnonzero(keep.any(axis=1)).tolist():
@@ -427,27 +427,20 @@ def shortest_path(
     pos: dict = {"S": s}
     arcs_on: dict[int, list[tuple[float, object]]] = {i: [] for i in range(len(centres))}
     edges_geom: dict = {}
-    on_circle: dict = {}  # tangent point -> (circle, angle)
 
     def add_tangent_node(ci: int, a: float) -> object | None:
-        """The key of the free tangent point ``a`` of circle ``ci`` (None if not free); it joins
-        the graph, and its circle's arcs, with its first segment."""
         node = chk.tangent_node(ci, a)
         if node is None:
             return None
         p, key = node
         if key not in pos:
             pos[key] = p
-            on_circle[key] = (ci, math.remainder(a, 2 * math.pi))
+            arcs_on[ci].append((math.remainder(a, 2 * math.pi), key))
         return key
 
     def add_segment(u: object, v: object) -> None:
         a, b = pos[u], pos[v]
         if u != v and chk.segment_ok(a, b):
-            for k in (u, v):
-                if k in on_circle and k not in graph:
-                    ci, a_k = on_circle[k]
-                    arcs_on[ci].append((a_k, k))
             graph.add_edge(u, v, weight=float(np.hypot(*(b - a))))
             edges_geom[frozenset((u, v))] = ("seg",)
 
@@ -511,16 +504,15 @@ def shortest_path(
                     add_segment(k, t)
     for i, j, pairs in chk.bitangent_pairs():
         for a1, a2 in pairs:
-            k1 = add_tangent_node(i, a1)
-            k2 = add_tangent_node(j, a2) if k1 is not None else None
-            if k2 is not None:
+            k1, k2 = add_tangent_node(i, a1), add_tangent_node(j, a2)
+            if k1 is not None and k2 is not None:
                 add_segment(k1, k2)
     # arcs between neighbouring nodes on each circle
     for ci, nodes in arcs_on.items():
         nodes.sort(key=lambda t: t[0])
         m = len(nodes)
         arcs = []
-        for idx in range(m if m > 1 else 0):  # two nodes: both ways round
+        for idx in range(m if m > 2 else m - 1):
             (a0, u), (a1, v) = nodes[idx], nodes[(idx + 1) % m]
             if idx == m - 1:
                 a1 += 2 * math.pi
