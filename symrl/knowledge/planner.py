@@ -28,7 +28,10 @@ from dataclasses import dataclass, field
 
 import networkx as nx
 import numpy as np
+import shapely
 
+from symrl.knowledge.wall_index import CONE_LIMIT as _CONE_LIMIT
+from symrl.knowledge.wall_index import WallIndex
 from symrl.world import WorldMap
 from symrl.world.geometry import Walls
 
@@ -126,6 +129,10 @@ class _Checker:
         self.world = world
         self.walls = Walls(world.segments)
         self.r = r
+        self.index = WallIndex(self.walls, r)
+        self._cones = self.index.cone_lists()
+        self._free = world.free_polygon
+        shapely.prepare(self._free)
         self._points: dict[tuple[float, float, float], bool] = {}
         self._segments: dict[tuple[float, ...], bool] = {}
         self._arcs: dict[tuple[float, ...], bool] = {}
@@ -141,7 +148,7 @@ class _Checker:
         if (ci, a) in self._nodes:
             return self._nodes[(ci, a)]
         p = _on_circle(self.walls.vertices[ci], self.r, a)
-        ok = self.point_ok(p, tol=1e-7)
+        ok = self.cone_ok(ci, a) and self.point_ok(p, tol=1e-7)
         entry = (p, ("C", ci, round(math.remainder(a, 2 * math.pi), 12))) if ok else None
         self._nodes[(ci, a)] = entry
         return entry
@@ -157,15 +164,69 @@ class _Checker:
     def bitangent_pairs(self) -> list[tuple[int, int, list[tuple[float, float]]]]:
         """:func:`_bitangents` of every pair of vertex circles (they do not depend on the start)."""
         if self._pairs is None:
-            c = self.walls.vertices
-            self._pairs = [(i, j, _bitangents(c[i], c[j], self.r))
-                           for i in range(len(c)) for j in range(i + 1, len(c))]  # fmt: skip
+            self._pairs = _bitangent_candidates(self)
         return self._pairs
+
+    def cone_ok(self, ci: int, a: float) -> bool:
+        """:meth:`WallIndex.cone_ok` of one point (no numpy: asked for every tangent)."""
+        dirs = self._cones[ci]
+        if not dirs:
+            return True
+        ca, sa = math.cos(a), math.sin(a)
+        return all(ux * ca + uy * sa <= _CONE_LIMIT for ux, uy in dirs)
+
+    def prefetch_nodes(self, requests: list[tuple[int, float]]) -> None:
+        """Answer :meth:`tangent_node` for many ``(vertex, angle)`` at once (one STRtree query)."""
+        todo = []
+        for ci, a in dict.fromkeys(requests):
+            if (ci, a) in self._nodes:
+                continue
+            if not self.cone_ok(ci, a):
+                self._nodes[(ci, a)] = None
+                continue
+            todo.append((ci, a, _on_circle(self.walls.vertices[ci], self.r, a)))
+        if not todo:
+            return
+        pts = np.array([p for _, _, p in todo])
+        ok = self.world.contains_xy(pts[:, 0], pts[:, 1]) & (
+            self.index.points_clearance_closest(pts) >= self.r - 1e-7)
+        for (ci, a, p), free in zip(todo, ok.tolist(), strict=True):
+            self._points[(float(p[0]), float(p[1]), 1e-7)] = free
+            key = ("C", ci, round(math.remainder(a, 2 * math.pi), 12))
+            self._nodes[(ci, a)] = (p, key) if free else None
+
+    def prefetch_points(self, pts: list[np.ndarray], tol: float) -> None:
+        """Answer :meth:`point_ok` for many points at once."""
+        keys = [(float(p[0]), float(p[1]), tol) for p in pts]
+        todo = [k for k in dict.fromkeys(keys) if k not in self._points]
+        if not todo:
+            return
+        xy = np.array([k[:2] for k in todo])
+        ok = self.world.contains_xy(xy[:, 0], xy[:, 1]) & (
+            self.index.points_clearance_closest(xy) >= self.r - tol)
+        self._points.update(zip(todo, ok.tolist(), strict=True))
+
+    def prefetch_segments(self, ends: list[tuple[np.ndarray, np.ndarray]],
+                          tol: float = 1e-7) -> None:  # fmt: skip
+        """Answer :meth:`segment_ok` for many segments at once."""
+        keys = [(float(a[0]), float(a[1]), float(b[0]), float(b[1]), tol) for a, b in ends]
+        todo = [k for k in dict.fromkeys(keys) if k not in self._segments]
+        if not todo:
+            return
+        seg = np.array([k[:4] for k in todo])
+        # a segment not inside the free area's interior touches a wall: screened out first
+        # (GEOS's prepared polygon, much cheaper than the distances of a long segment)
+        ok = shapely.contains_properly(self._free, shapely.linestrings(seg.reshape(-1, 2, 2)))
+        rest = np.flatnonzero(ok)
+        mid = 0.5 * (seg[rest, :2] + seg[rest, 2:])
+        ok[rest] = self.world.contains_xy(mid[:, 0], mid[:, 1]) & ~self.index.swept_contacts(
+            seg[rest], self.r - tol)
+        self._segments.update(zip(todo, ok.tolist(), strict=True))
 
     def points_ok(self, pts: np.ndarray, tol: float = _EPS) -> np.ndarray:
         """:meth:`point_ok` of many points ``(n, 2)`` at once."""
         inside = self.world.contains_xy(pts[:, 0], pts[:, 1])
-        return inside & (self.walls.clearance(pts) >= self.r - tol)
+        return inside & (self.index.points_clearance(pts) >= self.r - tol)
 
     def point_ok(self, p: np.ndarray, tol: float = _EPS) -> bool:
         x, y = float(p[0]), float(p[1])
@@ -174,8 +235,8 @@ class _Checker:
         if ok is None:
             # the scalar query: the same clearance bit for bit as Walls.clearance (negated
             # differences, exact), without its array overhead (the planner asks hundreds of times)
-            ok = bool(self.world.contains_xy(x, y)) and (
-                self.walls.point_clearance(x, y) >= self.r - tol)
+            ok = bool(self.world.contains_xy(x, y)) and self.index.point_clearance_ge(
+                x, y, self.r - tol)
             self._points[key] = ok
         return ok
 
@@ -185,19 +246,29 @@ class _Checker:
         if ok is None:
             mid = 0.5 * (a + b)
             ok = bool(self.world.contains_xy(mid[0], mid[1])) and not (
-                self.walls.swept_disc_contact(a[0], a[1], b[0], b[1], self.r - tol))
+                self.index.swept_disc_contact(float(a[0]), float(a[1]), float(b[0]),
+                                              float(b[1]), self.r - tol))  # fmt: skip
             self._segments[key] = ok
         return ok
 
-    def arc_ok(self, c: np.ndarray, a0: float, a1: float, tol: float = 1e-7) -> bool:
-        key = (float(c[0]), float(c[1]), a0, a1, tol)
-        ok = self._arcs.get(key)
-        if ok is None:
-            n = max(2, int(math.ceil(self.r * abs(a1 - a0) / _ARC_CHECK)) + 1)
-            ang = np.linspace(a0, a1, n)
+    def arcs_ok(self, ci: int, spans: list[tuple[float, float]], tol: float = 1e-7) -> list[bool]:
+        """Is each arc ``(a0, a1)`` of vertex ``ci``'s circle free? Points ~5 mm apart checked,
+        all arcs of the circle at once (remembered)."""
+        c = self.walls.vertices[ci]
+        keys = [(float(c[0]), float(c[1]), a0, a1, tol) for a0, a1 in spans]
+        todo = [k for k in dict.fromkeys(keys) if k not in self._arcs]
+        if todo:
+            angs = [np.linspace(k[2], k[3], max(2, int(math.ceil(self.r * abs(k[3] - k[2])
+                                                                  / _ARC_CHECK)) + 1))
+                    for k in todo]  # fmt: skip
+            ang = np.concatenate(angs)
             pts = c + self.r * np.stack([np.cos(ang), np.sin(ang)], axis=1)
-            ok = self._arcs[key] = bool(np.all(self.points_ok(pts, tol)))
-        return ok
+            ok = self.world.contains_xy(pts[:, 0], pts[:, 1]) & (
+                self.index.circle_clearance(ci, pts) >= self.r - tol)
+            starts = np.cumsum([0] + [len(a) for a in angs[:-1]])
+            for k, all_ok in zip(todo, np.logical_and.reduceat(ok, starts).tolist(), strict=True):
+                self._arcs[k] = bool(all_ok)
+        return [self._arcs[k] for k in keys]
 
     def rim_targets(self, g: np.ndarray, rg: float) -> list[np.ndarray]:
         """:func:`_rim_targets` of the goal disc (g, rg), remembered (copies: the caller's)."""
@@ -205,6 +276,81 @@ class _Checker:
         if key not in self._rims:
             self._rims[key] = _rim_targets(self, g, rg)
         return [p.copy() for p in self._rims[key]]
+
+
+def _bitangent_candidates(chk: _Checker) -> list[tuple[int, int, list[tuple[float, float]]]]:
+    """:func:`_bitangents` of every pair of vertex circles, less the tangents whose two ends both
+    fail the cone test (their nodes would both be refused): the pairs are screened with numpy,
+    row by row, and only the survivors are computed exactly (the same floats as before)."""
+    c = chk.walls.vertices
+    r = chk.r
+    index = chk.index
+    out = []
+    for i in range(len(c) - 1):
+        j = np.arange(i + 1, len(c))
+        v = c[j] - c[i]
+        d = np.hypot(v[:, 0], v[:, 1])
+        base = np.arctan2(v[:, 1], v[:, 0])
+        inner = d > 2 * r
+        off = np.arccos(np.minimum(1.0, 2 * r / np.maximum(d, 1e-300)))
+        half = math.pi / 2
+        on_i = np.stack([base + half, base - half, base + off, base - off], axis=1)
+        on_j = np.stack([base + half, base - half, base + off + math.pi, base - off + math.pi],
+                        axis=1)  # fmt: skip
+        keep = index.cone_ok(np.full(on_i.shape, i), on_i) | index.cone_ok(j[:, None], on_j)
+        keep[:, 2:] &= inner[:, None]
+        keep &= (d >= 1e-12)[:, None]
+        for row in np.flatnonzero(keep.any(axis=1)).tolist():
+            jj = i + 1 + row
+            pairs = _bitangents(c[i], c[jj], r)
+            mask = keep[row].tolist()
+            if len(pairs) == 2 + 2 * bool(inner[row]):
+                pairs = [p for p, k in zip(pairs, mask, strict=False) if k]
+            out.append((i, jj, pairs))
+    chk.prefetch_nodes([(i, a1) for i, _, pairs in out for a1, _ in pairs]
+                       + [(j, a2) for _, j, pairs in out for _, a2 in pairs])  # fmt: skip
+    ends = []
+    for k, m, pairs in out:
+        for a1, a2 in pairs:
+            n1, n2 = chk._nodes[(k, a1)], chk._nodes[(m, a2)]
+            if n1 is not None and n2 is not None:
+                ends.append((n1[0], n2[0]))
+    chk.prefetch_segments(ends)
+    return out
+
+
+def _target_circles(chk: _Checker, q: np.ndarray, first: int) -> np.ndarray:
+    """Circles from ``first`` on that the target ``q`` may lie on or have a free tangent point on
+    (the others would refuse every tangent node: :meth:`_Checker.cone_ok`)."""
+    c = chk.walls.vertices[first:]
+    v = q - c
+    d = np.hypot(v[:, 0], v[:, 1])
+    on = np.abs(d - chk.r) < 1e-6 + 1e-9
+    base = np.arctan2(v[:, 1], v[:, 0])
+    off = np.arccos(np.minimum(1.0, chk.r / np.maximum(d, 1e-300)))
+    idx = np.arange(first, len(chk.walls.vertices))
+    cone = chk.index.cone_ok(idx, base + off) | chk.index.cone_ok(idx, base - off)
+    return idx[on | (cone & (d >= chk.r - 1e-12 - 1e-9))]
+
+
+def _prefetch_start_and_goal(chk: _Checker, s: np.ndarray, g: np.ndarray, rg: float) -> None:
+    """Ask the checks of the start's and the goal centre's tangents in batches."""
+    centres = chk.walls.vertices
+    s_req = [(ci, a) for ci, c in enumerate(centres) for a in _point_tangents(s, c, chk.r)]
+    g_req = [(ci, a) for ci in range(len(centres)) for a in chk.point_tangents(g, ci)]
+    chk.prefetch_nodes(s_req + g_req)
+    nodes = chk._nodes
+    ends = [(s, n[0]) for q in s_req if (n := nodes[q]) is not None]
+    legs = []
+    for q in g_req:
+        if (n := nodes[q]) is not None:
+            p = n[0]
+            d = float(np.hypot(*(g - p)))
+            if d > rg:
+                legs.append((p, g + (p - g) * (rg / d)))
+    chk.prefetch_points([q for _, q in legs], 1e-7)
+    ends += [(p, q) for p, q in legs if chk._points[(float(q[0]), float(q[1]), 1e-7)]]
+    chk.prefetch_segments(ends)
 
 
 _CHECKERS: dict[int, tuple[weakref.ref, dict[float, _Checker]]] = {}
@@ -298,13 +444,25 @@ def shortest_path(
             graph.add_edge(u, v, weight=float(np.hypot(*(b - a))))
             edges_geom[frozenset((u, v))] = ("seg",)
 
-    # targets: rim points where the rim meets the grown walls, and the rim cut of every leg
-    # that points at the goal centre (from the start, and from tangents of the goal centre)
     targets: list[tuple[str, int]] = []
-    for rim_point in chk.rim_targets(g, rg):
+    # the circles each target may have a tangent or lie on, by circle (a target made at
+    # circle ci is tried on circles ci, ci + 1, ...), with their checks asked in batches
+    near_targets: dict[int, list[tuple[str, int]]] = {i: [] for i in range(len(centres))}
+    current = [0]
+
+    def new_target(q: np.ndarray) -> tuple[str, int]:
         key = ("T", len(targets))
-        pos[key] = rim_point
+        pos[key] = q
         targets.append(key)
+        first = current[0]
+        circles = _target_circles(chk, q, first)
+        for ci in circles.tolist():
+            near_targets[ci].append(key)
+        requests = [(ci, a) for ci in circles.tolist() for a in chk.point_tangents(q, ci)]
+        chk.prefetch_nodes(requests)
+        ends = [(node[0], q) for node in (chk._nodes[req] for req in requests) if node is not None]
+        chk.prefetch_segments(ends)
+        return key
 
     def add_leg_to_centre(u: object) -> None:
         p = pos[u]
@@ -314,15 +472,18 @@ def shortest_path(
         q = g + (p - g) * (rg / d)
         if not chk.point_ok(q, tol=1e-7):
             return
-        key = ("T", len(targets))
-        pos[key] = q
-        targets.append(key)
-        add_segment(u, key)
+        add_segment(u, new_target(q))
 
+    # targets: rim points where the rim meets the grown walls, and the rim cut of every leg
+    # that points at the goal centre (from the start, and from tangents of the goal centre)
+    for rim_point in chk.rim_targets(g, rg):
+        new_target(rim_point)
     add_leg_to_centre("S")
     for t in list(targets):
         add_segment("S", t)
+    _prefetch_start_and_goal(chk, s, g, rg)
     for ci, c in enumerate(centres):
+        current[0] = ci
         for a in _point_tangents(s, c, r):
             k = add_tangent_node(ci, a)
             if k is not None:
@@ -331,7 +492,7 @@ def shortest_path(
             k = add_tangent_node(ci, a)
             if k is not None:
                 add_leg_to_centre(k)
-        for t in targets:
+        for t in near_targets[ci]:
             tp = pos[t]
             if abs(float(np.hypot(*(tp - c))) - r) < 1e-6:  # the target lies on this circle
                 a = math.atan2(tp[1] - c[1], tp[0] - c[0])
@@ -350,13 +511,19 @@ def shortest_path(
     for ci, nodes in arcs_on.items():
         nodes.sort(key=lambda t: t[0])
         m = len(nodes)
+        arcs = []
         for idx in range(m if m > 2 else m - 1):
             (a0, u), (a1, v) = nodes[idx], nodes[(idx + 1) % m]
             if idx == m - 1:
                 a1 += 2 * math.pi
             if u == v or a1 - a0 < 1e-12:
                 continue
-            if chk.arc_ok(centres[ci], a0, a1):
+            arcs.append((a0, a1, u, v))
+        if not arcs:
+            continue
+        free = chk.arcs_ok(ci, [(a0, a1) for a0, a1, _, _ in arcs])
+        for (a0, a1, u, v), ok in zip(arcs, free, strict=True):
+            if ok:
                 w = r * (a1 - a0)
                 if not graph.has_edge(u, v) or graph[u][v]["weight"] > w:
                     graph.add_edge(u, v, weight=w)
