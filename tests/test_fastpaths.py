@@ -109,8 +109,9 @@ def test_file_writer_is_the_writers_own(tmp_path):
 # a private name reached on anything but the module itself (``td._tensordict``,
 # ``TensorDict._new_unsafe``, ``transform._step``, ``experiment._get_file_writer()``...)
 _LIBRARY_PRIVATE = re.compile(
-    r"\b(?!self\b|cls\b|super\(\)|os\b)[A-Za-z_][A-Za-z0-9_]*(?:\(\))?\._[a-z][a-z0-9_]*"
-)
+    r"\b(?!self\b|cls\b|super\(\)|os\b)[A-Za-z_][A-Za-z0-9_]*(?:\(\))?"
+    r"\._(?!asdict\b|replace\b|fields\b)[a-z][a-z0-9_]*"
+)  # a named tuple's _asdict / _replace / _fields are its public API
 
 
 def _sources() -> list[Path]:

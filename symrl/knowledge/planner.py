@@ -133,11 +133,11 @@ class _Checker:
         self._cones = self.index.cone_lists()
         self._free = world.free_polygon
         shapely.prepare(self._free)
-        self._points: dict[tuple[float, float, float], bool] = {}
+        self.points_cache: dict[tuple[float, float, float], bool] = {}
         self._segments: dict[tuple[float, ...], bool] = {}
         self._arcs: dict[tuple[float, ...], bool] = {}
         self._rims: dict[tuple[float, float, float], list[np.ndarray]] = {}
-        self._nodes: dict[tuple[int, float], tuple[np.ndarray, object] | None] = {}
+        self.nodes_cache: dict[tuple[int, float], tuple[np.ndarray, object] | None] = {}
         self._tangents: dict[tuple[float, float, int], list[float]] = {}
         self._pairs: list[tuple[int, int, list[tuple[float, float]]]] | None = None
 
@@ -145,12 +145,12 @@ class _Checker:
         """The point at angle ``a`` on vertex ``ci``'s circle and its graph key, or None if it
         is not free; remembered (a re-plan from a new start meets the same circle-to-circle
         tangent points: their positions and checks were two thirds of a plan)."""
-        if (ci, a) in self._nodes:
-            return self._nodes[(ci, a)]
+        if (ci, a) in self.nodes_cache:
+            return self.nodes_cache[(ci, a)]
         p = _on_circle(self.walls.vertices[ci], self.r, a)
         ok = self.cone_ok(ci, a) and self.point_ok(p, tol=1e-7)
         entry = (p, ("C", ci, round(math.remainder(a, 2 * math.pi), 12))) if ok else None
-        self._nodes[(ci, a)] = entry
+        self.nodes_cache[(ci, a)] = entry
         return entry
 
     def point_tangents(self, p: np.ndarray, ci: int) -> list[float]:
@@ -179,10 +179,10 @@ class _Checker:
         """Answer :meth:`tangent_node` for many ``(vertex, angle)`` at once (one STRtree query)."""
         todo = []
         for ci, a in dict.fromkeys(requests):
-            if (ci, a) in self._nodes:
+            if (ci, a) in self.nodes_cache:
                 continue
             if not self.cone_ok(ci, a):
-                self._nodes[(ci, a)] = None
+                self.nodes_cache[(ci, a)] = None
                 continue
             todo.append((ci, a, _on_circle(self.walls.vertices[ci], self.r, a)))
         if not todo:
@@ -191,20 +191,20 @@ class _Checker:
         ok = self.world.contains_xy(pts[:, 0], pts[:, 1]) & (
             self.index.points_clearance_closest(pts) >= self.r - 1e-7)
         for (ci, a, p), free in zip(todo, ok.tolist(), strict=True):
-            self._points[(float(p[0]), float(p[1]), 1e-7)] = free
+            self.points_cache[(float(p[0]), float(p[1]), 1e-7)] = free
             key = ("C", ci, round(math.remainder(a, 2 * math.pi), 12))
-            self._nodes[(ci, a)] = (p, key) if free else None
+            self.nodes_cache[(ci, a)] = (p, key) if free else None
 
     def prefetch_points(self, pts: list[np.ndarray], tol: float) -> None:
         """Answer :meth:`point_ok` for many points at once."""
         keys = [(float(p[0]), float(p[1]), tol) for p in pts]
-        todo = [k for k in dict.fromkeys(keys) if k not in self._points]
+        todo = [k for k in dict.fromkeys(keys) if k not in self.points_cache]
         if not todo:
             return
         xy = np.array([k[:2] for k in todo])
         ok = self.world.contains_xy(xy[:, 0], xy[:, 1]) & (
             self.index.points_clearance_closest(xy) >= self.r - tol)
-        self._points.update(zip(todo, ok.tolist(), strict=True))
+        self.points_cache.update(zip(todo, ok.tolist(), strict=True))
 
     def prefetch_segments(self, ends: list[tuple[np.ndarray, np.ndarray]],
                           tol: float = 1e-7) -> None:  # fmt: skip
@@ -231,13 +231,13 @@ class _Checker:
     def point_ok(self, p: np.ndarray, tol: float = _EPS) -> bool:
         x, y = float(p[0]), float(p[1])
         key = (x, y, tol)
-        ok = self._points.get(key)
+        ok = self.points_cache.get(key)
         if ok is None:
             # the scalar query: the same clearance bit for bit as Walls.clearance (negated
             # differences, exact), without its array overhead (the planner asks hundreds of times)
             ok = bool(self.world.contains_xy(x, y)) and self.index.point_clearance_ge(
                 x, y, self.r - tol)
-            self._points[key] = ok
+            self.points_cache[key] = ok
         return ok
 
     def segment_ok(self, a: np.ndarray, b: np.ndarray, tol: float = 1e-7) -> bool:
@@ -312,7 +312,7 @@ def _bitangent_candidates(chk: _Checker) -> list[tuple[int, int, list[tuple[floa
     ends = []
     for k, m, pairs in out:
         for a1, a2 in pairs:
-            n1, n2 = chk._nodes[(k, a1)], chk._nodes[(m, a2)]
+            n1, n2 = chk.nodes_cache[(k, a1)], chk.nodes_cache[(m, a2)]
             if n1 is not None and n2 is not None:
                 ends.append((n1[0], n2[0]))
     chk.prefetch_segments(ends)
@@ -339,7 +339,7 @@ def _prefetch_start_and_goal(chk: _Checker, s: np.ndarray, g: np.ndarray, rg: fl
     s_req = [(ci, a) for ci, c in enumerate(centres) for a in _point_tangents(s, c, chk.r)]
     g_req = [(ci, a) for ci in range(len(centres)) for a in chk.point_tangents(g, ci)]
     chk.prefetch_nodes(s_req + g_req)
-    nodes = chk._nodes
+    nodes = chk.nodes_cache
     ends = [(s, n[0]) for q in s_req if (n := nodes[q]) is not None]
     legs = []
     for q in g_req:
@@ -349,7 +349,7 @@ def _prefetch_start_and_goal(chk: _Checker, s: np.ndarray, g: np.ndarray, rg: fl
             if d > rg:
                 legs.append((p, g + (p - g) * (rg / d)))
     chk.prefetch_points([q for _, q in legs], 1e-7)
-    ends += [(p, q) for p, q in legs if chk._points[(float(q[0]), float(q[1]), 1e-7)]]
+    ends += [(p, q) for p, q in legs if chk.points_cache[(float(q[0]), float(q[1]), 1e-7)]]
     chk.prefetch_segments(ends)
 
 
@@ -460,7 +460,8 @@ def shortest_path(
             near_targets[ci].append(key)
         requests = [(ci, a) for ci in circles.tolist() for a in chk.point_tangents(q, ci)]
         chk.prefetch_nodes(requests)
-        ends = [(node[0], q) for node in (chk._nodes[req] for req in requests) if node is not None]
+        nodes = (chk.nodes_cache[req] for req in requests)
+        ends = [(node[0], q) for node in nodes if node is not None]
         chk.prefetch_segments(ends)
         return key
 

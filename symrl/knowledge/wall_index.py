@@ -71,7 +71,7 @@ class WallIndex:
         w = self.walls
         wx = w.ax[idx] - x
         wy = w.ay[idx] - y
-        s = (wx * w.dx[idx] + wy * w.dy[idx]) * w._neg_inv_len2[idx]
+        s = (wx * w.dx[idx] + wy * w.dy[idx]) * w.neg_inv_len2[idx]
         s = np.minimum(np.maximum(s, 0.0), 1.0)
         ex = wx + s * w.dx[idx]
         ey = wy + s * w.dy[idx]
@@ -101,7 +101,7 @@ class WallIndex:
         w = self.walls
         wx = w.ax[wi] - pts[pi, 0]
         wy = w.ay[wi] - pts[pi, 1]
-        s = (wx * w.dx[wi] + wy * w.dy[wi]) * w._neg_inv_len2[wi]
+        s = (wx * w.dx[wi] + wy * w.dy[wi]) * w.neg_inv_len2[wi]
         s = np.minimum(np.maximum(s, 0.0), 1.0)
         ex = wx + s * w.dx[wi]
         ey = wy + s * w.dy[wi]
@@ -118,7 +118,7 @@ class WallIndex:
         li, wi = self.tree.query(lines, predicate="dwithin", distance=radius + _PAD)
         w = self.walls
         ax, ay, bx, by = w.ax[wi], w.ay[wi], w.bx[wi], w.by[wi]
-        dx, dy, nil = w.dx[wi], w.dy[wi], w._neg_inv_len2[wi]
+        dx, dy, nil = w.dx[wi], w.dy[wi], w.neg_inv_len2[wi]
         px0, py0, px1, py1 = x0[li], y0[li], x1[li], y1[li]
 
         def clear(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -185,7 +185,7 @@ class WallIndex:
             return False
         w = self.walls
         ax, ay, bx, by = w.ax[idx], w.ay[idx], w.bx[idx], w.by[idx]
-        dx, dy, nil = w.dx[idx], w.dy[idx], w._neg_inv_len2[idx]
+        dx, dy, nil = w.dx[idx], w.dy[idx], w.neg_inv_len2[idx]
 
         def clear(x: float, y: float) -> float:
             wx = ax - x

@@ -51,7 +51,7 @@ class Walls:
             bad = int(np.argmax(len2 <= 0.0))
             raise ValueError(f"Walls: segment {bad} {seg[bad].tolist()} has zero length")
         self.inv_len2 = 1.0 / len2
-        self._neg_inv_len2 = -self.inv_len2
+        self.neg_inv_len2 = -self.inv_len2
         n = seg.shape[0]
         self._n = n
         # ray casting: for a ray p + t*u and a wall a + s*d, with w = a - p and x the 2-D cross
@@ -118,7 +118,7 @@ class Walls:
         point's clearance; pass the result to :meth:`scan` to reuse it."""
         wx = self.ax - x
         wy = self.ay - y
-        s = (wx * self.dx + wy * self.dy) * self._neg_inv_len2
+        s = (wx * self.dx + wy * self.dy) * self.neg_inv_len2
         s = np.minimum(np.maximum(s, 0.0), 1.0)
         ex = wx + s * self.dx
         ey = wy + s * self.dy
@@ -213,7 +213,7 @@ class Walls:
             return ex1[None], ey1[None], np.array([c])
         wx = self.ax - x[:, None]
         wy = self.ay - y[:, None]
-        s = (wx * self.dx + wy * self.dy) * self._neg_inv_len2
+        s = (wx * self.dx + wy * self.dy) * self.neg_inv_len2
         s = np.minimum(np.maximum(s, 0.0), 1.0)
         ex = wx + s * self.dx
         ey = wy + s * self.dy

@@ -75,9 +75,9 @@ def test_plans_on_one_map_reuse_its_checks_and_give_the_same_plan_as_a_fresh_map
     shortest_path(world)
     radius, ir_distance, _ = planner.robot_clearances()
     chk = planner._checker(world, float(radius + ir_distance))
-    asked = len(chk._points)
+    asked = len(chk.points_cache)
     second = shortest_path(world, start=(1.0, 1.5))
-    new = len(chk._points) - asked
+    new = len(chk.points_cache) - asked
     assert 0 < new < asked / 2  # the start's own tangents only: the rest is remembered
     fresh = shortest_path(load_map("hailu2001"), start=(1.0, 1.5))
     assert second.length == fresh.length

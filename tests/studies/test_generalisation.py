@@ -134,5 +134,5 @@ def test_greedy_trials_count_their_steps_on_a_bar_and_drive_the_same_without_it(
     shown = evaluate_states(config, world, [state, state], starts, [5, 6], progress="greedy")
     err = capsys.readouterr().err
     assert shown == quiet
-    counts = [int(n) for n in re.findall(r"greedy: (\d+)step", err)]
-    assert counts and 0 < max(counts) <= max(r["steps"] for r in quiet)
+    counts = [int(n) for n in re.findall(r"greedy: (\d+)step", err)]  # refreshed ~10 per s
+    assert counts and max(counts) <= max(r["steps"] for r in quiet)
