@@ -38,8 +38,10 @@ def module_at(rev: str):
     """``symrl.world.autoregions`` as it is at git revision ``rev``."""
     source = subprocess.run(
         ["git", "show", f"{rev}:symrl/world/autoregions.py"],
-        check=True, capture_output=True, text=True,
-    ).stdout  # fmt: skip
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
     path = Path(tempfile.mkdtemp()) / "autoregions_base.py"
     path.write_text(source)
     spec = importlib.util.spec_from_file_location("autoregions_base", path)

@@ -90,12 +90,19 @@ def sac_update_floor(
     torch.manual_seed(0)
     x, w = torch.randn(hidden, hidden), torch.randn(hidden, hidden)
     agent = SACAgent(SACConfig(hidden=hidden, batch_size=batch), n_obs, 1)
-    td = TensorDict({
-        "observation": torch.randn(batch, n_obs), "control": torch.rand(batch, 1) * 2 - 1,
-        "next": {"observation": torch.randn(batch, n_obs), "reward": torch.randn(batch, 1),
-                 "done": torch.zeros(batch, 1, dtype=torch.bool),
-                 "terminated": torch.zeros(batch, 1, dtype=torch.bool)},
-    }, [batch])  # fmt: skip
+    td = TensorDict(
+        {
+            "observation": torch.randn(batch, n_obs),
+            "control": torch.rand(batch, 1) * 2 - 1,
+            "next": {
+                "observation": torch.randn(batch, n_obs),
+                "reward": torch.randn(batch, 1),
+                "done": torch.zeros(batch, 1, dtype=torch.bool),
+                "terminated": torch.zeros(batch, 1, dtype=torch.bool),
+            },
+        },
+        [batch],
+    )
 
     def step() -> None:
         out = agent.loss(td)

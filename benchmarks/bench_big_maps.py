@@ -70,8 +70,9 @@ def steps_per_second(env: Any, n: int) -> float:
     obs, _ = env.reset(seed=0)
     t0 = time.process_time()
     for k in range(n):
-        obs, _, terminated, truncated, _ = env.step(np.array([obs["goal"][1] + jitter[k]],
-                                                             np.float32))  # fmt: skip
+        obs, _, terminated, truncated, _ = env.step(
+            np.array([obs["goal"][1] + jitter[k]], np.float32)
+        )
         if terminated or truncated:
             obs, _ = env.reset()
     return n / (time.process_time() - t0)
@@ -84,9 +85,12 @@ def worlds() -> list[dict]:
         hall = pillar_hall(k) | {"regions": ONE_REGION}
         out.append({"name": f"pillar hall {k}x{k}", "doc": hall})
     for w, h, clutter in ((30, 50, 2), (30, 50, 12), (60, 100, 12), (60, 100, 30), (90, 150, 30)):
-        out.append({"name": f"office {w}x{h} m, {clutter} desks/room",
-                    "doc": office_floor(w, h, clutter, start=(4.0, 12.0),
-                                        goal=(0.87 * w, 38.5))})  # fmt: skip
+        out.append(
+            {
+                "name": f"office {w}x{h} m, {clutter} desks/room",
+                "doc": office_floor(w, h, clutter, start=(4.0, 12.0), goal=(0.87 * w, 38.5)),
+            }
+        )
     return out
 
 
@@ -109,16 +113,25 @@ def main() -> None:
         # best beside it is the ratio's base (the machine is shared: the load drifts)
         if base is None:
             base = env.unwrapped
-        pairs = [(steps_per_second(env.unwrapped, args.steps),
-                  steps_per_second(base, args.steps)) for _ in range(args.repeats)]  # fmt: skip
+        pairs = [
+            (steps_per_second(env.unwrapped, args.steps), steps_per_second(base, args.steps))
+            for _ in range(args.repeats)
+        ]
         sps, paper_sps = max(p[0] for p in pairs), max(p[1] for p in pairs)
         world = env.unwrapped.world
         plan, plan_s = None, None
         if corners <= MAX_PLAN_CORNERS:  # beyond, `symrl plan` refuses the map
             plan, plan_s = limited(lambda w=world: shortest_path(w), 90)
-        row = {"world": entry["name"], "corners": corners, "make_s": make_s, "sps": sps,
-               "ratio": sps / paper_sps, "paper_sps": paper_sps, "plan_s": plan_s,
-               "actions": plan.actions if plan else None}  # fmt: skip
+        row = {
+            "world": entry["name"],
+            "corners": corners,
+            "make_s": make_s,
+            "sps": sps,
+            "ratio": sps / paper_sps,
+            "paper_sps": paper_sps,
+            "plan_s": plan_s,
+            "actions": plan.actions if plan else None,
+        }
         if args.regions:
             w = world
             _, row["regions_s"] = limited(
@@ -139,18 +152,22 @@ def _fmt(v: float | None, spec: str) -> str:
 
 
 def _table(rows: list[dict], regions: bool) -> str:
-    head = ("| world | wall corners | walls per cell | `gym.make` (s) | steps / CPU s | x paper's "
-            "| plan (s) | optimum |")
+    head = (
+        "| world | wall corners | walls per cell | `gym.make` (s) | steps / CPU s | x paper's "
+        "| plan (s) | optimum |"
+    )
     line = "|---|---:|---:|---:|---:|---:|---:|---:|"
     if regions:
         head += " regions: auto (s) |"
         line += "---:|"
     out = [head, line]
     for r in rows:
-        text = (f"| {r['world']} | {r['corners']} | {r['cell_walls']:.0f} "
-                f"| {_fmt(r['make_s'], '.2f')} | {r['sps']:,.0f} "
-                f"| {r['ratio']:.2f} | {_fmt(r['plan_s'], '.2f')} | "
-                f"{r['actions'] if r['actions'] is not None else '-'} |")  # fmt: skip
+        text = (
+            f"| {r['world']} | {r['corners']} | {r['cell_walls']:.0f} "
+            f"| {_fmt(r['make_s'], '.2f')} | {r['sps']:,.0f} "
+            f"| {r['ratio']:.2f} | {_fmt(r['plan_s'], '.2f')} | "
+            f"{r['actions'] if r['actions'] is not None else '-'} |"
+        )
         if regions:
             text += f" {_fmt(r.get('regions_s'), '.2f')} |"
         out.append(text)
@@ -168,8 +185,13 @@ def _plot(rows: list[dict], path: Path) -> None:
     fig, (a, b) = plt.subplots(1, 2, figsize=(9, 3.6))
     a.semilogx(corners, [r["sps"] for r in rows], "o-")
     a.set_ylim(bottom=0)
-    a.semilogx(corners, [0.7 * r["paper_sps"] for r in rows], "--", c="gray",
-               label="0.7 x the paper's world, measured beside")  # fmt: skip
+    a.semilogx(
+        corners,
+        [0.7 * r["paper_sps"] for r in rows],
+        "--",
+        c="gray",
+        label="0.7 x the paper's world, measured beside",
+    )
     a.set_xlabel("wall corners")
     a.set_ylabel("env steps per CPU second")
     a.legend()

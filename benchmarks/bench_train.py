@@ -129,11 +129,18 @@ def torchrl_collector_loop(recipe: str, size: int, trials: int) -> tuple[float, 
     learner = _Learner(recipe, size, trials)
     t0 = time.process_time()  # the Collector resets the env when it is built
     collector = Collector(
-        learner.env, learner.policy, frames_per_batch=size, total_frames=-1,
-        exploration_type=ExplorationType.RANDOM, use_buffers=False, return_same_td=True,
-        device="cpu", track_traj_ids=False, trust_policy=True,
+        learner.env,
+        learner.policy,
+        frames_per_batch=size,
+        total_frames=-1,
+        exploration_type=ExplorationType.RANDOM,
+        use_buffers=False,
+        return_same_td=True,
+        device="cpu",
+        track_traj_ids=False,
+        trust_policy=True,
         auto_register_policy_transforms=False,
-    )  # fmt: skip
+    )
     frames = 0
     with torch.inference_mode():
         for batch in collector:
@@ -153,8 +160,7 @@ def step_collector_loop(recipe: str, size: int, trials: int) -> tuple[float, lis
     from symrl.collector import StepCollector
 
     learner = _Learner(recipe, size, trials)
-    collector = StepCollector(learner.env, learner.policy,
-                              exploration_type=ExplorationType.RANDOM)  # fmt: skip
+    collector = StepCollector(learner.env, learner.policy, exploration_type=ExplorationType.RANDOM)
     frames, t0 = 0, time.process_time()
     with torch.inference_mode():
         for batch in collector:
@@ -179,8 +185,12 @@ def train_loop(recipe: str, size: int, trials: int) -> tuple[float, list[list[in
     ]
 
 
-LOOPS = {"bare loop": bare_loop, "TorchRL Collector": torchrl_collector_loop,
-         "StepCollector": step_collector_loop, "train.py loop": train_loop}  # fmt: skip
+LOOPS = {
+    "bare loop": bare_loop,
+    "TorchRL Collector": torchrl_collector_loop,
+    "StepCollector": step_collector_loop,
+    "train.py loop": train_loop,
+}
 
 
 def one_round(recipe: str, sizes: list[int], trials: int, loops: list[str]) -> dict[str, Any]:
@@ -198,14 +208,24 @@ def other_round(checkout: str, recipe: str, sizes: list[int], trials: int) -> di
     """:func:`one_round` of the bare loop and train.py's loop with the ``symrl`` of another
     checkout, in a child process (the child's own warm-up is not counted)."""
     env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve())}
-    args = [sys.executable, __file__, "--recipe", recipe, "--sizes", ",".join(map(str, sizes)),
-            "--trials", str(trials), "--one-round"]  # fmt: skip
+    args = [
+        sys.executable,
+        __file__,
+        "--recipe",
+        recipe,
+        "--sizes",
+        ",".join(map(str, sizes)),
+        "--trials",
+        str(trials),
+        "--one-round",
+    ]
     out = subprocess.run(args, env=env, check=True, capture_output=True, text=True).stdout
     return json.loads(out.splitlines()[-1])
 
 
-def print_table(title: str, rounds: list[dict[str, Any]], sizes: list[int],
-                loops: list[str]) -> None:  # fmt: skip
+def print_table(
+    title: str, rounds: list[dict[str, Any]], sizes: list[int], loops: list[str]
+) -> None:
     """Best rate of each row over the rounds, its ratio to the best raw env, the spread of the
     ratio (each round's rate over that round's raw env) and whether the trials were train.py's."""
     raw = max(r["raw"] for r in rounds)
@@ -219,10 +239,15 @@ def print_table(title: str, rounds: list[dict[str, Any]], sizes: list[int],
             best = max(r[key] for r in rounds)
             ratios = [r[key] / r["raw"] for r in rounds]
             reference = rounds[0].get(f"train.py loop|{size}|steps")
-            same = "" if reference is None else (
-                "yes" if all(r[f"{key}|steps"] == reference for r in rounds) else "NO")
-            print(f"| {name} | {size} | {best:,.0f} | {best / raw:.2f} | "
-                  f"{min(ratios):.2f}-{max(ratios):.2f} | {same} |")
+            same = (
+                ""
+                if reference is None
+                else ("yes" if all(r[f"{key}|steps"] == reference for r in rounds) else "NO")
+            )
+            print(
+                f"| {name} | {size} | {best:,.0f} | {best / raw:.2f} | "
+                f"{min(ratios):.2f}-{max(ratios):.2f} | {same} |"
+            )
 
 
 def main() -> None:
@@ -231,10 +256,15 @@ def main() -> None:
     parser.add_argument("--sizes", default="1,10,100", help="batch sizes of the loops")
     parser.add_argument("--trials", type=int, default=12, help="trials of every robot")
     parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--loops", default=",".join(LOOPS),
-                        help=f"loops to measure, of: {', '.join(LOOPS)}")
-    parser.add_argument("--compare", default=None, metavar="DIR",
-                        help="another checkout of the repository, measured in the same run")
+    parser.add_argument(
+        "--loops", default=",".join(LOOPS), help=f"loops to measure, of: {', '.join(LOOPS)}"
+    )
+    parser.add_argument(
+        "--compare",
+        default=None,
+        metavar="DIR",
+        help="another checkout of the repository, measured in the same run",
+    )
     parser.add_argument("--one-round", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -257,8 +287,10 @@ def main() -> None:
             other.append(other_round(args.compare, args.recipe, sizes, args.trials))
         mine.append(one_round(args.recipe, sizes, args.trials, loops))
     load = ", ".join(f"{v:.2f}" for v in os.getloadavg())
-    how = (f"recipe {args.recipe}, {args.trials} trials a robot; robot-steps per CPU second, "
-           f"best of {args.rounds} rounds; load average {load} (1, 5, 15 min)")  # fmt: skip
+    how = (
+        f"recipe {args.recipe}, {args.trials} trials a robot; robot-steps per CPU second, "
+        f"best of {args.rounds} rounds; load average {load} (1, 5, 15 min)"
+    )
     if args.compare:
         print_table(f"{args.compare}: {how}", other, sizes, ["bare loop", "train.py loop"])
         print()

@@ -17,23 +17,32 @@ from symrl.world.worldmap import MapError, check_plannable, load_map, planning_n
 
 
 def _regions() -> dict:
-    return {"names": ["west", "east"], "lines": {"l": {"x": 0.0}},
-            "rules": [{"region": "west", "when": ["x < l"]}, {"region": "east"}]}  # fmt: skip
+    return {
+        "names": ["west", "east"],
+        "lines": {"l": {"x": 0.0}},
+        "rules": [{"region": "west", "when": ["x < l"]}, {"region": "east"}],
+    }
 
 
 def ring(n: int) -> dict:
     t = np.linspace(0, 2 * math.pi, n, endpoint=False)
-    return {"name": f"ring{n}", "boundary": np.round(np.stack([5 * np.cos(t), 5 * np.sin(t)], 1),
-                                                     6).tolist(),
-            "start": {"x": -2.5, "y": 0.0}, "goal": {"x": 2.5, "y": 0.0, "radius": 0.4},
-            "regions": _regions()}  # fmt: skip
+    return {
+        "name": f"ring{n}",
+        "boundary": np.round(np.stack([5 * np.cos(t), 5 * np.sin(t)], 1), 6).tolist(),
+        "start": {"x": -2.5, "y": 0.0},
+        "goal": {"x": 2.5, "y": 0.0, "radius": 0.4},
+        "regions": _regions(),
+    }
 
 
 def square(half: float) -> dict:
-    return {"name": f"square{half:g}", "boundary": [[-half, -half], [half, -half], [half, half],
-                                                    [-half, half]],
-            "start": {"x": -1.0, "y": 0.0}, "goal": {"x": 1.0, "y": 0.0, "radius": 0.4},
-            "regions": _regions()}  # fmt: skip
+    return {
+        "name": f"square{half:g}",
+        "boundary": [[-half, -half], [half, -half], [half, half], [-half, half]],
+        "start": {"x": -1.0, "y": 0.0},
+        "goal": {"x": 1.0, "y": 0.0, "radius": 0.4},
+        "regions": _regions(),
+    }
 
 
 def main() -> None:

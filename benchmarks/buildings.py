@@ -53,8 +53,11 @@ def office_floor(
     cross = 0.5 * height - 1.0  # south edge of the 2 m cross corridor
     parts = [box(c1, 0, c1 + 2, height), box(c2, 0, c2 + 2, height), box(c1, cross, c2, cross + 2)]
     # rooms: x from, x to, the corridor's edge and the room's edge its door joins
-    columns = [(0.0, c1 - WALL, c1, c1 - WALL), (c1 + 2 + WALL, c2 - WALL, c1 + 2, c1 + 2 + WALL),
-               (c2 + 2 + WALL, width, c2 + 2, c2 + 2 + WALL)]  # fmt: skip
+    columns = [
+        (0.0, c1 - WALL, c1, c1 - WALL),
+        (c1 + 2 + WALL, c2 - WALL, c1 + 2, c1 + 2 + WALL),
+        (c2 + 2 + WALL, width, c2 + 2, c2 + 2 + WALL),
+    ]
     furniture = []
     for x0, x1, corridor_x, room_x in columns:
         y = 0.0
@@ -74,7 +77,8 @@ def office_floor(
                 fy = rng.uniform(y + 0.9, y1 - h - 0.9)
                 piece = box(fx, fy, fx + w, fy + h)
                 clear_of_ends = not piece.buffer(0.8).intersects(Point(start)) and not (
-                    piece.buffer(1.2).intersects(Point(goal)))
+                    piece.buffer(1.2).intersects(Point(goal))
+                )
                 if clear_of_ends and all(piece.distance(f) > 0.8 for f in furniture):
                     furniture.append(piece)
             y = y1
@@ -84,10 +88,22 @@ def office_floor(
     # the floor's own partition (finding it from the walls takes minutes on a floor): the room
     # columns, the two corridors and the cross corridor
     doc["regions"] = {
-        "names": ["west_rooms", "west_hall", "middle_rooms", "cross_hall", "east_hall",
-                  "east_rooms"],
-        "lines": {"a": {"x": c1}, "b": {"x": c1 + 2}, "c": {"x": c2}, "d": {"x": c2 + 2},
-                  "s": {"y": cross}, "n": {"y": cross + 2}},
+        "names": [
+            "west_rooms",
+            "west_hall",
+            "middle_rooms",
+            "cross_hall",
+            "east_hall",
+            "east_rooms",
+        ],
+        "lines": {
+            "a": {"x": c1},
+            "b": {"x": c1 + 2},
+            "c": {"x": c2},
+            "d": {"x": c2 + 2},
+            "s": {"y": cross},
+            "n": {"y": cross + 2},
+        },
         "rules": [
             {"region": "west_rooms", "when": ["x < a"]},
             {"region": "west_hall", "when": ["x < b"]},
@@ -96,7 +112,7 @@ def office_floor(
             {"region": "cross_hall", "when": ["y > s", "y < n"]},
             {"region": "middle_rooms"},
         ],
-    }  # fmt: skip
+    }
     return doc
 
 

@@ -40,9 +40,18 @@ def count(checkout: Path, recipe: str, size: int, trials: int) -> tuple[int, int
     """(instructions, robot-steps) of one ``train_batch`` run of ``checkout``'s code."""
     with tempfile.TemporaryDirectory() as tmp:
         out_file = Path(tmp) / "cachegrind.out"
-        args = ["valgrind", "--tool=cachegrind", "--cache-sim=no",
-                f"--cachegrind-out-file={out_file}", sys.executable, "-c", _CHILD, recipe,
-                str(size), str(trials)]  # fmt: skip
+        args = [
+            "valgrind",
+            "--tool=cachegrind",
+            "--cache-sim=no",
+            f"--cachegrind-out-file={out_file}",
+            sys.executable,
+            "-c",
+            _CHILD,
+            recipe,
+            str(size),
+            str(trials),
+        ]
         # a fixed hash seed: string hashes decide dict and set layouts, and so a little of
         # the work, which would vary from run to run
         env = {**os.environ, "PYTHONPATH": str(checkout.resolve()), "PYTHONHASHSEED": "0"}
@@ -71,8 +80,12 @@ def main() -> None:
     parser.add_argument("--recipe", default="paper_map")
     parser.add_argument("--size", type=int, default=10, help="robots in the batch")
     parser.add_argument("--trials", default="4,16", help="the two runs' trials, few,more")
-    parser.add_argument("--compare", default=None, metavar="DIR",
-                        help="another checkout of the repository, counted the same way")
+    parser.add_argument(
+        "--compare",
+        default=None,
+        metavar="DIR",
+        help="another checkout of the repository, counted the same way",
+    )
     args = parser.parse_args()
     if shutil.which("valgrind") is None:
         sys.exit("count_instructions: valgrind is not on the PATH (e.g. apt install valgrind)")
@@ -84,8 +97,10 @@ def main() -> None:
     if args.compare:
         rows.append((args.compare, Path(args.compare)))
     counts = {name: per_batch_step(path, args.recipe, args.size, few, more) for name, path in rows}
-    print(f"recipe {args.recipe}, B = {args.size}: CPU instructions per batch step "
-          f"(cachegrind; runs of {few} and {more} trials)")  # fmt: skip
+    print(
+        f"recipe {args.recipe}, B = {args.size}: CPU instructions per batch step "
+        f"(cachegrind; runs of {few} and {more} trials)"
+    )
     print("| code | instructions per batch step |")
     print("| --- | ---: |")
     for name, value in counts.items():

@@ -40,10 +40,30 @@ def round_trip(world: WorldMap, folder: Path) -> Path:
 
 def learned_ratio(source: str, optimum: int, sets: int, trials: int, out: Path) -> float:
     """paper_map's mean actions over the last five trials of every set, over the optimum."""
-    subprocess.run([sys.executable, "-m", "symrl", "study", "paper_map", "--map", source,
-                    "--sets", str(sets), "--trials", str(trials), "--seed", "200",
-                    "--workers", "1", "--out", str(out)], check=True,
-                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "symrl",
+            "study",
+            "paper_map",
+            "--map",
+            source,
+            "--sets",
+            str(sets),
+            "--trials",
+            str(trials),
+            "--seed",
+            "200",
+            "--workers",
+            "1",
+            "--out",
+            str(out),
+        ],
+        check=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     rows = list(csv.DictReader((out / "trials.csv").open()))
     key = next(k for k in ("actions", "steps") if k in rows[0])
     last = [float(r[key]) for r in rows if int(r["trial"]) > trials - 5]
@@ -68,8 +88,11 @@ def main() -> None:
             back = load_map(round_trip(world, folder))
             a, b = shortest_path(world).actions, shortest_path(back).actions
             worst = max(worst, abs(a - b))
-            print(f"| `{name}` | {len(world.segments)} | {len(back.segments)} | {a} | {b} "
-                  f"| {b - a:+d} |", flush=True)  # fmt: skip
+            print(
+                f"| `{name}` | {len(world.segments)} | {len(back.segments)} | {a} | {b} "
+                f"| {b - a:+d} |",
+                flush=True,
+            )
         print(f"\nlargest difference: {worst} action(s) over {len(names)} worlds")
         for name in args.learn:
             world = load_map(name)
@@ -80,8 +103,11 @@ def main() -> None:
             back_optimum = shortest_path(load_map(path)).actions
             r0 = learned_ratio(name, optimum, args.sets, args.trials, folder / "polygons")
             r1 = learned_ratio(str(path), back_optimum, args.sets, args.trials, folder / "ros")
-            print(f"paper_map on `{name}`: actions / optimum {r0:.3f} (polygons), {r1:.3f} "
-                  f"(occupancy map), difference {r1 - r0:+.3f}", flush=True)  # fmt: skip
+            print(
+                f"paper_map on `{name}`: actions / optimum {r0:.3f} (polygons), {r1:.3f} "
+                f"(occupancy map), difference {r1 - r0:+.3f}",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

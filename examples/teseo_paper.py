@@ -55,9 +55,11 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--trials", type=int, default=20)
     parser.add_argument(
-        "--max-actions", type=int, default=MAX_ACTIONS,
+        "--max-actions",
+        type=int,
+        default=MAX_ACTIONS,
         help="actions before a trial fails (the CLI's env.max_actions=N)",
-    )  # fmt: skip
+    )
     parser.add_argument("--out", type=Path, default=Path("trials.csv"), help="the trial table")
     return parser.parse_args()
 
@@ -176,10 +178,20 @@ def main() -> None:
     temperature, best_total = T0, -math.inf
 
     columns = [
-        "trial", "steps", "total_reinforcement", "collisions", "shielded", "reached_goal",
-        "neurons", "temperature", "replaced", "improved", "mean_abs_td_error", "path_length",
+        "trial",
+        "steps",
+        "total_reinforcement",
+        "collisions",
+        "shielded",
+        "reached_goal",
+        "neurons",
+        "temperature",
+        "replaced",
+        "improved",
+        "mean_abs_td_error",
+        "path_length",
         *(f"neurons_{n}" for n in perceive.names),
-    ]  # fmt: skip
+    ]
     out = open(args.out, "w", newline="")  # noqa: SIM115 - closed at the end
     table = csv.DictWriter(out, fieldnames=columns)
     table.writeheader()
@@ -274,13 +286,20 @@ def main() -> None:
         # -- logging
         xy = np.array(path)
         row = {
-            "trial": trial, "steps": steps, "total_reinforcement": total,
-            "collisions": collisions, "shielded": 0, "reached_goal": reached,
-            "neurons": sum(len(ex) for ex in experts), "temperature": explored,
-            "replaced": replaced, "improved": improved, "mean_abs_td_error": td_sum / steps,
+            "trial": trial,
+            "steps": steps,
+            "total_reinforcement": total,
+            "collisions": collisions,
+            "shielded": 0,
+            "reached_goal": reached,
+            "neurons": sum(len(ex) for ex in experts),
+            "temperature": explored,
+            "replaced": replaced,
+            "improved": improved,
+            "mean_abs_td_error": td_sum / steps,
             "path_length": float(np.sqrt(np.add.reduce(np.square(xy[1:] - xy[:-1]), 1)).sum()),
             **{f"neurons_{n}": len(ex) for n, ex in zip(perceive.names, experts, strict=True)},
-        }  # fmt: skip
+        }
         table.writerow({k: f"{v:.6g}" if isinstance(v, float) else v for k, v in row.items()})
         out.flush()
         print(

@@ -153,5 +153,7 @@ class StepCollector(BaseCollector):
             self.env.close(raise_if_closed=raise_on_error)
 
     def __repr__(self) -> str:
-        return (f"{type(self).__name__}(env={type(self.env).__name__}, "
-                f"batch={self.frames_per_batch}, frames={self._frames})")  # fmt: skip
+        return (
+            f"{type(self).__name__}(env={type(self.env).__name__}, "
+            f"batch={self.frames_per_batch}, frames={self._frames})"
+        )

@@ -80,8 +80,9 @@ def draw(figures: Sequence[Figure]) -> None:
 def _draw_here(figures: Sequence[Figure]) -> None:
     from symrl import figures as F
 
-    F.draw_in_parallel([functools.partial(getattr(F, name), *args, **kwargs)
-                        for name, args, kwargs in figures])  # fmt: skip
+    F.draw_in_parallel(
+        [functools.partial(getattr(F, name), *args, **kwargs) for name, args, kwargs in figures]
+    )
 
 
 def _serve(connection: Any, commands_end: Any) -> None:

@@ -67,15 +67,22 @@ def evaluate(
     world = world if world is not None else load_map(config.env.map)
     # the copies are told what the policy was told (not the world they are driven in)
     copies = MixtureOfExpertsPolicy.from_robot_states(
-        policy.config, policy.knowledge, [policy.state_dict()] * len(starts),
-        [seed] * len(starts), policy.subgoals,
+        policy.config,
+        policy.knowledge,
+        [policy.state_dict()] * len(starts),
+        [seed] * len(starts),
+        policy.subgoals,
     )
     cfg = config.model_copy(update={"env": config.env.model_copy(update={"noise": noise})})
     env = make_env(cfg, [seed + k for k in range(len(starts))], world=world)
     if any(s is not None for s in starts):
         w = world
-        env.set_starts(np.array([s if s is not None else (w.start.x, w.start.y, w.start.heading)
-                                 for s in starts], dtype=np.float64))  # fmt: skip
+        env.set_starts(
+            np.array(
+                [s if s is not None else (w.start.x, w.start.y, w.start.heading) for s in starts],
+                dtype=np.float64,
+            )
+        )
     try:
         return rollout(copies, env)
     finally:

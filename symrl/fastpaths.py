@@ -20,9 +20,14 @@ from tensordict import TensorDict, TensorDictBase
 from tensordict.utils import NestedKey
 
 __all__ = [
-    "file_writer", "new_tensordict", "read", "tensordict_items", "transform_reset",
-    "transform_step", "write",
-]  # fmt: skip
+    "file_writer",
+    "new_tensordict",
+    "read",
+    "tensordict_items",
+    "transform_reset",
+    "transform_step",
+    "write",
+]
 
 _MISSING = object()
 

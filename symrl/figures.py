@@ -73,16 +73,30 @@ def _start(ax: plt.Axes, xy: Any, label: str | None = "start") -> None:
         ax.plot(xy[0, 0], xy[0, 1], "o", ms=6, mfc="white", mec="black", zorder=5, label=label)
 
 
-def _fixed_margins(fig: Any, rows: int, cols: int, left: float, bottom: float, top: float,
-                   gap_x: float, gap_y: float = 0.0, right: float = 0.15) -> None:
+def _fixed_margins(
+    fig: Any,
+    rows: int,
+    cols: int,
+    left: float,
+    bottom: float,
+    top: float,
+    gap_x: float,
+    gap_y: float = 0.0,
+    right: float = 0.15,
+) -> None:
     """Lay out a grid of panels with margins and gaps in inches (room for the tick labels, the
     axis labels and the titles of panels of one kind)."""
     width, height = fig.get_size_inches()
     panel_w = (width - left - right - (cols - 1) * gap_x) / cols
     panel_h = (height - bottom - top - (rows - 1) * gap_y) / rows
-    fig.subplots_adjust(left=left / width, right=1.0 - right / width, bottom=bottom / height,
-                        top=1.0 - top / height, wspace=gap_x / panel_w,
-                        hspace=gap_y / panel_h)  # fmt: skip
+    fig.subplots_adjust(
+        left=left / width,
+        right=1.0 - right / width,
+        bottom=bottom / height,
+        top=1.0 - top / height,
+        wspace=gap_x / panel_w,
+        hspace=gap_y / panel_h,
+    )
 
 
 def _ghosts(ax: plt.Axes, ghosts: Any, label: str | None) -> None:
@@ -135,8 +149,14 @@ def plot_plan(world: WorldMap, plan: Plan, walk: np.ndarray, path: Path | str) -
     draw_map(ax, world)
     pts = plan.points
     ax.plot(pts[:, 0], pts[:, 1], color="tab:red", lw=2, label=f"shortest path {plan.length:.2f} m")
-    ax.plot(walk[:, 0], walk[:, 1], "o", ms=3, color="tab:blue",
-            label=f"{len(walk) - 1} moves of {plan.step:.2f} m")
+    ax.plot(
+        walk[:, 0],
+        walk[:, 1],
+        "o",
+        ms=3,
+        color="tab:blue",
+        label=f"{len(walk) - 1} moves of {plan.step:.2f} m",
+    )
     for x, y in walk[:: max(1, len(walk) // 8)]:
         ax.add_patch(plt.Circle((x, y), plan.clearance, fill=False, ec="0.6", lw=0.5))
     ax.set_title(f"Optimum: {plan.actions} actions (clearance {plan.clearance:.3f} m)")
@@ -153,26 +173,41 @@ def plot_reward_optimum(world: WorldMap, result: dict[str, Any], path: Path | st
     short = result.get("shortest_path") or {}
     if short.get("path"):
         xy = np.asarray(short["path"])
-        ax.plot(xy[:, 0], xy[:, 1], "-", color="0.55", lw=1,
-                label=f"shortest path: {short['actions']} actions, "
-                f"total {short['total_reinforcement']:.2f}")
+        ax.plot(
+            xy[:, 0],
+            xy[:, 1],
+            "-",
+            color="0.55",
+            lw=1,
+            label=f"shortest path: {short['actions']} actions, "
+            f"total {short['total_reinforcement']:.2f}",
+        )
     xy = np.asarray(result["path"])
     near = np.asarray(result["per_action"]["f1"]) < 0
-    ax.plot(xy[:, 0], xy[:, 1], "-", color="tab:blue", lw=1.5,
-            label=f"best total found: {result['actions']} actions, "
-            f"total {result['total_reinforcement']:.2f}")
+    ax.plot(
+        xy[:, 0],
+        xy[:, 1],
+        "-",
+        color="tab:blue",
+        lw=1.5,
+        label=f"best total found: {result['actions']} actions, "
+        f"total {result['total_reinforcement']:.2f}",
+    )
     ax.plot(xy[1:][~near, 0], xy[1:][~near, 1], "o", ms=3, color="tab:blue")
     ax.plot(xy[1:][near, 0], xy[1:][near, 1], "o", ms=4, color="tab:red", label="f1 < 0")
     _start(ax, xy, None)
-    ax.set_title(f"Best total reinforcement: {result['total_reinforcement']:.3f} "
-                 f"(f1 {result['f1_walls']:.2f}, f2 {result['f2_heading']:.2f})")
+    ax.set_title(
+        f"Best total reinforcement: {result['total_reinforcement']:.3f} "
+        f"(f1 {result['f1_walls']:.2f}, f2 {result['f2_heading']:.2f})"
+    )
     ax.legend(loc="upper left", fontsize=8)
     fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
 
 
-def plot_ladder_worlds(entries: Sequence[Mapping[str, Any]], path: Path | str,
-                       top: float = 2.5) -> None:  # fmt: skip
+def plot_ladder_worlds(
+    entries: Sequence[Mapping[str, Any]], path: Path | str, top: float = 2.5
+) -> None:
     """Grouped bars: per world, each recipe's actions over the last trials divided by the
     world's optimum (mean over sets, sd as the error bar); 1 is the optimum. Bars above ``top``
     are cut there and labelled with their value; a number over a bar counts its failed trials
@@ -186,8 +221,9 @@ def plot_ladder_worlds(entries: Sequence[Mapping[str, Any]], path: Path | str,
         i, j = recipes.index(e["recipe"]), worlds.index(e["world"])
         x = j + (i - (len(recipes) - 1) / 2) * width
         ratio = min(e["ratio"], top)
-        ax.bar(x, ratio, width, color=f"C{i}",
-               label=None if e["recipe"] in labelled else e["recipe"])  # fmt: skip
+        ax.bar(
+            x, ratio, width, color=f"C{i}", label=None if e["recipe"] in labelled else e["recipe"]
+        )
         labelled.add(e["recipe"])
         cut = e["ratio"] > top
         if cut:
@@ -195,13 +231,24 @@ def plot_ladder_worlds(entries: Sequence[Mapping[str, Any]], path: Path | str,
         else:
             ax.errorbar(x, ratio, yerr=e["ratio_sd"], color="black", lw=0.8, capsize=2)
         if e.get("failed_from"):
-            ax.text(x, top * 0.97 if cut else ratio + e["ratio_sd"] + 0.03,
-                    f"✗{e['failed_from']}", ha="center", va="top" if cut else "bottom",
-                    fontsize=6, color="white" if cut else "tab:red", rotation=90)  # fmt: skip
+            ax.text(
+                x,
+                top * 0.97 if cut else ratio + e["ratio_sd"] + 0.03,
+                f"✗{e['failed_from']}",
+                ha="center",
+                va="top" if cut else "bottom",
+                fontsize=6,
+                color="white" if cut else "tab:red",
+                rotation=90,
+            )
     ax.axhline(1.0, color="black", lw=0.8, ls="--", label="optimum (planner)")
     slanted = len(worlds) > 4
-    ax.set_xticks(range(len(worlds)), worlds, rotation=20 if slanted else 0,
-                  ha="right" if slanted else "center")  # fmt: skip
+    ax.set_xticks(
+        range(len(worlds)),
+        worlds,
+        rotation=20 if slanted else 0,
+        ha="right" if slanted else "center",
+    )
     ax.set_ylabel("actions, last 5 trials / optimum")
     ax.set_ylim(0, top * 1.12)
     ax.set_title("The knowledge ladder per world (mean over sets ± sd; ✗ failed trials from 5)")
@@ -223,21 +270,21 @@ def plot_paths(
     named: list[tuple[str, dict[Any, Any], Iterable[Any]]] = [
         (t, dict(p) if isinstance(p, Mapping) else dict(enumerate(p)), g) for t, p, g in panels
     ]
-    named = [p for p in named
-             if any(len(np.asarray(xy).reshape(-1, 2)) for xy in p[1].values())]  # fmt: skip
+    named = [p for p in named if any(len(np.asarray(xy).reshape(-1, 2)) for xy in p[1].values())]
     n = max(len(named), 1)
     cols = min(columns, n)
     if n % cols and n <= columns + 1:
         cols = n
     rows = -(-n // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.5 * cols, 4.6 * rows), squeeze=False)
-    for ax in axes.flat[len(named):]:
+    for ax in axes.flat[len(named) :]:
         ax.set_visible(False)
     for ax, (title, paths, ghosts) in zip(axes.flat, named, strict=False):
         draw_map(ax, world)
         for i, (name, xy) in enumerate(paths.items()):
-            _draw_xy(ax, xy, color=f"C{(i + 3) % 10}",
-                     label=name if isinstance(name, str) else None)  # fmt: skip
+            _draw_xy(
+                ax, xy, color=f"C{(i + 3) % 10}", label=name if isinstance(name, str) else None
+            )
             _start(ax, xy, label="start" if i == 0 else None)
         for j, g in enumerate(ghosts):
             _ghosts(ax, g, "ghosts" if j == 0 else None)
@@ -269,21 +316,29 @@ def plot_curves(
         refs = [(k, v) for k, v in (reference or {}).items() if k.startswith(name + ":")]
         for i, (label, value) in enumerate(refs):  # labels alternate ends so they never overlap
             ax.axhline(value, ls="--", lw=1, color="0.4")
-            ax.annotate(label.split(":", 1)[1], (trials[-1] if i % 2 == 0 else trials[0], value),
-                        fontsize=7, ha="right" if i % 2 == 0 else "left", va="bottom", color="0.3")
+            ax.annotate(
+                label.split(":", 1)[1],
+                (trials[-1] if i % 2 == 0 else trials[0], value),
+                fontsize=7,
+                ha="right" if i % 2 == 0 else "left",
+                va="bottom",
+                color="0.3",
+            )
         ax.set_xlabel("trial")
         ax.set_ylabel(name.replace("_", " "))
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     if title:
         fig.suptitle(title)
-    _fixed_margins(fig, 1, len(names), left=0.75, bottom=0.55, top=0.55 if title else 0.3,
-                   gap_x=0.85)  # fmt: skip
+    _fixed_margins(
+        fig, 1, len(names), left=0.75, bottom=0.55, top=0.55 if title else 0.3, gap_x=0.85
+    )
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def _comparison_row(axes: Sequence[Any], curves: dict[str, dict[str, np.ndarray]],
-                    quantities: Sequence[str]) -> None:
+def _comparison_row(
+    axes: Sequence[Any], curves: dict[str, dict[str, np.ndarray]], quantities: Sequence[str]
+) -> None:
     """Per quantity (one axis each), each recipe's mean over sets (shaded min-max)."""
     n_recipes = len(curves)
     for ax, q in zip(axes, quantities, strict=False):
@@ -291,10 +346,18 @@ def _comparison_row(axes: Sequence[Any], curves: dict[str, dict[str, np.ndarray]
             v = np.asarray(per_q[q], dtype=float)
             # a small offset per recipe: recipes whose curves coincide stay visible
             trials = np.arange(1, v.shape[1] + 1) + 0.08 * (i - (n_recipes - 1) / 2)
-            ax.plot(trials, np.nanmean(v, axis=0), marker=_MARKERS[i % len(_MARKERS)], ms=3,
-                    ls=_STYLES[i % len(_STYLES)], color=f"C{i}", label=recipe)  # fmt: skip
-            ax.fill_between(trials, np.nanmin(v, axis=0), np.nanmax(v, axis=0),
-                            color=f"C{i}", alpha=0.10)
+            ax.plot(
+                trials,
+                np.nanmean(v, axis=0),
+                marker=_MARKERS[i % len(_MARKERS)],
+                ms=3,
+                ls=_STYLES[i % len(_STYLES)],
+                color=f"C{i}",
+                label=recipe,
+            )
+            ax.fill_between(
+                trials, np.nanmin(v, axis=0), np.nanmax(v, axis=0), color=f"C{i}", alpha=0.10
+            )
         ax.set_xlabel("trial")
         ax.set_ylabel(q.replace("_", " "))
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
@@ -338,8 +401,12 @@ def plot_baseline(results: list[dict[str, Any]], path: Path | str, title: str) -
         ret = np.array([r["total_reinforcement"] for r in res["rows"]])
         w = min(20, len(reached))
         ep = np.arange(w, len(reached) + 1)
-        axes[0].plot(ep, np.convolve(reached, np.ones(w), "valid") / w, color=f"C{i}",
-                     label=f"seed {res['seed']}")
+        axes[0].plot(
+            ep,
+            np.convolve(reached, np.ones(w), "valid") / w,
+            color=f"C{i}",
+            label=f"seed {res['seed']}",
+        )
         axes[1].plot(np.arange(1, len(ret) + 1), ret, ".", ms=2, color=f"C{i}")
     axes[0].axhline(0.8, ls="--", color="0.5", lw=1)
     axes[0].set(xlabel="episode (trial)", ylabel="success rate, last 20", ylim=(-0.05, 1.05))
@@ -379,9 +446,11 @@ def plot_learning_curves(
     """Learners on one axis per quantity, trials on a log scale: ``curves[label]`` is one trial
     table (rows with ``steps``, ``total_reinforcement``, ``reached_goal``) per seed; drawn is
     the mean over the seeds that ran each trial (beyond trial 20, over log-spaced bins)."""
-    quantities = (("steps", "actions per trial"),
-                  ("total_reinforcement", "total reinforcement per trial"),
-                  ("reached_goal", "reached the goal (fraction of seeds)"))  # fmt: skip
+    quantities = (
+        ("steps", "actions per trial"),
+        ("total_reinforcement", "total reinforcement per trial"),
+        ("reached_goal", "reached the goal (fraction of seeds)"),
+    )
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.0))
     for i, (label, runs) in enumerate(curves.items()):
         lengths = sorted({len(r) for r in runs})
@@ -393,16 +462,24 @@ def plot_learning_curves(
             for k, run in enumerate(runs):  # a seed that ran fewer trials is missing after
                 v[k, : len(run)] = [float(row[key]) for row in run]
             x, y = _log_binned(np.nanmean(v, axis=0))
-            ax.plot(x, y, marker=_MARKERS[i % len(_MARKERS)], ms=3, lw=1.2,
-                    ls=_STYLES[i % len(_STYLES)], color=f"C{i}",
-                    label=f"{label} ({seeds})")  # fmt: skip
+            ax.plot(
+                x,
+                y,
+                marker=_MARKERS[i % len(_MARKERS)],
+                ms=3,
+                lw=1.2,
+                ls=_STYLES[i % len(_STYLES)],
+                color=f"C{i}",
+                label=f"{label} ({seeds})",
+            )
     for ax, (_, name) in zip(axes, quantities, strict=True):
         ax.set_xscale("log")
         ax.axvline(20, ls=":", lw=1, color="0.5")
         ax.set(xlabel="trial (log scale; dotted: the paper's 20)", ylabel=name)
     if optimum is not None:
-        axes[0].axhline(optimum, ls="--", lw=1, color="0.4",
-                        label=f"shortest path ({optimum:g} actions)")  # fmt: skip
+        axes[0].axhline(
+            optimum, ls="--", lw=1, color="0.4", label=f"shortest path ({optimum:g} actions)"
+        )
     axes[2].set_ylim(-0.05, 1.05)
     axes[0].legend(fontsize=7)
     if title:
@@ -487,9 +564,15 @@ def crossings_figure(world: WorldMap, records: Sequence[dict[str, Any]], panels:
             a, b = (p.intercept, p.lo), (p.intercept, p.hi)
             if p.axis == 1:
                 a, b = (p.lo, p.intercept), (p.hi, p.intercept)
-            ax.plot(*zip(a, b, strict=True), color="gold", lw=11, alpha=0.5,
-                    solid_capstyle="butt", zorder=1,
-                    label="true door (map, not told)" if p is doors[0] else None)  # fmt: skip
+            ax.plot(
+                *zip(a, b, strict=True),
+                color="gold",
+                lw=11,
+                alpha=0.5,
+                solid_capstyle="butt",
+                zorder=1,
+                label="true door (map, not told)" if p is doors[0] else None,
+            )
         for border, runs in zip(borders, record.get("stretches", []), strict=False):
             for t0, t1, state in runs:
                 if state not in _CROSSING_COLOURS:
@@ -504,9 +587,12 @@ def crossings_figure(world: WorldMap, records: Sequence[dict[str, Any]], panels:
         ax.legend(seen.values(), seen.keys(), loc="upper left", fontsize=7)
         ax.set_xlim(xmin - 0.3, xmax + 0.3)
         ax.set_ylim(ymin - 0.3, ymax + 0.3)
-        ax.set_title(f"trial {record.get('trial', i + 1)}: {record['steps']} actions, "
-                     f"{record.get('borders_blocked', 0)} borders found blocked", fontsize=9)
-    for ax in axes.flat[len(picks):]:
+        ax.set_title(
+            f"trial {record.get('trial', i + 1)}: {record['steps']} actions, "
+            f"{record.get('borders_blocked', 0)} borders found blocked",
+            fontsize=9,
+        )
+    for ax in axes.flat[len(picks) :]:
         ax.axis("off")
     fig.suptitle(f"{world.name}: where the robot believes each border can be crossed")
     fig.tight_layout()

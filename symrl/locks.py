@@ -71,8 +71,10 @@ def lock_folder(folder: str | Path, flag: str) -> Any:
             f"{flag} {str(folder)!r}: cannot write in it ({err.strerror})"
         ) from None
     with contextlib.suppress(OSError):
-        (folder / OWNER_NAME).write_text(json.dumps(
-            {"pid": os.getpid(), "command": _command_line(), "since": time.time()}) + "\n")
+        (folder / OWNER_NAME).write_text(
+            json.dumps({"pid": os.getpid(), "command": _command_line(), "since": time.time()})
+            + "\n"
+        )
     return lock
 
 

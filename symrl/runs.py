@@ -53,20 +53,35 @@ CHECKPOINT_FORMAT = 3
 ``options.critic.`` (format 2 held them at the top and under ``options.``)."""
 _RUN_FILES = ("config.yaml", "trials.csv", "tb", "checkpoint.pt", "trajectory.png", "evaluate.png")
 _BASE_COLUMNS = (
-    "trial", "steps", "total_reinforcement", "collisions", "shielded", "reached_goal",
-    "neurons", "temperature", "replaced", "improved", "mean_abs_td_error", "path_length",
-)  # fmt: skip
+    "trial",
+    "steps",
+    "total_reinforcement",
+    "collisions",
+    "shielded",
+    "reached_goal",
+    "neurons",
+    "temperature",
+    "replaced",
+    "improved",
+    "mean_abs_td_error",
+    "path_length",
+)
 
 
 _SCALARS = (
-    ("trial/steps", "steps"), ("trial/total_reinforcement", "total_reinforcement"),
-    ("trial/collisions", "collisions"), ("trial/shielded", "shielded"),
-    ("trial/reached_goal", "reached_goal"), ("network/neurons", "neurons"),
-    ("explore/temperature", "temperature"), ("learn/mean_abs_td_error", "mean_abs_td_error"),
-    ("learn/replaced_actions", "replaced"), ("crossings/open_m", "crossings_open_m"),
+    ("trial/steps", "steps"),
+    ("trial/total_reinforcement", "total_reinforcement"),
+    ("trial/collisions", "collisions"),
+    ("trial/shielded", "shielded"),
+    ("trial/reached_goal", "reached_goal"),
+    ("network/neurons", "neurons"),
+    ("explore/temperature", "temperature"),
+    ("learn/mean_abs_td_error", "mean_abs_td_error"),
+    ("learn/replaced_actions", "replaced"),
+    ("crossings/open_m", "crossings_open_m"),
     ("crossings/blocked_m", "crossings_blocked_m"),
     ("crossings/borders_blocked", "borders_blocked"),
-)  # fmt: skip
+)
 """TensorBoard tag of each trial column logged per trial."""
 
 BASE_COLUMNS: tuple[str, ...] = _BASE_COLUMNS
@@ -184,9 +199,7 @@ def save_checkpoint(
     _atomic_save(data, path)
 
 
-def load_resume(
-    run_dir: str | Path, adopt: bool = False
-) -> tuple[RunConfig, int, dict[str, Any]]:
+def load_resume(run_dir: str | Path, adopt: bool = False) -> tuple[RunConfig, int, dict[str, Any]]:
     """``(config, seed, state)`` of the run in folder ``run_dir`` to resume it; every fault
     (no such folder, no checkpoint, a checkpoint without run state or of another format, a
     checkpoint whose recipe, seed, map or settings differ from the folder's ``config.yaml``
@@ -262,10 +275,14 @@ _DERIVED = ("code_centres", "mapper.", "reflex.")
 """State entries rebuilt from the config and the map: a checkpoint's must equal them."""
 _ANGLES = ("experts.actions", "experts.means", "experts.taken")
 _MAX_ANGLE = 2 * math.pi
-_AT_LEAST = {"progress.trials_done": 0, "options.critic.n": 0, "options.critic.trials": 0,
-             "options.stage": 0, "progress.temperature": 0.0,
-             "options.critic.epsilon": 0.0}  # fmt: skip
-
+_AT_LEAST = {
+    "progress.trials_done": 0,
+    "options.critic.n": 0,
+    "options.critic.trials": 0,
+    "options.stage": 0,
+    "progress.temperature": 0.0,
+    "options.critic.epsilon": 0.0,
+}
 
 
 def _outside(values: torch.Tensor, low: int, high: int) -> int | None:
@@ -275,6 +292,7 @@ def _outside(values: torch.Tensor, low: int, high: int) -> int | None:
         return None
     smallest, largest = int(values.min()), int(values.max())
     return largest if largest > high else smallest if smallest < low else None
+
 
 def check_policy_state(state: dict[str, Any], fresh: dict[str, torch.Tensor]) -> str | None:
     """The first fault of a saved controller ``state`` against ``fresh``, the state dict of the
@@ -292,8 +310,10 @@ def check_policy_state(state: dict[str, Any], fresh: dict[str, torch.Tensor]) ->
             return f"policy entry {key} is not a tensor ({type(value).__name__})"
         want = fresh[key]
         if value.dtype != want.dtype:
-            return (f"weights do not match its config and map ({key} has dtype {value.dtype}, "
-                    f"not {want.dtype})")  # fmt: skip
+            return (
+                f"weights do not match its config and map ({key} has dtype {value.dtype}, "
+                f"not {want.dtype})"
+            )
         # best_total is -inf until a trial reaches the goal; nothing else may be non-finite
         ok = torch.isfinite(value) | ((key == "progress.best_total") & (value == -torch.inf))
         if value.is_floating_point() and not bool(ok.all()):
@@ -318,8 +338,10 @@ def check_policy_state(state: dict[str, Any], fresh: dict[str, torch.Tensor]) ->
         capacity = used.shape[2] if used.dim() >= 3 else 0
         bad = _outside(count, 0, capacity)
         if bad is not None:
-            return (f"policy entry experts.count holds {bad} neurons, outside 0..{capacity} "
-                    "(the stored neurons)")  # fmt: skip
+            return (
+                f"policy entry experts.count holds {bad} neurons, outside 0..{capacity} "
+                "(the stored neurons)"
+            )
     # an option index (the critic's last axis) and a region index (its second last), -1: none
     for key, axis, what in (("options.choice", -1, ""), ("options.visit", -2, "region ")):
         if key in state and "options.critic.q" in state:
@@ -476,8 +498,15 @@ class RunWriter:
     def snapshot(self, policy: Any, seed: int, state: dict[str, Any]) -> None:
         """Write ``checkpoint.pt`` with the run state ``state`` (atomic: a crash leaves the
         previous one)."""
-        save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed, resume=state,
-                        provenance=self.provenance, world=self.world)  # fmt: skip
+        save_checkpoint(
+            self.dir / "checkpoint.pt",
+            policy,
+            self.config,
+            seed,
+            resume=state,
+            provenance=self.provenance,
+            world=self.world,
+        )
         self.snapshots += 1
 
     def trial(self, record: dict[str, Any], last: bool) -> None:
@@ -500,8 +529,7 @@ class RunWriter:
                 from symrl.figures import crossings_figure
 
                 fig = crossings_figure(self.world, [record])
-                self.logger.experiment.add_figure("trial/crossings", fig, global_step=n,
-                                                  close=True)  # fmt: skip
+                self.logger.experiment.add_figure("trial/crossings", fig, global_step=n, close=True)
 
     def finish(self, policy: Any, seed: int, state: dict[str, Any] | None = None) -> None:
         """Checkpoint (with the run state ``state`` if given: the run can be resumed), last
@@ -510,8 +538,15 @@ class RunWriter:
 
         self._csv.close()
         if policy is not None:  # None: the caller writes its own checkpoint (the baselines)
-            save_checkpoint(self.dir / "checkpoint.pt", policy, self.config, seed,
-                            resume=state, provenance=self.provenance, world=self.world)  # fmt: skip
+            save_checkpoint(
+                self.dir / "checkpoint.pt",
+                policy,
+                self.config,
+                seed,
+                resume=state,
+                provenance=self.provenance,
+                world=self.world,
+            )
         if self.trials:
             from symrl.figures import trajectory_figure
 
@@ -574,7 +609,6 @@ def _purge_from(experiment: Any, step: int) -> None:
     writer.add_event(Event(step=step, session_log=SessionLog(status=SessionLog.START)))
 
 
-
 def _flat(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in data.items():
@@ -635,9 +669,15 @@ def run_one(
     try:
         try:
             (result,) = train_batch(
-                config, [seed], progress=progress, on_trial=on_trial, world=world,
-                on_snapshot=on_snapshot, resume=resume, stop=stop,
-            )  # fmt: skip
+                config,
+                [seed],
+                progress=progress,
+                on_trial=on_trial,
+                world=world,
+                on_snapshot=on_snapshot,
+                resume=resume,
+                stop=stop,
+            )
         finally:
             writer.close()
         if result.timings.get("stopped"):

@@ -42,10 +42,15 @@ from symrl.learner.experts import expert_names
 from symrl.tensordicts import read
 
 __all__ = [
-    "TrainResult", "train", "train_batch", "make_env", "TrialRecorder", "run_snapshot",
+    "TrainResult",
+    "train",
+    "train_batch",
+    "make_env",
+    "TrialRecorder",
+    "run_snapshot",
     "check_memory",
     "restore_snapshot",
-]  # fmt: skip
+]
 
 
 @dataclass
@@ -61,9 +66,7 @@ class TrainResult:
     """The world the robot learned in (the env's; the policy holds only what it was told)."""
 
 
-def make_env(
-    config: RunConfig, seeds: Sequence[int], world: Any = None, starts: Any = None
-):
+def make_env(config: RunConfig, seeds: Sequence[int], world: Any = None, starts: Any = None):
     """The world of ``config`` as a TorchRL env with one robot per seed."""
     from symrl.world.batched_env import BatchedWorldEnv
     from symrl.world.budget import step_budget
@@ -72,9 +75,13 @@ def make_env(
     ec = config.env
     world = world if isinstance(world, WorldMap) else load_map(ec.map if world is None else world)
     env = BatchedWorldEnv(
-        world, size=len(seeds), robot=ec.robot, noise=ec.noise,
-        max_actions=step_budget(world, ec.max_actions, ec.robot.step), seeds=list(seeds),
-    )  # fmt: skip
+        world,
+        size=len(seeds),
+        robot=ec.robot,
+        noise=ec.noise,
+        max_actions=step_budget(world, ec.max_actions, ec.robot.step),
+        seeds=list(seeds),
+    )
     if starts is not None:
         env.set_starts(starts)
     return env
@@ -160,8 +167,9 @@ class TrialRecorder:
         return {
             **{k: torch.from_numpy(v.copy()) for k, v in arrays.items()},
             "poses": torch.from_numpy(np.array(self._poses).reshape(-1, self.batch, 2)),
-            "winners": torch.from_numpy(np.array(self._winners, dtype=np.int64).reshape(
-                -1, self.batch)),
+            "winners": torch.from_numpy(
+                np.array(self._winners, dtype=np.int64).reshape(-1, self.batch)
+            ),
             "offset": int(self._offset),
             "reached": None if reached is None else reached.clone(),
         }
@@ -192,13 +200,13 @@ def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor]) -> l
     counts = policy.experts.count.numpy()[index].tolist()
     replaced, improved = out["replaced"].tolist(), out["improved"].tolist()
     temperature = out["temperature"].tolist()
-    choices = (policy.options.choice.numpy()[index].tolist()
-               if policy.options is not None else None)  # fmt: skip
+    choices = policy.options.choice.numpy()[index].tolist() if policy.options is not None else None
     extras = []
     for j in range(len(counts)):
         extra: dict[str, Any] = {"neurons": sum(counts[j])}
-        extra.update({f"neurons_{n}": c for n, c in zip(policy.expert_names, counts[j],
-                                                         strict=True)})  # fmt: skip
+        extra.update(
+            {f"neurons_{n}": c for n, c in zip(policy.expert_names, counts[j], strict=True)}
+        )
         extra.update(temperature=temperature[j], replaced=replaced[j], improved=improved[j])
         crossings = policy.options.crossings if policy.options is not None else None
         if crossings is not None:
@@ -313,8 +321,13 @@ def train_batch(
                 "give a larger budget to go on"
             )
     label = config.recipe if batch == 1 else f"{config.recipe} x{batch}"
-    bar = tqdm(total=n_trials * batch, desc=label, unit="trial", disable=not progress,
-               initial=sum(len(t) for t in trials))  # fmt: skip
+    bar = tqdm(
+        total=n_trials * batch,
+        desc=label,
+        unit="trial",
+        disable=not progress,
+        initial=sum(len(t) for t in trials),
+    )
     started, cpu_started = time.perf_counter(), time.process_time()
     frames, stopped = 0, False
     # nothing in the loop needs autograd: inference mode skips the version counters and the
@@ -354,8 +367,9 @@ def train_batch(
                 trials[b].append(record)
                 bar.update(1)
                 if batch == 1:
-                    bar.set_postfix(steps=record["steps"],
-                                    total=f"{record['total_reinforcement']:.2f}")  # fmt: skip
+                    bar.set_postfix(
+                        steps=record["steps"], total=f"{record['total_reinforcement']:.2f}"
+                    )
                 if on_trial is not None:
                     on_trial(b, record, policy)
                 if len(trials[b]) == n_trials:
@@ -363,17 +377,23 @@ def train_batch(
             if on_snapshot is not None:
                 on_snapshot(run_snapshot(collector, policy, update, trials[0]))
             if on_boundary is not None:
-                on_boundary(lambda: batch_snapshot(collector, policy, update, recorder, trials,
-                                                   finals))  # fmt: skip
+                on_boundary(
+                    lambda: batch_snapshot(collector, policy, update, recorder, trials, finals)
+                )
             if all(f is not None for f in finals):
                 break
             if stop is not None and stop():
                 stopped = True
                 break
     elapsed, cpu = time.perf_counter() - started, time.process_time() - cpu_started
-    timings = {"seconds": elapsed, "cpu_seconds": cpu, "frames": frames,
-               "robots": batch, "steps_per_second": frames / max(elapsed, 1e-9),
-               "stopped": int(stopped)}  # fmt: skip
+    timings = {
+        "seconds": elapsed,
+        "cpu_seconds": cpu,
+        "frames": frames,
+        "robots": batch,
+        "steps_per_second": frames / max(elapsed, 1e-9),
+        "stopped": int(stopped),
+    }
     results = []
     for b, seed in enumerate(seeds):
         single = MixtureOfExpertsPolicy(config, policy.knowledge, [seed], policy.subgoals)
@@ -393,9 +413,14 @@ def train(
     """Train ``config.run.trials`` trials with ``config.run.seed`` (a batch of one robot);
     ``on_snapshot``, ``resume`` and ``stop`` as in :func:`train_batch`."""
     return train_batch(
-        config, [config.run.seed], progress=progress, on_trial=on_trial,
-        on_snapshot=on_snapshot, resume=resume, stop=stop,
-    )[0]  # fmt: skip
+        config,
+        [config.run.seed],
+        progress=progress,
+        on_trial=on_trial,
+        on_snapshot=on_snapshot,
+        resume=resume,
+        stop=stop,
+    )[0]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -441,8 +466,7 @@ def _numpy_fields(obj: Any) -> dict[str, Any] | None:
     for k, v in vars(obj).items():
         if isinstance(v, np.ndarray):
             out[k] = torch.from_numpy(v.copy())
-        elif isinstance(v, list) and v and all(x is None or isinstance(x, np.ndarray)
-                                               for x in v):  # fmt: skip
+        elif isinstance(v, list) and v and all(x is None or isinstance(x, np.ndarray) for x in v):
             out[k] = [None if x is None else torch.from_numpy(x.copy()) for x in v]
     return out
 
@@ -451,21 +475,35 @@ def _load_numpy_fields(obj: Any, state: dict[str, Any] | None) -> None:
     if obj is None or state is None:
         return
     for k, v in state.items():
-        setattr(obj, k, [None if x is None else x.numpy().copy() for x in v]
-                if isinstance(v, list) else v.numpy().copy())  # fmt: skip
+        setattr(
+            obj,
+            k,
+            [None if x is None else x.numpy().copy() for x in v]
+            if isinstance(v, list)
+            else v.numpy().copy(),
+        )
 
 
 def _working_parts(policy, update) -> dict[str, Any]:
     """The objects whose attributes hold a trial in progress beyond the state dicts: the trial
     gradient's record, the localiser's warm start, the options' step counts and route."""
     options = policy.options
-    return {"loss_record": update.record, "tracker": policy.perception.tracker,
-            "options": options, "route": getattr(options, "route", None)}  # fmt: skip
+    return {
+        "loss_record": update.record,
+        "tracker": policy.perception.tracker,
+        "options": options,
+        "route": getattr(options, "route", None),
+    }
 
 
-def batch_snapshot(collector, policy, update, recorder: TrialRecorder,
-                   trials: list[list[dict[str, Any]]],
-                   finals: list[dict[str, torch.Tensor] | None]) -> dict[str, Any]:
+def batch_snapshot(
+    collector,
+    policy,
+    update,
+    recorder: TrialRecorder,
+    trials: list[list[dict[str, Any]]],
+    finals: list[dict[str, torch.Tensor] | None],
+) -> dict[str, Any]:
     """Everything a batch of robots needs to go on from between two steps, robots in the middle
     of their trials included: the state of :func:`run_snapshot` for the whole batch, the trials
     in progress (the recorder's accumulators, the trial gradient's record, the localiser's warm
@@ -476,8 +514,14 @@ def batch_snapshot(collector, policy, update, recorder: TrialRecorder,
     for rows in trials:
         first_success = next((r["trial"] for r in rows if r["reached_goal"]), None)
         keep = {1, first_success, rows[-1]["trial"] if rows else None}
-        rows_out.append([dict(r) if r["trial"] in keep else
-                         {k: v for k, v in r.items() if k not in _ROW_SKIP} for r in rows])
+        rows_out.append(
+            [
+                dict(r)
+                if r["trial"] in keep
+                else {k: v for k, v in r.items() if k not in _ROW_SKIP}
+                for r in rows
+            ]
+        )
     collected = collector.state_dict()
     return {
         "format": BATCH_SNAPSHOT_FORMAT,
@@ -488,17 +532,23 @@ def batch_snapshot(collector, policy, update, recorder: TrialRecorder,
         "working": {k: _numpy_fields(v) for k, v in _working_parts(policy, update).items()},
         "recorder": recorder.state(),
         "random": policy.random_state(),
-        "collector": {**collected, "frames": int(collected["frames"]),
-                      "iter": int(collected["iter"])},
+        "collector": {
+            **collected,
+            "frames": int(collected["frames"]),
+            "iter": int(collected["iter"]),
+        },
     }
 
 
-def restore_batch_snapshot(state: dict[str, Any], collector, policy, update,
-                           recorder: TrialRecorder) -> None:
+def restore_batch_snapshot(
+    state: dict[str, Any], collector, policy, update, recorder: TrialRecorder
+) -> None:
     """Put a fresh batch (same config and seeds) into the state of :func:`batch_snapshot`."""
     if state.get("format") != BATCH_SNAPSHOT_FORMAT:
-        raise ValueError(f"batch snapshot format {state.get('format')!r}, this symrl resumes "
-                         f"format {BATCH_SNAPSHOT_FORMAT}")  # fmt: skip
+        raise ValueError(
+            f"batch snapshot format {state.get('format')!r}, this symrl resumes "
+            f"format {BATCH_SNAPSHOT_FORMAT}"
+        )
     policy.load_state_dict(state["policy"])
     update.load_state_dict(state["loss"])
     for name, part in _working_parts(policy, update).items():
@@ -532,5 +582,11 @@ def restore_snapshot(state: dict[str, Any], collector, policy, update) -> None:
     # there, as in the uninterrupted run, and the next one is warm-started from it
     td = policy.perception_transform()(td)
     env_keys = collector.env.base_env.RUN_STATE_KEYS
-    collector.load_state_dict({"env_state_dict": {k: state[k] for k in env_keys},
-                               "carrier": td.to_dict(), "frames": 0, "iter": -1})  # fmt: skip
+    collector.load_state_dict(
+        {
+            "env_state_dict": {k: state[k] for k in env_keys},
+            "carrier": td.to_dict(),
+            "frames": 0,
+            "iter": -1,
+        }
+    )

@@ -16,8 +16,16 @@ from symrl import about
 
 ROOT = Path(symrl.__file__).resolve().parents[1]
 KEYS = {
-    "symrl", "torch", "torchrl", "tensordict", "gymnasium", "numpy", "python",
-    "revision", "dirty", "editable",
+    "symrl",
+    "torch",
+    "torchrl",
+    "tensordict",
+    "gymnasium",
+    "numpy",
+    "python",
+    "revision",
+    "dirty",
+    "editable",
 }
 
 
@@ -71,7 +79,9 @@ def test_revision_comes_from_the_package_metadata(monkeypatch):
     )
     info = about.provenance()
     assert (info["symrl"], info["revision"], info["dirty"]) == (
-        "0.1.dev7+gfeedbee.d20260102", "feedbee", True
+        "0.1.dev7+gfeedbee.d20260102",
+        "feedbee",
+        True,
     )
     monkeypatch.setattr(
         about, "package_version", lambda name: "0.2.0" if name == "symrl" else real(name)
@@ -83,8 +93,15 @@ def test_revision_comes_from_the_package_metadata(monkeypatch):
 def test_revision_is_not_the_current_folders_repository(tmp_path):
     """Run from inside another git repository: provenance() must not
     report that repository's commit."""
-    git = ["git", "-c", "user.name=t", "-c", "user.email=t@example.org",
-           "-c", "commit.gpgsign=false"]
+    git = [
+        "git",
+        "-c",
+        "user.name=t",
+        "-c",
+        "user.email=t@example.org",
+        "-c",
+        "commit.gpgsign=false",
+    ]
     subprocess.run([*git, "init", "-q"], cwd=tmp_path, check=True)
     (tmp_path / "file.txt").write_text("another project\n")
     (tmp_path / "symrl").mkdir()  # a folder named like the package, dirty
@@ -94,13 +111,14 @@ def test_revision_is_not_the_current_folders_repository(tmp_path):
     head = subprocess.run(
         ["git", "rev-parse", "HEAD"], cwd=tmp_path, check=True, capture_output=True, text=True
     ).stdout.strip()
-    script = (
-        "import json, symrl\n"
-        "print(json.dumps({'provenance': symrl.provenance()}))\n"
-    )
+    script = "import json, symrl\nprint(json.dumps({'provenance': symrl.provenance()}))\n"
     out = subprocess.run(
-        [sys.executable, "-c", script], cwd=tmp_path, env=_env(), check=True,
-        capture_output=True, text=True,
+        [sys.executable, "-c", script],
+        cwd=tmp_path,
+        env=_env(),
+        check=True,
+        capture_output=True,
+        text=True,
     ).stdout
     result = json.loads(out)
     here = json.loads(json.dumps(symrl.provenance()))
@@ -121,7 +139,9 @@ def test_python_dash_m_symrl_is_the_cli():
     for command in ("drive", "train", "evaluate", "study", "plan"):
         assert command in proc.stdout
     bad = subprocess.run(
-        [sys.executable, "-m", "symrl", "no-such-command"], env=_env(), capture_output=True,
+        [sys.executable, "-m", "symrl", "no-such-command"],
+        env=_env(),
+        capture_output=True,
         text=True,
     )
     assert bad.returncode == 2 and "invalid choice" in bad.stderr

@@ -59,8 +59,9 @@ CASES = [
 def test_bad_input_is_one_line_and_exit_2(argv, message, paths, capsys, monkeypatch):
     monkeypatch.setattr(symrl.train, "_available_memory", lambda: 1 << 30)  # 1 GiB
     argv = [paths.get(a, a) for a in argv]
-    argv = [a.replace("FILE/", paths["FILE"] + "/").replace("ROOT/", paths["ROOT"] + "/")
-            for a in argv]  # fmt: skip
+    argv = [
+        a.replace("FILE/", paths["FILE"] + "/").replace("ROOT/", paths["ROOT"] + "/") for a in argv
+    ]
     for key, value in paths.items():
         message = message.replace(f"'{key}", f"'{value}")
     try:
@@ -93,8 +94,7 @@ def test_a_run_folder_another_run_writes_is_refused(tmp_path, capsys):
     run = tmp_path / "run"
     run.mkdir()
     with FileLock(run / ".lock"):
-        code, err = _train(["paper", "--trials", "1", "--logdir", str(run), "--overwrite"],
-                           capsys)  # fmt: skip
+        code, err = _train(["paper", "--trials", "1", "--logdir", str(run), "--overwrite"], capsys)
     assert code == 2 and "is writing it now" in err and "--logdir" in err
     assert not (run / "config.yaml").exists()  # nothing written
     assert _train(["paper", "--trials", "1", "--logdir", str(run)], capsys)[0] == 0
@@ -148,4 +148,8 @@ def test_a_negative_start_reaches_the_command():
     from symrl.cli.parser import negative_values
 
     assert negative_values(["drive", "--start", "-1.4,0,0", "--seed", "-1"]) == [
-        "drive", "--start=-1.4,0,0", "--seed", "-1"]  # fmt: skip
+        "drive",
+        "--start=-1.4,0,0",
+        "--seed",
+        "-1",
+    ]

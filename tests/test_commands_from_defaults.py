@@ -36,8 +36,13 @@ def test_train_then_evaluate_and_resume(here, capsys):
     out = _run(["train", "paper", "--trials", "2"], capsys)
     assert "paper (seed 0): 2 trials" in out
     (run,) = (here / "runs").iterdir()
-    assert {p.name for p in run.iterdir()} >= {"config.yaml", "trials.csv", "checkpoint.pt",
-                                              "trajectory.png", "tb"}  # fmt: skip
+    assert {p.name for p in run.iterdir()} >= {
+        "config.yaml",
+        "trials.csv",
+        "checkpoint.pt",
+        "trajectory.png",
+        "tb",
+    }
     assert "greedy trial" in _run(["evaluate", str(run / "checkpoint.pt")], capsys)
     assert (run / "evaluate.png").is_file()
     assert "3 trials" in _run(["train", "--resume", str(run), "--trials", "3"], capsys)
@@ -65,8 +70,10 @@ def test_baseline(algorithm, here, capsys):
 
 
 def test_sweep(here, capsys):
-    _run(["sweep", "--recipes", "paper", "--seeds", "1", "--trials", "1", "--out", "results/sweep"],
-         capsys)  # fmt: skip
+    _run(
+        ["sweep", "--recipes", "paper", "--seeds", "1", "--trials", "1", "--out", "results/sweep"],
+        capsys,
+    )
     assert (here / "results/sweep/summary.md").is_file()
 
 

@@ -159,8 +159,11 @@ def unknown_names(args) -> list[str]:
     from symrl.world.worldmap import SUITES, builtin_maps, suite_maps
 
     def files_or(names: str | None, known: list[str], what: str) -> list[str]:
-        return [f"unknown {what} {name!r}" for name in (names or "").split(",")
-                if name and name not in known and not name.endswith((".yaml", ".yml"))]  # fmt: skip
+        return [
+            f"unknown {what} {name!r}"
+            for name in (names or "").split(",")
+            if name and name not in known and not name.endswith((".yaml", ".yml"))
+        ]
 
     problems = []
     for attr in ("recipe", "recipes", "changes_of", "base"):
@@ -285,6 +288,7 @@ def test_every_published_command_parses_and_names_real_keys():
     problems = []
     for command in all_commands():
         check = check_synopsis if is_synopsis(command.words) else check_command
-        problems += [f"{command.where}: symrl {' '.join(command.words)}: {p}"
-                     for p in check(command)]  # fmt: skip
+        problems += [
+            f"{command.where}: symrl {' '.join(command.words)}: {p}" for p in check(command)
+        ]
     assert not problems, "\n".join(problems)

@@ -148,8 +148,9 @@ def test_the_config_reference_lists_every_key_with_its_default():
     from symrl.learner.config import RunConfig, config_to_dict
 
     defaults = config_to_dict(RunConfig())
-    rows = {key: (default, doc) for _, section in _hook().config_rows()
-            for key, default, doc in section}  # fmt: skip
+    rows = {
+        key: (default, doc) for _, section in _hook().config_rows() for key, default, doc in section
+    }
     for path in _paths(defaults):  # every key is a row, or inside a mapping-valued row
         assert any(path == key or path.startswith(key + ".") for key in rows), path
     for key, (default, _doc) in rows.items():
@@ -169,8 +170,17 @@ def test_the_cli_reference_has_every_command_and_the_recipes_table_every_recipe(
 
     hook = _hook()
     cli = hook.cli_markdown()
-    for command in ("drive", "train", "evaluate", "study", "ablate", "plan", "baseline",
-                    "generalise", "sweep"):  # fmt: skip
+    for command in (
+        "drive",
+        "train",
+        "evaluate",
+        "study",
+        "ablate",
+        "plan",
+        "baseline",
+        "generalise",
+        "sweep",
+    ):
         assert f"## `symrl {command}`" in cli
     assert "--help-keys" in cli
     recipes = hook.recipes_markdown()
@@ -185,8 +195,9 @@ def test_the_hook_replaces_its_markers():
     out = hook.on_page_markdown(page, page=None, config=None, files=None)
     assert "<!-- generated" not in out and "| `paper_literal` |" in out
     for name in hook.GENERATORS:
-        assert any(hook.MARKER.format(name) in p.read_text()
-                   for p in (DOCS / "reference").glob("*.md")), name  # fmt: skip
+        assert any(
+            hook.MARKER.format(name) in p.read_text() for p in (DOCS / "reference").glob("*.md")
+        ), name
 
 
 def test_the_readme_is_an_overview_with_the_command_ci_runs():
@@ -216,8 +227,13 @@ def test_the_module_tree_lists_every_module_of_the_package():
         assert spec is not None and spec.origin is not None, name
         assert Path(spec.origin).resolve() == (ROOT / file).resolve(), (name, file)
         assert summary, f"{file} has no docstring"
-    for module in ("symrl.collector", "symrl.learner.perception", "symrl.learner.progress",
-                   "symrl.learner.option_critic", "symrl.studies.sweep"):  # fmt: skip
+    for module in (
+        "symrl.collector",
+        "symrl.learner.perception",
+        "symrl.learner.progress",
+        "symrl.learner.option_critic",
+        "symrl.studies.sweep",
+    ):
         assert module in names
 
 

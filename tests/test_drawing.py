@@ -37,11 +37,13 @@ def test_the_drawing_process_writes_the_figures_it_is_sent(tmp_path, drawing_pro
 
 
 @linux
-def test_an_error_in_the_drawing_process_is_raised_here_with_its_traceback(tmp_path,
-                                                                          drawing_process):
+def test_an_error_in_the_drawing_process_is_raised_here_with_its_traceback(
+    tmp_path, drawing_process
+):
     with pytest.raises(RuntimeError, match="(?s)drawing the figures failed.*Traceback"):
-        drawing.draw([("plot_paths", (None, [("x", [[[0, 0], [1, 1]]], [])], tmp_path / "x.png"),
-                       {})])  # fmt: skip
+        drawing.draw(
+            [("plot_paths", (None, [("x", [[[0, 0], [1, 1]]], [])], tmp_path / "x.png"), {})]
+        )
     drawing.draw(_figures(tmp_path))  # still serving
     assert (tmp_path / "paths.png").is_file()
 

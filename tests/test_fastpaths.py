@@ -132,7 +132,10 @@ def test_no_module_but_fastpaths_reaches_private_names_of_other_objects():
 
 def test_no_module_writes_an_objects_dict():
     writes = re.compile(r"__dict__\s*\[[^\]]*\]\s*=(?!=)|__dict__\.(pop|update|setdefault)\(")
-    offenders = [f"{p.relative_to(SYMRL.parent)}:{n}" for p in _sources()
-                 for n, line in enumerate(p.read_text().splitlines(), 1)
-                 if writes.search(line)]  # fmt: skip
+    offenders = [
+        f"{p.relative_to(SYMRL.parent)}:{n}"
+        for p in _sources()
+        for n, line in enumerate(p.read_text().splitlines(), 1)
+        if writes.search(line)
+    ]
     assert offenders == []

@@ -54,8 +54,9 @@ def _reaches_outside(fig) -> bool:
     outside the figure, i.e. is clipped in the PNG (what tight_layout would have measured)."""
     drawn = fig.get_tightbbox(fig.canvas.get_renderer())  # inches
     width, height = fig.get_size_inches()
-    return bool(drawn.x0 < -0.01 or drawn.y0 < -0.01 or drawn.x1 > width + 0.01
-                or drawn.y1 > height + 0.01)
+    return bool(
+        drawn.x0 < -0.01 or drawn.y0 < -0.01 or drawn.x1 > width + 0.01 or drawn.y1 > height + 0.01
+    )
 
 
 @pytest.mark.parametrize("panels", [1, 2, 3, 4])
@@ -73,10 +74,19 @@ def test_the_study_figures_fixed_margins_keep_every_label_inside(tmp_path, monke
     monkeypatch.setattr(figures.plt, "close", kept.append)
     path = [[0.0, 0.0], [1.0, -0.5], [3.5, -0.5], [4.0, -2.0]]
     for world in (load_map("hailu2001"), load_map("two_doors")):
-        figures.plot_paths(world, [(f"panel {i}: final controller from 4 other starts", [path],
-                                    [path]) for i in range(panels)], tmp_path / "p.png", columns=2)
-    curves = {k: np.random.default_rng(0).normal(size=(3, 20)) * 30
-              for k in ("neurons", "steps", "total_reinforcement")}
+        figures.plot_paths(
+            world,
+            [
+                (f"panel {i}: final controller from 4 other starts", [path], [path])
+                for i in range(panels)
+            ],
+            tmp_path / "p.png",
+            columns=2,
+        )
+    curves = {
+        k: np.random.default_rng(0).normal(size=(3, 20)) * 30
+        for k in ("neurons", "steps", "total_reinforcement")
+    }
     figures.plot_curves(curves, tmp_path / "c.png", title="paper: mean over 10 sets")
     assert len(kept) == 3
     for fig in kept:
@@ -98,14 +108,21 @@ def test_paths_panels_fill_their_grid_and_name_their_paths(tmp_path, monkeypatch
 
     def spy(fig=None):
         if fig is not None and hasattr(fig, "axes"):
-            legends.extend(t.get_text() for ax in fig.axes if ax.get_legend()
-                           for t in ax.get_legend().get_texts())  # fmt: skip
+            legends.extend(
+                t.get_text()
+                for ax in fig.axes
+                if ax.get_legend()
+                for t in ax.get_legend().get_texts()
+            )
         real_close(fig)
 
     monkeypatch.setattr(plt, "close", spy)
     path = [(0.0, 0.0), (1.0, 0.0), (2.0, -0.5)]
-    panels = [("a", {"trial 1": path, "trial 4": path[:2]}, []), ("b", [path], []),
-              ("c", [path], [])]
+    panels = [
+        ("a", {"trial 1": path, "trial 4": path[:2]}, []),
+        ("b", [path], []),
+        ("c", [path], []),
+    ]
     plot_paths(load_map("hailu2001"), panels, tmp_path / "p.png", columns=2)
     height, width = matplotlib.image.imread(tmp_path / "p.png").shape[:2]
     assert width > 2.5 * height  # one row of three

@@ -42,6 +42,8 @@ def test_the_knowledge_never_imports_the_learner_or_above():
     studies above everything the agent is built from."""
     (layers,) = [c["layers"] for c in _contracts() if c["type"] == "layers"]
     order = [name.strip() for layer in layers for name in layer.split("|")]
-    ranks = [order.index(f"symrl.{name}") for name in
-             ("cli", "studies", "runs", "train", "learner", "knowledge", "world")]  # fmt: skip
+    ranks = [
+        order.index(f"symrl.{name}")
+        for name in ("cli", "studies", "runs", "train", "learner", "knowledge", "world")
+    ]
     assert ranks == sorted(ranks)

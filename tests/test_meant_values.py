@@ -15,19 +15,22 @@ from symrl.learner.strict import MAX_MAGNITUDE
 from symrl.world.worldmap import MapError, load_map
 
 
-@pytest.mark.parametrize(("override", "words"), [
-    ("update.gamma=True", "not a boolean"),
-    ('update.gamma="0.9"', "not a string"),
-    ("env.robot.radius=true", "not a boolean"),
-    ('reflex.d_a="0.5"', "not a string"),
-    ("env.robot.n_sensors=true", "not a boolean"),
-    ("env.robot.sonar_noise_std=1e308", "out of range"),
-    ("trial_gradient.rate=1e308", "out of range"),
-    ("options.reach=-1e300", "out of range"),
-    ("reflex.peaks=[1]", "expected 3 numbers, got 1"),
-    ("reflex.peaks=[0.1,true,0.2]", "not a boolean"),
-    ("update.eta=nan", "finite"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("override", "words"),
+    [
+        ("update.gamma=True", "not a boolean"),
+        ('update.gamma="0.9"', "not a string"),
+        ("env.robot.radius=true", "not a boolean"),
+        ('reflex.d_a="0.5"', "not a string"),
+        ("env.robot.n_sensors=true", "not a boolean"),
+        ("env.robot.sonar_noise_std=1e308", "out of range"),
+        ("trial_gradient.rate=1e308", "out of range"),
+        ("options.reach=-1e300", "out of range"),
+        ("reflex.peaks=[1]", "expected 3 numbers, got 1"),
+        ("reflex.peaks=[0.1,true,0.2]", "not a boolean"),
+        ("update.eta=nan", "finite"),
+    ],
+)
 def test_a_number_key_takes_only_numbers_within_bounds(override, words):
     with pytest.raises(ConfigError) as err:
         load_config("paper", [override])
@@ -58,8 +61,7 @@ def test_the_option_source_is_blamed_for_its_rung():
 def _map(tmp_path, **changes):
     from importlib import resources
 
-    data = yaml.safe_load((resources.files("symrl.world") / "maps" / "hailu2001.yaml")
-                          .read_text())  # fmt: skip
+    data = yaml.safe_load((resources.files("symrl.world") / "maps" / "hailu2001.yaml").read_text())
     for key, value in changes.items():
         section, field = key.split("__")
         data[section][field] = value
@@ -85,15 +87,18 @@ def test_a_goal_radius_the_robot_cannot_meet_is_refused(tmp_path, radius):
         load_map(_map(tmp_path, goal__radius=radius))
 
 
-@pytest.mark.parametrize("argv", [
-    ["train", "paper", "--logdir", ""],
-    ["study", "paper", "--out", ""],
-    ["drive", "--out", " "],
-    ["sweep", "--recipes", "paper", "--seeds", "1", "--out", ""],
-    ["evaluate", ""],
-    ["ablate", "--base", "paper", "--recipes", "paper"],
-    ["baseline", "sac", "--correction", "0.1"],
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["train", "paper", "--logdir", ""],
+        ["study", "paper", "--out", ""],
+        ["drive", "--out", " "],
+        ["sweep", "--recipes", "paper", "--seeds", "1", "--out", ""],
+        ["evaluate", ""],
+        ["ablate", "--base", "paper", "--recipes", "paper"],
+        ["baseline", "sac", "--correction", "0.1"],
+    ],
+)
 def test_empty_paths_and_lone_flags_are_refused(argv, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
@@ -108,8 +113,10 @@ def test_evaluate_in_another_map_refuses_then_names_both(tmp_path, capsys):
     assert main(["evaluate", ckpt, "--map", "two_doors", "--out", str(tmp_path / "e")]) == 2
     err = capsys.readouterr().err
     assert "learned in map 'hailu2001'" in err and "--other-map" in err
-    assert main(["evaluate", ckpt, "--map", "two_doors", "--other-map",
-                 "--out", str(tmp_path / "e")]) == 0  # fmt: skip
+    assert (
+        main(["evaluate", ckpt, "--map", "two_doors", "--other-map", "--out", str(tmp_path / "e")])
+        == 0
+    )
     captured = capsys.readouterr()
     assert "trained on map 'hailu2001', driving in map 'two_doors'" in captured.err
     assert "trained on hailu2001, driven in two_doors" in captured.out
@@ -118,17 +125,21 @@ def test_evaluate_in_another_map_refuses_then_names_both(tmp_path, capsys):
     assert main(["evaluate", ckpt, "--other-map", "--out", str(tmp_path / "g")]) == 2
 
 
-@pytest.mark.parametrize(("boundary", "goal"), [
-    ([[0, 0], [1.2, 0], [1.2, 9000], [0, 9000]], {"x": 0.6, "y": 3.0, "radius": 0.4}),
-    ([[0, 0], [9000, 0], [9000, 1.2], [0, 1.2]], {"x": 3.0, "y": 0.6, "radius": 0.4}),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("boundary", "goal"),
+    [
+        ([[0, 0], [1.2, 0], [1.2, 9000], [0, 9000]], {"x": 0.6, "y": 3.0, "radius": 0.4}),
+        ([[0, 0], [9000, 0], [9000, 1.2], [0, 1.2]], {"x": 3.0, "y": 0.6, "radius": 0.4}),
+    ],
+)
 def test_a_very_tall_or_wide_map_renders_a_bounded_frame(tmp_path, boundary, goal):
     from symrl.world.env import Hailu2001Env
 
     start = {"x": goal["x"] if goal["x"] < 1 else 1.0, "y": 1.0 if goal["x"] < 1 else 0.6}
     path = tmp_path / "long.yaml"
-    path.write_text(yaml.safe_dump({"name": "long", "boundary": boundary, "start": start,
-                                    "goal": goal}))  # fmt: skip
+    path.write_text(
+        yaml.safe_dump({"name": "long", "boundary": boundary, "start": start, "goal": goal})
+    )
     env = Hailu2001Env(map=str(path), render_mode="rgb_array")
     env.reset(seed=0)
     frame = env.render()

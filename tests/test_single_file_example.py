@@ -43,10 +43,29 @@ def test_single_file_learner_writes_the_library_trial_table(
     tmp_path: Path, trials: int, budget: int | None
 ) -> None:
     seed = 0
-    library = [sys.executable, "-m", "symrl", "train", "paper_literal", "--trials", str(trials),
-               "--seed", str(seed), "--logdir", str(tmp_path / "run")]  # fmt: skip
-    single = [sys.executable, str(EXAMPLE), "--seed", str(seed), "--trials", str(trials),
-              "--out", str(tmp_path / "single.csv")]  # fmt: skip
+    library = [
+        sys.executable,
+        "-m",
+        "symrl",
+        "train",
+        "paper_literal",
+        "--trials",
+        str(trials),
+        "--seed",
+        str(seed),
+        "--logdir",
+        str(tmp_path / "run"),
+    ]
+    single = [
+        sys.executable,
+        str(EXAMPLE),
+        "--seed",
+        str(seed),
+        "--trials",
+        str(trials),
+        "--out",
+        str(tmp_path / "single.csv"),
+    ]
     if budget is not None:
         library.append(f"env.max_actions={budget}")
         single += ["--max-actions", str(budget)]

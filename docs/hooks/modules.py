@@ -35,9 +35,7 @@ def _packages() -> dict[str, Path]:
     """The distribution's packages and their folders, as pyproject.toml ships them."""
     setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
     moved = setuptools.get("package-dir", {})
-    return {
-        name: ROOT / moved.get(name, name.replace(".", "/")) for name in setuptools["packages"]
-    }
+    return {name: ROOT / moved.get(name, name.replace(".", "/")) for name in setuptools["packages"]}
 
 
 def module_rows() -> list[tuple[str, str, str]]:

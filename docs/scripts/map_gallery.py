@@ -29,9 +29,12 @@ def table_of(world) -> SubgoalTable:
 
 def fixed_points(table: SubgoalTable) -> list[list[float]]:
     """The table's points but the route's (which moves with the robot)."""
-    return [p for r, row in enumerate(table.labels) for k, (label, p) in
-            enumerate(zip(row, table.points[r].tolist(), strict=False))
-            if label != ROUTE and bool(table.valid[r, k])]  # fmt: skip
+    return [
+        p
+        for r, row in enumerate(table.labels)
+        for k, (label, p) in enumerate(zip(row, table.points[r].tolist(), strict=False))
+        if label != ROUTE and bool(table.valid[r, k])
+    ]
 
 
 def main() -> None:

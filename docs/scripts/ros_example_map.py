@@ -24,9 +24,27 @@ LAB = {
     # hall along the south (0..9 x 0..1.6) and up the east side (7.4..9 x 0..7); two rooms
     # north of the hall (0..3.4 and 3.6..7.2, y 1.85..7) with 1 m doors
     "boundary": [
-        [0.0, 0.0], [9.0, 0.0], [9.0, 7.0], [7.4, 7.0], [7.4, 1.6], [6.4, 1.6], [6.4, 1.85],
-        [7.2, 1.85], [7.2, 7.0], [3.6, 7.0], [3.6, 1.85], [5.4, 1.85], [5.4, 1.6], [2.6, 1.6],
-        [2.6, 1.85], [3.4, 1.85], [3.4, 7.0], [0.0, 7.0], [0.0, 1.85], [1.6, 1.85], [1.6, 1.6],
+        [0.0, 0.0],
+        [9.0, 0.0],
+        [9.0, 7.0],
+        [7.4, 7.0],
+        [7.4, 1.6],
+        [6.4, 1.6],
+        [6.4, 1.85],
+        [7.2, 1.85],
+        [7.2, 7.0],
+        [3.6, 7.0],
+        [3.6, 1.85],
+        [5.4, 1.85],
+        [5.4, 1.6],
+        [2.6, 1.6],
+        [2.6, 1.85],
+        [3.4, 1.85],
+        [3.4, 7.0],
+        [0.0, 7.0],
+        [0.0, 1.85],
+        [1.6, 1.85],
+        [1.6, 1.6],
         [0.0, 1.6],
     ],
     "obstacles": [
@@ -58,8 +76,10 @@ def main() -> None:
         pixels[row, col] = OCCUPIED
     Image.fromarray(pixels, mode="L").save(image_path)
     (MAPS / "ros_lab.yaml").write_text(MAP_FILE)
-    print(f"wrote {image_path} ({image_path.stat().st_size} bytes), {yaml_path}, "
-          f"{MAPS / 'ros_lab.yaml'}")  # fmt: skip
+    print(
+        f"wrote {image_path} ({image_path.stat().st_size} bytes), {yaml_path}, "
+        f"{MAPS / 'ros_lab.yaml'}"
+    )
 
 
 if __name__ == "__main__":

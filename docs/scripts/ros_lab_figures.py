@@ -26,14 +26,19 @@ FIGURES = Path("docs/figures")
 def main() -> None:
     world = load_map("ros_lab")
     plan = shortest_path(world)
-    save_map_figure(world, FIGURES / "maps" / "ros_lab.png", plan.points,
-                    subgoals=fixed_points(table_of(world)))  # fmt: skip
+    save_map_figure(
+        world, FIGURES / "maps" / "ros_lab.png", plan.points, subgoals=fixed_points(table_of(world))
+    )
     config = load_config("paper_map", ["env.map=ros_lab", "run.trials=10", "run.seed=100"])
     result = train(config, progress=False)
     print(f"optimum {plan.actions} actions; trials: {[r['steps'] for r in result.trials]}")
-    save_paths_on_map("symrl/world/maps/ros/lab.yaml", [plan.points, result.trials[-1]["path"]],
-                      FIGURES / "ros_lab_paths.png", labels=["shortest path", "trial 10"],
-                      title="ros_lab: paper_map, trial 10 of 10, over the saved map")  # fmt: skip
+    save_paths_on_map(
+        "symrl/world/maps/ros/lab.yaml",
+        [plan.points, result.trials[-1]["path"]],
+        FIGURES / "ros_lab_paths.png",
+        labels=["shortest path", "trial 10"],
+        title="ros_lab: paper_map, trial 10 of 10, over the saved map",
+    )
 
 
 if __name__ == "__main__":

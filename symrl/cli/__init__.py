@@ -45,4 +45,3 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt as err:  # a command that does not catch Ctrl-C itself
         code = stopped(args.command, err, getattr(args, "out", None))
     return code
-

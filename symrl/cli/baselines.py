@@ -24,32 +24,57 @@ def add_baseline(commands: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "GAE 0.95, clip 0.2, 2x64 tanh.",
     )
     p.add_argument("algorithm", choices=["sac", "ppo"], help="sac or ppo")
-    p.add_argument("--episodes", type=int, default=20,
-                   help="training budget in episodes (= trials; default 20, the paper's)")
+    p.add_argument(
+        "--episodes",
+        type=int,
+        default=20,
+        help="training budget in episodes (= trials; default 20, the paper's)",
+    )
     p.add_argument("--seeds", default="100", help="seeds: a range 100-104 and/or a list 100,105")
-    p.add_argument("--residual", action="store_true",
-                   help="act as the shielded fuzzy reflex (steering toward the goal) plus a "
-                   "learned correction of at most --correction * pi")
-    p.add_argument("--correction", type=float, default=None,
-                   help="largest residual correction as a fraction of pi (default 0.25: 45 deg)")
-    p.add_argument("--regions", action="store_true",
-                   help="append the region id (one-hot, from the odometry pose) to the "
-                   "observation")
-    p.add_argument("--envs", type=int, default=None,
-                   help="robots stepped together (default: sac 1, ppo 8)")
-    p.add_argument("--workers", type=int, default=1,
-                   help="seeds trained in parallel processes (default 1)")
-    p.add_argument("--map", default="hailu2001",
-                   help="built-in map name or map file (default hailu2001)")
-    p.add_argument("--out", default=None,
-                   help="results folder (default results/baseline-ALGO-VARIANT)")
+    p.add_argument(
+        "--residual",
+        action="store_true",
+        help="act as the shielded fuzzy reflex (steering toward the goal) plus a "
+        "learned correction of at most --correction * pi",
+    )
+    p.add_argument(
+        "--correction",
+        type=float,
+        default=None,
+        help="largest residual correction as a fraction of pi (default 0.25: 45 deg)",
+    )
+    p.add_argument(
+        "--regions",
+        action="store_true",
+        help="append the region id (one-hot, from the odometry pose) to the observation",
+    )
+    p.add_argument(
+        "--envs", type=int, default=None, help="robots stepped together (default: sac 1, ppo 8)"
+    )
+    p.add_argument(
+        "--workers", type=int, default=1, help="seeds trained in parallel processes (default 1)"
+    )
+    p.add_argument(
+        "--map", default="hailu2001", help="built-in map name or map file (default hailu2001)"
+    )
+    p.add_argument(
+        "--out", default=None, help="results folder (default results/baseline-ALGO-VARIANT)"
+    )
     p.add_argument("--overwrite", action="store_true", help="replace runs already in --out")
-    p.add_argument("--resume", action="store_true",
-                   help="go on with the runs already in --out (same settings; --episodes may "
-                   "extend the budget); seeds without a run there start fresh")
-    p.add_argument("--checkpoint-every", type=int, default=50, metavar="N",
-                   help="save the whole run state every N trials (default 50), on Ctrl-C / "
-                   "SIGTERM (one worker) and at the end")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="go on with the runs already in --out (same settings; --episodes may "
+        "extend the budget); seeds without a run there start fresh",
+    )
+    p.add_argument(
+        "--checkpoint-every",
+        type=int,
+        default=50,
+        metavar="N",
+        help="save the whole run state every N trials (default 50), on Ctrl-C / "
+        "SIGTERM (one worker) and at the end",
+    )
     p.set_defaults(handler=_baseline)
 
 

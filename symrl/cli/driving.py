@@ -17,12 +17,17 @@ def add_drive(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
     p = commands.add_parser("drive", help="let the fuzzy reflex drive one trial and save its path")
     p.add_argument("--start", type=parse_pose, default=None, help=START_HELP)
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--out", default="results/drive",
-                   help="output folder for path.png and trial.json (default results/drive)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace a path.png / trial.json already in --out")
-    p.add_argument("--map", default="hailu2001",
-                   help="built-in map name or map file (default hailu2001)")
+    p.add_argument(
+        "--out",
+        default="results/drive",
+        help="output folder for path.png and trial.json (default results/drive)",
+    )
+    p.add_argument(
+        "--overwrite", action="store_true", help="replace a path.png / trial.json already in --out"
+    )
+    p.add_argument(
+        "--map", default="hailu2001", help="built-in map name or map file (default hailu2001)"
+    )
     p.add_argument("--no-noise", action="store_true", help="turn every noise source off")
     p.add_argument(
         "--shield",
@@ -59,19 +64,30 @@ def _drive(args: argparse.Namespace) -> int:
 
 def add_evaluate(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = commands.add_parser("evaluate", help="drive a saved controller greedily and save its path")
-    p.add_argument("checkpoint",
-                   help="checkpoint file written by `symrl train` or `symrl baseline`")
+    p.add_argument(
+        "checkpoint", help="checkpoint file written by `symrl train` or `symrl baseline`"
+    )
     p.add_argument("--start", type=parse_pose, default=None, help=START_HELP)
     p.add_argument("--seed", type=int, default=0, help="random seed for the world's noise")
-    p.add_argument("--map", default=None,
-                   help="drive in another map (default: its own); with --other-map")
-    p.add_argument("--other-map", action="store_true",
-                   help="with --map: drive in a map other than the one the controller learned "
-                   "in (it keeps the learned map's regions and goal; the output names both)")
-    p.add_argument("--out", default=None,
-                   help="output folder for evaluate.png (default: beside the checkpoint)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace an evaluate.png already in the output folder")
+    p.add_argument(
+        "--map", default=None, help="drive in another map (default: its own); with --other-map"
+    )
+    p.add_argument(
+        "--other-map",
+        action="store_true",
+        help="with --map: drive in a map other than the one the controller learned "
+        "in (it keeps the learned map's regions and goal; the output names both)",
+    )
+    p.add_argument(
+        "--out",
+        default=None,
+        help="output folder for evaluate.png (default: beside the checkpoint)",
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace an evaluate.png already in the output folder",
+    )
     p.set_defaults(handler=_evaluate)
 
 
@@ -85,9 +101,11 @@ def _evaluate(args: argparse.Namespace) -> int:
     trained_on = controller.world
     world, other = driven_in(trained_on, args.map, args.other_map)
     if other:
-        print(f"symrl evaluate: note: trained on map {trained_on.name!r}, driving in map "
-              f"{world.name!r} (told {trained_on.name!r}'s regions and goal)",
-              file=sys.stderr)  # fmt: skip
+        print(
+            f"symrl evaluate: note: trained on map {trained_on.name!r}, driving in map "
+            f"{world.name!r} (told {trained_on.name!r}'s regions and goal)",
+            file=sys.stderr,
+        )
     with holding(out, "--out"), naming_start(args.start):
         record = controller.greedy(args.start, args.seed, world)
     save_figure(world, record, out)

@@ -41,7 +41,10 @@ def input_error(command: str, err: ValueError | OSError) -> int:
 
 
 def output_folder(
-    flag: str, path: str | Path, results: Sequence[str] = (), overwrite: bool = False,
+    flag: str,
+    path: str | Path,
+    results: Sequence[str] = (),
+    overwrite: bool = False,
     command: str = "",
 ) -> Path:
     """Check, before any work, that the output folder ``path`` of ``flag`` can be made and
@@ -117,9 +120,15 @@ def at_least(flag: str, value: int | None, low: int) -> None:
 
 
 _NAMED_VALUES = {
-    "out": "--out", "logdir": "--logdir", "map": "--map", "resume": "--resume",
-    "checkpoint": "CHECKPOINT", "recipe": "RECIPE", "base": "--base", "changes_of": "--changes-of",
-}  # fmt: skip
+    "out": "--out",
+    "logdir": "--logdir",
+    "map": "--map",
+    "resume": "--resume",
+    "checkpoint": "CHECKPOINT",
+    "recipe": "RECIPE",
+    "base": "--base",
+    "changes_of": "--changes-of",
+}
 """The arguments naming a file or folder, by the flag that gives them (lists such as --recipes
 have their own checks)."""
 
@@ -132,8 +141,10 @@ def no_empty_values(args: argparse.Namespace) -> None:
         if isinstance(value, str) and not value.strip():
             if name == "recipe" and args.command in ("generalise",):
                 flag = "--recipe"
-            raise ValueError(f"{flag} {value!r}: empty; give a name or path (or leave the flag "
-                             "out for its default)")  # fmt: skip
+            raise ValueError(
+                f"{flag} {value!r}: empty; give a name or path (or leave the flag "
+                "out for its default)"
+            )
 
 
 def plannable(source: Any) -> None:

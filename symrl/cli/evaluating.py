@@ -33,8 +33,7 @@ class Controller:
         if self.baseline is not None:
             (record,) = self.baseline.evaluate([start], seed=seed, world=world)
         else:
-            (record,) = evaluate(self.policy, self.config, starts=[start], seed=seed,
-                                 world=world)  # fmt: skip
+            (record,) = evaluate(self.policy, self.config, starts=[start], seed=seed, world=world)
         return record
 
 
@@ -73,9 +72,13 @@ def driven_in(trained_on: WorldMap, map_: str | None, other_map: bool) -> tuple[
 
 def same_map(a: Any, b: Any) -> bool:
     """Whether two loaded maps are the same world (name, walls, start and goal)."""
-    return bool(a.name == b.name and a.goal == b.goal and a.start == b.start
-                and a.segments.shape == b.segments.shape
-                and np.array_equal(a.segments, b.segments))  # fmt: skip
+    return bool(
+        a.name == b.name
+        and a.goal == b.goal
+        and a.start == b.start
+        and a.segments.shape == b.segments.shape
+        and np.array_equal(a.segments, b.segments)
+    )
 
 
 def save_figure(world: WorldMap, record: dict[str, Any], out: Path) -> None:

@@ -14,8 +14,17 @@ from symrl.cli.studying import add_ablate, add_generalise, add_study
 from symrl.cli.sweeping import add_sweep
 from symrl.cli.training import add_train
 
-_COMMANDS = (add_drive, add_train, add_evaluate, add_study, add_ablate, add_plan, add_baseline,
-             add_generalise, add_sweep)  # fmt: skip
+_COMMANDS = (
+    add_drive,
+    add_train,
+    add_evaluate,
+    add_study,
+    add_ablate,
+    add_plan,
+    add_baseline,
+    add_generalise,
+    add_sweep,
+)
 """Each command's arguments and handler, in the order ``symrl --help`` lists them."""
 
 
@@ -31,8 +40,12 @@ def build_parser() -> argparse.ArgumentParser:
     one_line_errors(parser)
     from symrl.about import __version__
 
-    parser.add_argument("--version", action="version", version=f"symrl {__version__}",
-                        help="print the version and exit")  # fmt: skip
+    parser.add_argument(
+        "--version",
+        action="version",
+        version=f"symrl {__version__}",
+        help="print the version and exit",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for add in _COMMANDS:
         add(sub)
@@ -50,8 +63,7 @@ def parse_command(parser: argparse.ArgumentParser, argv: list[str]) -> argparse.
             args.overrides = [*args.overrides, *extra]
         elif hasattr(args, "overrides") and not extra[0].startswith("-"):
             parser.error(
-                f"argument {extra[0]!r}: expected key=value (an override such as "
-                "update.gamma=0.9)"
+                f"argument {extra[0]!r}: expected key=value (an override such as update.gamma=0.9)"
             )
         else:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")

@@ -16,21 +16,36 @@ def add_plan(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
         help="shortest collision-free path to the goal (fewest actions; not the reward's "
         "optimum, which also pays for heading and wall distance)",
     )
-    p.add_argument("--map", default="hailu2001",
-                   help="built-in map name or map file (default hailu2001)")
+    p.add_argument(
+        "--map", default="hailu2001", help="built-in map name or map file (default hailu2001)"
+    )
     p.add_argument("--start", type=parse_pose, default=None, help=START_HELP)
-    p.add_argument("--out", default="results/plan",
-                   help="results folder for plan.json and plan.png (default results/plan)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace a plan.json / plan.png already in --out")
-    p.add_argument("--reward", action="store_true",
-                   help="also search for the best total reinforcement of a noise-free trial "
-                   "(writes reward_optimum.json and reward_optimum.png)")
-    p.add_argument("--beam", type=int, default=100,
-                   help="with --reward: partial sequences kept per action (default 100)")
-    p.add_argument("--headings", type=int, default=144,
-                   help="with --reward: headings tried per action (default 144, every 2.5 "
-                   "degrees)")
+    p.add_argument(
+        "--out",
+        default="results/plan",
+        help="results folder for plan.json and plan.png (default results/plan)",
+    )
+    p.add_argument(
+        "--overwrite", action="store_true", help="replace a plan.json / plan.png already in --out"
+    )
+    p.add_argument(
+        "--reward",
+        action="store_true",
+        help="also search for the best total reinforcement of a noise-free trial "
+        "(writes reward_optimum.json and reward_optimum.png)",
+    )
+    p.add_argument(
+        "--beam",
+        type=int,
+        default=100,
+        help="with --reward: partial sequences kept per action (default 100)",
+    )
+    p.add_argument(
+        "--headings",
+        type=int,
+        default=144,
+        help="with --reward: headings tried per action (default 144, every 2.5 degrees)",
+    )
     p.set_defaults(handler=_plan)
 
 

@@ -87,8 +87,10 @@ def stopped(command: str, err: KeyboardInterrupt, out: str | None) -> int:
     signum = int(getattr(err, "signum", signal.SIGINT))
     name = "Ctrl-C" if signum == signal.SIGINT else signal.Signals(signum).name
     if command in RESUMABLE:
-        kept = (f"its progress is saved in {out}/ (all but the last few seconds); go on "
-                "with the same command and --resume")  # fmt: skip
+        kept = (
+            f"its progress is saved in {out}/ (all but the last few seconds); go on "
+            "with the same command and --resume"
+        )
     else:
         kept = "what was finished is kept"
     print(f"symrl {command}: stopped by {name}; {kept}", file=sys.stderr)

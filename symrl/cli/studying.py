@@ -30,9 +30,12 @@ def sets_and_trials(args: argparse.Namespace) -> None:
     at_least("--sets", args.sets, 1)
     at_least("--trials", args.trials, 1)
     at_least("--seed", args.seed, 0)
-    for flag, value, high in (("--sets", args.sets, MAX_SETS), ("--trials", args.trials, 1_000_000),
-                              ("--seed", args.seed, 2**63 - 1 - MAX_SETS),
-                              ("--workers", args.workers, MAX_WORKERS)):  # fmt: skip
+    for flag, value, high in (
+        ("--sets", args.sets, MAX_SETS),
+        ("--trials", args.trials, 1_000_000),
+        ("--seed", args.seed, 2**63 - 1 - MAX_SETS),
+        ("--workers", args.workers, MAX_WORKERS),
+    ):
         if value is not None and value > high:
             raise ValueError(f"{flag} {value}: must be <= {high}")
     at_least("--workers", args.workers, 1)
@@ -49,11 +52,15 @@ def add_study(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
     p.add_argument("--seed", type=int, default=100, help="first seed; set k uses seed + k")
     p.add_argument("--map", default=None, help="built-in map name or map file (env.map)")
     p.add_argument("--out", default=None, help="results folder (default results/study-RECIPE)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace a finished or stopped study in --out")
-    p.add_argument("--resume", action="store_true",
-                   help="go on with the study stopped in --out (Ctrl-C, SIGTERM, SIGHUP or a "
-                   "kill): the same command and --resume give the table of a run never stopped")
+    p.add_argument(
+        "--overwrite", action="store_true", help="replace a finished or stopped study in --out"
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="go on with the study stopped in --out (Ctrl-C, SIGTERM, SIGHUP or a "
+        "kill): the same command and --resume give the table of a run never stopped",
+    )
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
     p.set_defaults(handler=_study)
 
@@ -69,8 +76,9 @@ def _study(args: argparse.Namespace) -> int:
     check_overrides(args.overrides, taken)
     args.out = args.out or f"results/study-{Path(args.recipe).stem}"
     if args.resume and args.overwrite:
-        raise ValueError("--resume goes on with the stopped study in --out, --overwrite starts "
-                         "afresh: give one")  # fmt: skip
+        raise ValueError(
+            "--resume goes on with the stopped study in --out, --overwrite starts afresh: give one"
+        )
     output_folder("--out", args.out, ("table1.json",), args.overwrite, "study")
     if args.map is None:
         from symrl.learner.config import load_config
@@ -80,11 +88,18 @@ def _study(args: argparse.Namespace) -> int:
         plannable(args.map)
     from symrl.studies import checkpointing
 
-    settings = {"recipe": args.recipe, "sets": args.sets, "trials": args.trials,
-                "seed": args.seed, "map": args.map, "overrides": list(args.overrides)}
-    with holding(args.out, "--out"), checkpointing.running(
-        args.out, "study", settings, args.resume, args.overwrite
-    ) as going_on:
+    settings = {
+        "recipe": args.recipe,
+        "sets": args.sets,
+        "trials": args.trials,
+        "seed": args.seed,
+        "map": args.map,
+        "overrides": list(args.overrides),
+    }
+    with (
+        holding(args.out, "--out"),
+        checkpointing.running(args.out, "study", settings, args.resume, args.overwrite) as going_on,
+    ):
         if args.overwrite and not going_on:
             checkpointing.forget_kept(Path(args.out) / "sets")
         return study_command(args)
@@ -96,28 +111,52 @@ def add_ablate(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("--trials", type=int, default=20, help="trials per set (default 20)")
     p.add_argument("--workers", type=int, default=None, help=_WORKERS_HELP)
     p.add_argument("--seed", type=int, default=100, help="first seed; set k uses seed + k")
-    p.add_argument("--recipes", default=None,
-                   help="comma-separated recipes (default: all six; with --changes-of: none)")
-    p.add_argument("--changes-of", default=None, metavar="RECIPE",
-                   help="RECIPE, then RECIPE with each setting in which it differs from --base "
-                        "put back in turn, and with experts.learning=false; writes changes.md "
-                        "(paired differences over the sets)")
-    p.add_argument("--ladder", action="store_true",
-                   help="the knowledge ladder: the best recipe of each rung (reflex_only, "
-                   "paper_literal, paper, paper_passages, paper_map) on the same seeds; writes "
-                   "ladder.md")
-    p.add_argument("--base", default=None,
-                   help="the recipe --changes-of puts settings back to (default paper_literal)")
-    p.add_argument("--map", default="hailu2001",
-                   help="built-in map name or map file (env.map; default hailu2001)")
-    p.add_argument("--maps", default=None, metavar="M1,M2,...",
-                   help="with --ladder: the ladder on each of these worlds (built-in names, "
-                   "suite/world names or map files), one sub-folder each, and one table and "
-                   "figure of them all (ladder-worlds.md, ladder-worlds.png)")
-    p.add_argument("--out", default="results/ablate",
-                   help="results folder (default results/ablate)")
-    p.add_argument("--resume", action="store_true",
-                   help="go on with the ablation stopped in --out (same settings)")
+    p.add_argument(
+        "--recipes",
+        default=None,
+        help="comma-separated recipes (default: all six; with --changes-of: none)",
+    )
+    p.add_argument(
+        "--changes-of",
+        default=None,
+        metavar="RECIPE",
+        help="RECIPE, then RECIPE with each setting in which it differs from --base "
+        "put back in turn, and with experts.learning=false; writes changes.md "
+        "(paired differences over the sets)",
+    )
+    p.add_argument(
+        "--ladder",
+        action="store_true",
+        help="the knowledge ladder: the best recipe of each rung (reflex_only, "
+        "paper_literal, paper, paper_passages, paper_map) on the same seeds; writes "
+        "ladder.md",
+    )
+    p.add_argument(
+        "--base",
+        default=None,
+        help="the recipe --changes-of puts settings back to (default paper_literal)",
+    )
+    p.add_argument(
+        "--map",
+        default="hailu2001",
+        help="built-in map name or map file (env.map; default hailu2001)",
+    )
+    p.add_argument(
+        "--maps",
+        default=None,
+        metavar="M1,M2,...",
+        help="with --ladder: the ladder on each of these worlds (built-in names, "
+        "suite/world names or map files), one sub-folder each, and one table and "
+        "figure of them all (ladder-worlds.md, ladder-worlds.png)",
+    )
+    p.add_argument(
+        "--out", default="results/ablate", help="results folder (default results/ablate)"
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="go on with the ablation stopped in --out (same settings)",
+    )
     p.set_defaults(handler=_ablate)
 
 
@@ -126,8 +165,10 @@ def _ablate(args: argparse.Namespace) -> int:
 
     sets_and_trials(args)
     if args.base is not None and not args.changes_of:
-        raise ValueError(f"--base {args.base}: only with --changes-of (the recipe whose settings "
-                         "it puts back); without it --base would be ignored")  # fmt: skip
+        raise ValueError(
+            f"--base {args.base}: only with --changes-of (the recipe whose settings "
+            "it puts back); without it --base would be ignored"
+        )
     args.base = args.base or "paper_literal"
     _recipe_list("--recipes", args.recipes)
     output_folder("--out", args.out)
@@ -135,8 +176,10 @@ def _ablate(args: argparse.Namespace) -> int:
         from symrl.studies.ladder_worlds import ladder_worlds_command, parse_maps
 
         if not args.ladder or args.map != "hailu2001":  # a --map other than the default
-            raise ValueError(f"--maps {args.maps!r}: runs the ladder on several worlds; give "
-                             "it with --ladder and without --map")
+            raise ValueError(
+                f"--maps {args.maps!r}: runs the ladder on several worlds; give "
+                "it with --ladder and without --map"
+            )
         for name in parse_maps(args.maps):
             plannable(name)
         return ladder_worlds_command(args)
@@ -161,19 +204,24 @@ def add_generalise(commands: argparse._SubParsersAction[argparse.ArgumentParser]
     p = commands.add_parser(
         "generalise", help="learned controller from other starts, new obstacle, noise"
     )
-    p.add_argument("--recipe", default="paper",
-                   help="recipe name or YAML file (default paper)")
+    p.add_argument("--recipe", default="paper", help="recipe name or YAML file (default paper)")
     p.add_argument("--sets", type=int, default=5, help="sets, each a fresh learner (default 5)")
     p.add_argument("--trials", type=int, default=20, help="trials per set (default 20)")
     p.add_argument("--workers", type=int, default=None, help=_WORKERS_HELP)
-    p.add_argument("--seed", type=int, default=100,
-                   help="first seed; set k uses seed + k (default 100)")
-    p.add_argument("--map", default="hailu2001",
-                   help="built-in map name or map file (env.map; default hailu2001)")
-    p.add_argument("--out", default="results/generalise",
-                   help="results folder (default results/generalise)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace the results of an earlier run in --out")
+    p.add_argument(
+        "--seed", type=int, default=100, help="first seed; set k uses seed + k (default 100)"
+    )
+    p.add_argument(
+        "--map",
+        default="hailu2001",
+        help="built-in map name or map file (env.map; default hailu2001)",
+    )
+    p.add_argument(
+        "--out", default="results/generalise", help="results folder (default results/generalise)"
+    )
+    p.add_argument(
+        "--overwrite", action="store_true", help="replace the results of an earlier run in --out"
+    )
     p.set_defaults(handler=_generalise)
 
 

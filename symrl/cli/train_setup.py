@@ -33,10 +33,18 @@ class TrainRun:
 
 def resumed(args: argparse.Namespace) -> TrainRun:
     """The run in ``--resume RUN_DIR``, its own config (``--trials`` may extend the budget)."""
-    given = [name for name, value in (
-        ("RECIPE", args.recipe), ("--seed", args.seed), ("--map", args.map),
-        ("--logdir", args.logdir), ("key=value", args.overrides), ("--overwrite", args.overwrite),
-    ) if value]  # fmt: skip
+    given = [
+        name
+        for name, value in (
+            ("RECIPE", args.recipe),
+            ("--seed", args.seed),
+            ("--map", args.map),
+            ("--logdir", args.logdir),
+            ("key=value", args.overrides),
+            ("--overwrite", args.overwrite),
+        )
+        if value
+    ]
     if given:
         raise ValueError(
             f"--resume {args.resume!r}: a resumed run keeps its own config; drop "
@@ -61,16 +69,26 @@ def fresh(args: argparse.Namespace) -> TrainRun:
     """A new run of RECIPE with the overrides and the flags that set config keys."""
     if args.recipe is None:
         raise ValueError("train: a RECIPE is needed (e.g. `symrl train paper`)")
-    check_overrides(args.overrides or [], {key: f"{flag} {value}" for key, flag, value in (
-        ("run.trials", "--trials", args.trials), ("run.seed", "--seed", args.seed),
-        ("env.map", "--map", args.map),
-    ) if value is not None})  # fmt: skip
+    check_overrides(
+        args.overrides or [],
+        {
+            key: f"{flag} {value}"
+            for key, flag, value in (
+                ("run.trials", "--trials", args.trials),
+                ("run.seed", "--seed", args.seed),
+                ("env.map", "--map", args.map),
+            )
+            if value is not None
+        },
+    )
     if args.logdir is not None:
         output_folder("--logdir", args.logdir)
     overrides = list(args.overrides or [])
     for flag, key in (
-        (args.trials, "run.trials"), (args.seed, "run.seed"), (args.map, "env.map"),
-    ):  # fmt: skip
+        (args.trials, "run.trials"),
+        (args.seed, "run.seed"),
+        (args.map, "env.map"),
+    ):
         if flag is not None:
             overrides.append(f"{key}={flag}")
     config = load_config(args.recipe, overrides)

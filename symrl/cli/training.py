@@ -24,18 +24,33 @@ def add_train(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
     p.add_argument("--map", default=None, help="built-in map name or map file (env.map)")
     p.add_argument("--logdir", default=None, help="run folder (default runs/RECIPE__sSEED__TIME)")
     p.add_argument("--overwrite", action="store_true", help="replace a run already in --logdir")
-    p.add_argument("--resume", default=None, metavar="RUN_DIR",
-                   help="go on with the run in RUN_DIR from its last checkpoint (its own config; "
-                   "--trials may extend the budget)")
-    p.add_argument("--checkpoint-every", type=int, default=1, metavar="N",
-                   help="write the resumable checkpoint every N trials (default 1; always at "
-                   "the end and when stopped by Ctrl-C or SIGTERM)")
-    p.add_argument("--adopt-checkpoint", action="store_true",
-                   help="with --resume: go on even if checkpoint.pt's recipe, seed, map or "
-                   "settings differ from the folder's config.yaml (the checkpoint's win)")
-    p.add_argument("--help-keys", action="store_true",
-                   help="list every config key with its value (RECIPE's and the overrides', "
-                   "given one; else the defaults) and exit")
+    p.add_argument(
+        "--resume",
+        default=None,
+        metavar="RUN_DIR",
+        help="go on with the run in RUN_DIR from its last checkpoint (its own config; "
+        "--trials may extend the budget)",
+    )
+    p.add_argument(
+        "--checkpoint-every",
+        type=int,
+        default=1,
+        metavar="N",
+        help="write the resumable checkpoint every N trials (default 1; always at "
+        "the end and when stopped by Ctrl-C or SIGTERM)",
+    )
+    p.add_argument(
+        "--adopt-checkpoint",
+        action="store_true",
+        help="with --resume: go on even if checkpoint.pt's recipe, seed, map or "
+        "settings differ from the folder's config.yaml (the checkpoint's win)",
+    )
+    p.add_argument(
+        "--help-keys",
+        action="store_true",
+        help="list every config key with its value (RECIPE's and the overrides', "
+        "given one; else the defaults) and exit",
+    )
     p.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides")
     p.set_defaults(handler=_train)
 
@@ -63,9 +78,15 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
     if run.config.options.enabled:
         plannable(run.world)
     result = run_one(
-        run.config, run.logdir, world=run.world, overwrite=args.overwrite, resume=run.state,
-        seed=run.seed, checkpoint_every=args.checkpoint_every or 1, stop=lambda: bool(signalled),
-    )  # fmt: skip
+        run.config,
+        run.logdir,
+        world=run.world,
+        overwrite=args.overwrite,
+        resume=run.state,
+        seed=run.seed,
+        checkpoint_every=args.checkpoint_every or 1,
+        stop=lambda: bool(signalled),
+    )
     if result.timings.get("stopped"):
         print(stopped_line(run, result.trials, signalled[0]), file=sys.stderr)
         return 128 + int(signalled[0])

@@ -27,8 +27,14 @@ from symrl.knowledge.subgoals import SubgoalTable, find_passages
 from symrl.world.worldmap import Goal, RegionSpec, WorldMap
 
 __all__ = [
-    "Border", "region_borders", "passages_of", "region_hops", "hops_from", "border_subgoals",
-    "BorderOptions", "border_options",
+    "Border",
+    "region_borders",
+    "passages_of",
+    "region_hops",
+    "hops_from",
+    "border_subgoals",
+    "BorderOptions",
+    "border_options",
 ]
 
 
@@ -67,8 +73,11 @@ def region_borders(spec: RegionSpec, eps: float = 1e-6) -> list[Border]:
         for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
             if hi - lo <= 2 * eps:
                 continue
-            mid = (lo + hi) / 2 if math.isfinite(lo + hi) else (
-                hi - 1.0 if math.isfinite(hi) else lo + 1.0 if math.isfinite(lo) else 0.0)
+            mid = (
+                (lo + hi) / 2
+                if math.isfinite(lo + hi)
+                else (hi - 1.0 if math.isfinite(hi) else lo + 1.0 if math.isfinite(lo) else 0.0)
+            )
             sides = []
             for off in (-eps, eps):
                 xy = (c + off, mid) if axis == 0 else (mid, c + off)
@@ -76,8 +85,12 @@ def region_borders(spec: RegionSpec, eps: float = 1e-6) -> list[Border]:
             if sides[0] == sides[1]:
                 continue
             last = out[-1] if out else None
-            if (last is not None and last.line == name and last.hi == lo
-                    and (last.low, last.high) == tuple(sides)):
+            if (
+                last is not None
+                and last.line == name
+                and last.hi == lo
+                and (last.low, last.high) == tuple(sides)
+            ):
                 out[-1] = Border(name, axis, c, last.lo, hi, sides[0], sides[1])
             else:
                 out.append(Border(name, axis, c, lo, hi, sides[0], sides[1]))
@@ -117,8 +130,12 @@ def hops_from(target: str, borders: Sequence[Border]) -> dict[str, int]:
 
 
 def border_subgoals(
-    spec: RegionSpec, goal: Goal, borders: Sequence[Border] | None = None, inset: float = 0.5,
-    beyond: float = 0.4, merge: float = 0.3,
+    spec: RegionSpec,
+    goal: Goal,
+    borders: Sequence[Border] | None = None,
+    inset: float = 0.5,
+    beyond: float = 0.4,
+    merge: float = 0.3,
 ) -> SubgoalTable:
     """Per region (in the order of ``spec.names``): the goal, then one point of each border
     with a neighbour no farther from the goal's region (see the module docstring). ``borders``:
@@ -165,7 +182,10 @@ class BorderOptions:
 
 
 def border_options(
-    spec: RegionSpec, goal: Goal, borders: Sequence[Border] | None = None, inset: float = 0.5,
+    spec: RegionSpec,
+    goal: Goal,
+    borders: Sequence[Border] | None = None,
+    inset: float = 0.5,
     beyond: float = 0.4,
 ) -> BorderOptions:
     """Per region (in the order of ``spec.names``): the goal, then every border of the region,

@@ -44,6 +44,7 @@ from symrl.world.robot import RobotConfig
 
 __all__ = ["MapLocalizer", "PoseTracker"]
 
+
 class MapLocalizer:
     """The believed poses of B robots from their odometry poses and sonar scans.
 
@@ -104,9 +105,18 @@ class MapLocalizer:
         self.wall_length = np.sqrt(1.0 / walls.inv_len2)
         # the same with one more entry, wall 0's, read by wall -1 (no hit): a ray's wall index
         # gathers from them directly (no clamp to 0 before each gather)
-        self._per_wall = tuple(np.append(v, v[0]) for v in (
-            walls.dx, walls.dy, -walls.dy, self.wall_length, walls.ax, walls.ay, walls.inv_len2,
-        ))  # fmt: skip
+        self._per_wall = tuple(
+            np.append(v, v[0])
+            for v in (
+                walls.dx,
+                walls.dy,
+                -walls.dy,
+                self.wall_length,
+                walls.ax,
+                walls.ay,
+                walls.inv_len2,
+            )
+        )
         # per odometry pose of a first step (the start poses): its _geometry's rows
         self._start_geometry: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
@@ -164,8 +174,10 @@ class MapLocalizer:
         if self.cone_rays > 1:  # per sensor, the nearest sub-ray
             b, m = len(pose), self.cone_rays
             nearest = np.argmin(t.reshape(b, -1, m), axis=2)[..., None]
-            t, wall, ux, uy = (np.take_along_axis(v.reshape(b, -1, m), nearest, 2)[..., 0]
-                               for v in (t, wall, ux, uy))  # fmt: skip
+            t, wall, ux, uy = (
+                np.take_along_axis(v.reshape(b, -1, m), nearest, 2)[..., 0]
+                for v in (t, wall, ux, uy)
+            )
         dx, dy, neg_dy, length, ax, ay, inv_len2 = (v[wall] for v in self._per_wall)
         cross = ux * dy - uy * dx  # u x d
         incidence = np.abs(cross) / length  # |cos| between the ray and the wall's normal

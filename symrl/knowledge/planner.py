@@ -189,7 +189,8 @@ class _Checker:
             return
         pts = np.array([p for _, _, p in todo])
         ok = self.world.contains_xy(pts[:, 0], pts[:, 1]) & (
-            self.index.points_clearance_closest(pts) >= self.r - 1e-7)
+            self.index.points_clearance_closest(pts) >= self.r - 1e-7
+        )
         for (ci, a, p), free in zip(todo, ok.tolist(), strict=True):
             self.points_cache[(float(p[0]), float(p[1]), 1e-7)] = free
             key = ("C", ci, round(math.remainder(a, 2 * math.pi), 12))
@@ -203,11 +204,13 @@ class _Checker:
             return
         xy = np.array([k[:2] for k in todo])
         ok = self.world.contains_xy(xy[:, 0], xy[:, 1]) & (
-            self.index.points_clearance_closest(xy) >= self.r - tol)
+            self.index.points_clearance_closest(xy) >= self.r - tol
+        )
         self.points_cache.update(zip(todo, ok.tolist(), strict=True))
 
-    def prefetch_segments(self, ends: list[tuple[np.ndarray, np.ndarray]],
-                          tol: float = 1e-7) -> None:  # fmt: skip
+    def prefetch_segments(
+        self, ends: list[tuple[np.ndarray, np.ndarray]], tol: float = 1e-7
+    ) -> None:
         """Answer :meth:`segment_ok` for many segments at once."""
         keys = [(float(a[0]), float(a[1]), float(b[0]), float(b[1]), tol) for a, b in ends]
         todo = [k for k in dict.fromkeys(keys) if k not in self._segments]
@@ -220,7 +223,8 @@ class _Checker:
         rest = np.flatnonzero(ok)
         mid = 0.5 * (seg[rest, :2] + seg[rest, 2:])
         ok[rest] = self.world.contains_xy(mid[:, 0], mid[:, 1]) & ~self.index.swept_contacts(
-            seg[rest], self.r - tol)
+            seg[rest], self.r - tol
+        )
         self._segments.update(zip(todo, ok.tolist(), strict=True))
 
     def points_ok(self, pts: np.ndarray, tol: float = _EPS) -> np.ndarray:
@@ -236,7 +240,8 @@ class _Checker:
             # the scalar query: the same clearance bit for bit as Walls.clearance (negated
             # differences, exact), without its array overhead (the planner asks hundreds of times)
             ok = bool(self.world.contains_xy(x, y)) and self.index.point_clearance_ge(
-                x, y, self.r - tol)
+                x, y, self.r - tol
+            )
             self.points_cache[key] = ok
         return ok
 
@@ -246,8 +251,10 @@ class _Checker:
         if ok is None:
             mid = 0.5 * (a + b)
             ok = bool(self.world.contains_xy(mid[0], mid[1])) and not (
-                self.index.swept_disc_contact(float(a[0]), float(a[1]), float(b[0]),
-                                              float(b[1]), self.r - tol))  # fmt: skip
+                self.index.swept_disc_contact(
+                    float(a[0]), float(a[1]), float(b[0]), float(b[1]), self.r - tol
+                )
+            )
             self._segments[key] = ok
         return ok
 
@@ -258,13 +265,17 @@ class _Checker:
         keys = [(float(c[0]), float(c[1]), a0, a1, tol) for a0, a1 in spans]
         todo = [k for k in dict.fromkeys(keys) if k not in self._arcs]
         if todo:
-            angs = [np.linspace(k[2], k[3], max(2, int(math.ceil(self.r * abs(k[3] - k[2])
-                                                                  / _ARC_CHECK)) + 1))
-                    for k in todo]  # fmt: skip
+            angs = [
+                np.linspace(
+                    k[2], k[3], max(2, int(math.ceil(self.r * abs(k[3] - k[2]) / _ARC_CHECK)) + 1)
+                )
+                for k in todo
+            ]
             ang = np.concatenate(angs)
             pts = c + self.r * np.stack([np.cos(ang), np.sin(ang)], axis=1)
             ok = self.world.contains_xy(pts[:, 0], pts[:, 1]) & (
-                self.index.circle_clearance(ci, pts) >= self.r - tol)
+                self.index.circle_clearance(ci, pts) >= self.r - tol
+            )
             starts = np.cumsum([0] + [len(a) for a in angs[:-1]])
             for k, all_ok in zip(todo, np.logical_and.reduceat(ok, starts).tolist(), strict=True):
                 self._arcs[k] = bool(all_ok)
@@ -295,8 +306,9 @@ def _bitangent_candidates(chk: _Checker) -> list[tuple[int, int, list[tuple[floa
         off = np.arccos(np.minimum(1.0, 2 * r / np.maximum(d, 1e-300)))
         half = math.pi / 2
         on_i = np.stack([base + half, base - half, base + off, base - off], axis=1)
-        on_j = np.stack([base + half, base - half, base + off + math.pi, base - off + math.pi],
-                        axis=1)  # fmt: skip
+        on_j = np.stack(
+            [base + half, base - half, base + off + math.pi, base - off + math.pi], axis=1
+        )
         keep = index.cone_ok(np.full(on_i.shape, i), on_i) | index.cone_ok(j[:, None], on_j)
         keep[:, 2:] &= inner[:, None]
         keep &= (d >= 1e-12)[:, None]
@@ -307,8 +319,10 @@ def _bitangent_candidates(chk: _Checker) -> list[tuple[int, int, list[tuple[floa
             if len(pairs) == 2 + 2 * bool(inner[row]):
                 pairs = [p for p, k in zip(pairs, mask, strict=False) if k]
             out.append((i, jj, pairs))
-    chk.prefetch_nodes([(i, a1) for i, _, pairs in out for a1, _ in pairs]
-                       + [(j, a2) for _, j, pairs in out for _, a2 in pairs])  # fmt: skip
+    chk.prefetch_nodes(
+        [(i, a1) for i, _, pairs in out for a1, _ in pairs]
+        + [(j, a2) for _, j, pairs in out for _, a2 in pairs]
+    )
     ends = []
     for k, m, pairs in out:
         for a1, a2 in pairs:

@@ -121,9 +121,14 @@ def option_table(knowledge: Knowledge, source: str) -> SubgoalTable:
     knowledge.geometry("the route option")
     goal = (float(knowledge.goal.x), float(knowledge.goal.y))
     per_region = [
-        [(goal, ROUTE)] + [((float(x), float(y)), label) for (x, y), label, ok in
-                           zip(table.points[i].tolist(), labels, table.valid[i].tolist(),
-                               strict=False) if ok]
+        [(goal, ROUTE)]
+        + [
+            ((float(x), float(y)), label)
+            for (x, y), label, ok in zip(
+                table.points[i].tolist(), labels, table.valid[i].tolist(), strict=False
+            )
+            if ok
+        ]
         for i, labels in enumerate(table.labels)
-    ]  # fmt: skip
+    ]
     return SubgoalTable.of(table.region_names, per_region)

@@ -163,8 +163,9 @@ class IRShield(BufferViews):
         seen = refl > 0
         width = max(int(seen.sum(-1).max()), 1)
         sensors = np.argsort(~seen, axis=-1, kind="stable")[:, :width]
-        rho = np.repeat(self._distances(np.take_along_axis(refl, sensors, -1)) + self.radius,
-                        3, axis=-1)  # fmt: skip
+        rho = np.repeat(
+            self._distances(np.take_along_axis(refl, sensors, -1)) + self.radius, 3, axis=-1
+        )
         bearings = self.arrays["bearings"].reshape(-1, 3)[sensors].reshape(len(act), -1)
         candidates = self.arrays["candidates"]
         grid = np.broadcast_to(candidates, (len(act), len(candidates)))

@@ -197,7 +197,8 @@ class SubgoalTable:
 
     @classmethod
     def of(
-        cls, region_names: tuple[str, ...],
+        cls,
+        region_names: tuple[str, ...],
         per_region: list[list[tuple[tuple[float, float], str]]],
     ) -> SubgoalTable:
         """The table of ``per_region[r]``: region r's candidates ``(point, label)`` in order,

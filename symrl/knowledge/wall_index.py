@@ -56,8 +56,9 @@ class WallIndex:
         idx = self._near_circle.get(ci)
         if idx is None:
             v = self.walls.vertices[ci]
-            idx = self.tree.query(shapely.points(v[0], v[1]), predicate="dwithin",
-                                  distance=2 * self.r + _PAD)  # fmt: skip
+            idx = self.tree.query(
+                shapely.points(v[0], v[1]), predicate="dwithin", distance=2 * self.r + _PAD
+            )
             idx = self._near_circle[ci] = np.sort(idx)
         return idx
 
@@ -169,8 +170,7 @@ class WallIndex:
         ey = wy - s * w.dy[idx]
         return np.sqrt((ex * ex + ey * ey).min(axis=1))
 
-    def swept_disc_contact(self, x0: float, y0: float, x1: float, y1: float,
-                           radius: float) -> bool:  # fmt: skip
+    def swept_disc_contact(self, x0: float, y0: float, x1: float, y1: float, radius: float) -> bool:
         """``Walls.swept_disc_contact`` for ``radius`` <= ``r``, on the walls near the motion.
 
         Every wall the full test can find (an end within ``radius``, a vertex within
@@ -232,8 +232,9 @@ class WallIndex:
         verts = w.vertices
         index = {(float(x), float(y)): i for i, (x, y) in enumerate(verts)}
         dirs: list[list[tuple[float, float]]] = [[] for _ in range(len(verts))]
-        for (ax, ay, bx, by), length2 in zip(w.segments.tolist(), (1.0 / w.inv_len2).tolist(),
-                                             strict=True):  # fmt: skip
+        for (ax, ay, bx, by), length2 in zip(
+            w.segments.tolist(), (1.0 / w.inv_len2).tolist(), strict=True
+        ):
             length = math.sqrt(length2)
             if length < _SHORT:
                 continue

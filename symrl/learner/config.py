@@ -318,8 +318,11 @@ class RunConfig(_Section):
             ("localize.enabled", self.localize.enabled, "map"),
         ):
             if on and not rung_at_least(self.knowledge, needed):
-                what = (f"options.source={o.source} (with options.enabled=true)"
-                        if key == "options.enabled" else f"{key}=true")  # fmt: skip
+                what = (
+                    f"options.source={o.source} (with options.enabled=true)"
+                    if key == "options.enabled"
+                    else f"{key}=true"
+                )
                 raise ValueError(
                     f"{what} needs knowledge={needed} or higher, but the recipe declares "
                     f"knowledge={self.knowledge}"
@@ -736,8 +739,10 @@ def describe_keys(config: RunConfig | None = None) -> str:
     schema = RunConfig.model_json_schema()
     defs = schema.get("$defs", {})
     defaults = config_to_dict(RunConfig())
-    rows = [f"Config keys of recipe {config.recipe!r}: key = value, then what it means. "
-            "Override one as key=value."]  # fmt: skip
+    rows = [
+        f"Config keys of recipe {config.recipe!r}: key = value, then what it means. "
+        "Override one as key=value."
+    ]
 
     def section(field: dict[str, Any]) -> dict[str, Any] | None:
         ref = field.get("$ref") or next((f["$ref"] for f in field.get("allOf", [])), None)
@@ -761,6 +766,7 @@ def describe_keys(config: RunConfig | None = None) -> str:
             rows.append(f"{key}:" + (f"  {doc}" if doc else ""))
             walk(f"{key}.", inner_properties, inner_values)
 
-    walk("", {k: v for k, v in schema["properties"].items() if k != "recipe"},
-         config_to_dict(config))  # fmt: skip
+    walk(
+        "", {k: v for k, v in schema["properties"].items() if k != "recipe"}, config_to_dict(config)
+    )
     return "\n".join(rows)

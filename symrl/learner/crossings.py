@@ -107,13 +107,17 @@ class CrossingMap(BufferViews):
         # the latest scan alone, at full weight: it is in the frame of the odometry the robot
         # steers by now, however far that has drifted
         for name in ("fresh_open", "fresh_blocked", "fresh_hidden"):
-            self.register_buffer(name, torch.zeros(batch, j, n, dtype=torch.float32),
-                                 persistent=False)  # fmt: skip
+            self.register_buffer(
+                name, torch.zeros(batch, j, n, dtype=torch.float32), persistent=False
+            )
         self._angles = np.arange(n_sensors, dtype=np.float64) * (2 * math.pi / n_sensors)
         self._exists = np.arange(n)[None, :] < self.bins[:, None]  # (J, N)
         self._rows = np.arange(batch)
-        self._step, self._move, self._turn = float(step), float(translation_noise), float(
-            rotation_noise)
+        self._step, self._move, self._turn = (
+            float(step),
+            float(translation_noise),
+            float(rotation_noise),
+        )
         self._seen_steps = np.zeros(batch, dtype=np.int64)  # observations in this trial
         self._between: dict[tuple[str, str], list[int]] = {}
         for i, b in enumerate(self.borders):
@@ -167,7 +171,11 @@ class CrossingMap(BufferViews):
             self._add(a[f"fresh_{name}"], rows, mask, t, one)
 
     def _add(
-        self, counts: np.ndarray, rows: np.ndarray, mask: np.ndarray, t: np.ndarray,
+        self,
+        counts: np.ndarray,
+        rows: np.ndarray,
+        mask: np.ndarray,
+        t: np.ndarray,
         weight: np.ndarray,
     ) -> None:
         if not mask.any():
@@ -186,9 +194,7 @@ class CrossingMap(BufferViews):
         blocked = (shut >= _SURE) & (shut > opened)
         return (opened >= _SURE) & ~blocked, blocked, hidden
 
-    def cross(
-        self, row: int, before: str, after: str, xy: np.ndarray, xy_next: np.ndarray
-    ) -> None:
+    def cross(self, row: int, before: str, after: str, xy: np.ndarray, xy_next: np.ndarray) -> None:
         """Robot ``row`` moved from region ``before`` at ``xy`` to ``after`` at ``xy_next``:
         every border between the two that the move crosses is open where it crossed."""
         for j in self._between.get((before, after), ()):
@@ -258,7 +264,8 @@ class CrossingMap(BufferViews):
             t = min(max(goal_t, t0 + inset), t1 - inset)
             p = b.at(t)
             cost = math.hypot(p[0] - xy[0], p[1] - xy[1]) + math.hypot(
-                goal[0] - p[0], goal[1] - p[1])
+                goal[0] - p[0], goal[1] - p[1]
+            )
             if cost < best_cost:
                 best, best_cost = (t, float(s), float(e)), cost
         return best
@@ -294,5 +301,9 @@ class CrossingMap(BufferViews):
                 lo, hi = centres[a] - self.resolution / 2, centres[b - 1] + self.resolution / 2
                 runs.append([round(float(lo), 3), round(float(hi), 3), int(state[a])])
             stretches.append(runs)
-        return {"crossings_open_m": round(opened, 3), "crossings_blocked_m": round(shut, 3),
-                "borders_blocked": int(blocked), "stretches": stretches}
+        return {
+            "crossings_open_m": round(opened, 3),
+            "crossings_blocked_m": round(shut, 3),
+            "borders_blocked": int(blocked),
+            "stretches": stretches,
+        }

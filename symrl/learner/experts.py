@@ -218,10 +218,15 @@ class ExpertBank(BufferViews):
         the new neurons' indices. Storage doubles when any expert is full. (Numpy writes on the
         storage's flat views: a handful of rows, a fraction of the torch dispatches; copies
         and casts only, so the same numbers.)"""
-        return torch.from_numpy(self.add_np(
-            rows.numpy(), expert.numpy(), centre.detach().numpy(), action.detach().numpy(),
-            utility.detach().numpy(),
-        ))  # fmt: skip
+        return torch.from_numpy(
+            self.add_np(
+                rows.numpy(),
+                expert.numpy(),
+                centre.detach().numpy(),
+                action.detach().numpy(),
+                utility.detach().numpy(),
+            )
+        )
 
     def add_np(
         self,

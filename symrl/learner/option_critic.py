@@ -66,9 +66,7 @@ class OptionCritic(BufferViews):
         self.learn_choices(rows[i], r, choice[entered], returns[entered])
         self.end_trials(rows)
 
-    def learn_choices(
-        self, b: np.ndarray, r: np.ndarray, k: np.ndarray, ret: np.ndarray
-    ) -> None:
+    def learn_choices(self, b: np.ndarray, r: np.ndarray, k: np.ndarray, ret: np.ndarray) -> None:
         """Critic step for the choices ``(b, r, k)`` (controller, region, option; each triple
         once) with their returns-to-go ``ret`` from the moment each was chosen."""
         a = self.arrays

@@ -106,14 +106,20 @@ class SubgoalOptions(BufferViews):
         )
         self.route = (
             Route(knowledge.geometry("the route option"), batch, config.ahead, config.reach)
-            if (self._route_option >= 0).any() else None
-        )  # fmt: skip
+            if (self._route_option >= 0).any()
+            else None
+        )
         slack = config.region_limit
         # learned across trials; with the region limit, an option given up is not chosen again
         self.critic = OptionCritic(
-            batch, r, k, explore.epsilon, explore.epsilon_decay, explore.critic,
+            batch,
+            r,
+            k,
+            explore.epsilon,
+            explore.epsilon_decay,
+            explore.critic,
             stalls=slack is not None and self.crossings is None,
-        )  # fmt: skip
+        )
         self._zero_turn = np.zeros(batch, dtype=bool)
         self.register_buffer("choice", torch.full((batch, r), -1, dtype=torch.long))
         self.register_buffer("stage", torch.zeros(batch, dtype=torch.long))
@@ -127,7 +133,11 @@ class SubgoalOptions(BufferViews):
         self._region_steps = np.zeros((batch, r), dtype=np.int64)
 
     def _init_crossings(
-        self, knowledge: Knowledge, batch: int, config: CrossingsConfig, robot: RobotConfig,
+        self,
+        knowledge: Knowledge,
+        batch: int,
+        config: CrossingsConfig,
+        robot: RobotConfig,
         max_actions: int,
     ) -> None:
         """Every border of a region is an option; where each can be crossed is learned."""
@@ -141,20 +151,24 @@ class SubgoalOptions(BufferViews):
             self._side[r, : len(signs)] = signs
         start = knowledge.start
         self.crossings = CrossingMap(
-            opts.borders, batch, radius=robot.radius, close_distance=robot.close_distance,
-            sonar_range=robot.sonar_range, n_sensors=robot.n_sensors,
+            opts.borders,
+            batch,
+            radius=robot.radius,
+            close_distance=robot.close_distance,
+            sonar_range=robot.sonar_range,
+            n_sensors=robot.n_sensors,
             origin=(float(start.x), float(start.y)),
             reach=max_actions * robot.step + robot.sonar_range + robot.radius,
-            resolution=config.resolution, step=robot.step,
+            resolution=config.resolution,
+            step=robot.step,
             translation_noise=robot.translation_noise,
             rotation_noise=math.radians(robot.rotation_noise_deg),
-        )  # fmt: skip
+        )
         self._beyond = 0.4
         self._start_xy = np.array([float(start.x), float(start.y)])
         names = list(knowledge.regions.names)
         self._region_of = {n: i for i, n in enumerate(names)}
-        self._target = names.index(knowledge.regions.region_of(knowledge.goal.x,
-                                                                knowledge.goal.y))
+        self._target = names.index(knowledge.regions.region_of(knowledge.goal.x, knowledge.goal.y))
         j = len(opts.borders)
         # per robot: the borders found blocked, the region graph's hops without them
         self._blocked = np.zeros((batch, j), dtype=bool)
@@ -171,15 +185,14 @@ class SubgoalOptions(BufferViews):
     def _rehop(self, b: int) -> None:
         """Robot ``b``'s hops from the goal's region over the borders it has not found blocked."""
         opts = self._border_options
-        open_borders = [x for x, shut in zip(opts.borders, self._blocked[b], strict=True)
-                        if not shut]  # fmt: skip
+        open_borders = [
+            x for x, shut in zip(opts.borders, self._blocked[b], strict=True) if not shut
+        ]
         names = opts.table.region_names
         hops = hops_from(names[self._target], open_borders)
         self._hops[b] = [hops.get(n, math.inf) for n in names]
 
-    def _offered(
-        self, b: int, region: int, valid: list[bool], stalled: list[bool]
-    ) -> list[bool]:
+    def _offered(self, b: int, region: int, valid: list[bool], stalled: list[bool]) -> list[bool]:
         """Which of ``region``'s options robot ``b`` is offered: the goal and the borders it has
         not found blocked that lead no farther from the goal's region, where one of them has
         not stalled; else every border not found blocked that has not stalled (the ways back
@@ -218,9 +231,7 @@ class SubgoalOptions(BufferViews):
         else:
             self.critic.stall(b, region, option)
 
-    def _cross_point(
-        self, b: int, region: int, option: int, xy: np.ndarray
-    ) -> np.ndarray | None:
+    def _cross_point(self, b: int, region: int, option: int, xy: np.ndarray) -> np.ndarray | None:
         """Robot ``b``'s aim for a border option: past the line at the crossing it believes
         best (or in front of it, to line up with it); None when it found the border blocked."""
         assert self.crossings is not None
@@ -248,8 +259,13 @@ class SubgoalOptions(BufferViews):
         return np.array([x, y])
 
     def _cross(
-        self, region: np.ndarray, chosen: np.ndarray, stage: np.ndarray, xy: np.ndarray,
-        point: np.ndarray, greedy: bool,
+        self,
+        region: np.ndarray,
+        chosen: np.ndarray,
+        stage: np.ndarray,
+        xy: np.ndarray,
+        point: np.ndarray,
+        greedy: bool,
     ) -> None:
         """Aim the robots on a border option at their crossing (re-choosing where a border turns
         out blocked)."""
@@ -343,8 +359,13 @@ class SubgoalOptions(BufferViews):
             start_turn = (starting | on_route) & (np.abs(angle) > self._start_turn)
         if self.crossings is not None:  # every choice is credited with what followed it
             entered = entered | self._rechose
-        return (torch.from_numpy(angle), torch.from_numpy(chosen), torch.from_numpy(entered),
-                torch.from_numpy(aim), start_turn)
+        return (
+            torch.from_numpy(angle),
+            torch.from_numpy(chosen),
+            torch.from_numpy(entered),
+            torch.from_numpy(aim),
+            start_turn,
+        )
 
     def _choose(self, b: int, region: int, greedy: bool) -> int:
         """Controller ``b``'s option for ``region`` at its first entry in a trial (on Python
@@ -355,8 +376,10 @@ class SubgoalOptions(BufferViews):
         if self.crossings is not None:
             valid = self._offered(b, region, valid, self._trial_stalled[b, region].tolist())
         elif self.critic.stalls:  # a stalled option is as if not offered
-            valid = [ok and not stalled for ok, stalled in
-                     zip(valid, learned["stalled"][b, region].tolist(), strict=True)]  # fmt: skip
+            valid = [
+                ok and not stalled
+                for ok, stalled in zip(valid, learned["stalled"][b, region].tolist(), strict=True)
+            ]
             if not any(valid):
                 valid = a["valid"][region].tolist()
         options = [o for o, ok in enumerate(valid) if ok]
@@ -392,8 +415,10 @@ class SubgoalOptions(BufferViews):
             self.crossings.forget(r)
             self._trial_stalled[r] = False
             for b in r.tolist():
-                self._blocked[b] = [self.crossings.crossing(b, j, self._start_xy, self.goal)
-                                    is None for j in range(len(self._border_options.borders))]
+                self._blocked[b] = [
+                    self.crossings.crossing(b, j, self._start_xy, self.goal) is None
+                    for j in range(len(self._border_options.borders))
+                ]
                 self._rehop(b)
 
     # -- what the update learns from -----------------------------------------------------

@@ -49,19 +49,27 @@ class Perception(Transform):
     (``perception(td)``, for a policy driven without it)."""
 
     def __init__(self, knowledge: Knowledge, config: RunConfig, batch: int) -> None:
-        super().__init__(in_keys=["sonar", "odometry", "goal"],
-                         out_keys=[*PERCEPTION_KEYS, INIT_KEY])  # fmt: skip
+        super().__init__(
+            in_keys=["sonar", "odometry", "goal"], out_keys=[*PERCEPTION_KEYS, INIT_KEY]
+        )
         robot, xc, lc = config.env.robot, config.experts, config.localize
         self.batch = batch
         self.goal = (float(knowledge.goal.x), float(knowledge.goal.y))
         self.tracker = (
-            PoseTracker(MapLocalizer(Walls(knowledge.geometry("localize").segments), robot,
-                                     lc.iterations, lc.prior_xy, lc.prior_heading,
-                                     max_move=lc.max_move),
-                        batch)
+            PoseTracker(
+                MapLocalizer(
+                    Walls(knowledge.geometry("localize").segments),
+                    robot,
+                    lc.iterations,
+                    lc.prior_xy,
+                    lc.prior_heading,
+                    max_move=lc.max_move,
+                ),
+                batch,
+            )
             if lc.enabled
             else None
-        )  # fmt: skip
+        )
         self.mapper = RegionMapper(knowledge.regions)
         self.partition = bool(config.gate.partition)
         self.pose_input = xc.input == "pose"
@@ -138,8 +146,11 @@ class Perception(Transform):
         self, tensordict: TensorDictBase | None, tensordict_reset: TensorDictBase
     ) -> TensorDictBase:
         mask = None if tensordict is None else tensordict.get("_reset", None)
-        rows = (np.arange(self.batch) if mask is None
-                else np.flatnonzero(mask.reshape(self.batch).numpy()))  # fmt: skip
+        rows = (
+            np.arange(self.batch)
+            if mask is None
+            else np.flatnonzero(mask.reshape(self.batch).numpy())
+        )
         self.begin_trial(rows)
         init = np.zeros((self.batch, 1), dtype=bool)
         init[rows] = True

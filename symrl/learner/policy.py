@@ -98,8 +98,9 @@ def _without_perception(module: Any, state: dict[str, Any], prefix: str, metadat
 
 def _perception_not_missing(module: Any, incompatible: Any) -> None:
     """A state dict of a policy holds no perception entries: none is missing."""
-    incompatible.missing_keys[:] = [k for k in incompatible.missing_keys
-                                    if f".{_PERCEPTION}" not in f".{k}"]  # fmt: skip
+    incompatible.missing_keys[:] = [
+        k for k in incompatible.missing_keys if f".{_PERCEPTION}" not in f".{k}"
+    ]
 
 
 class MixtureOfExpertsPolicy(TensorDictModuleBase):
@@ -120,9 +121,18 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
 
     in_keys = [*OBS_KEYS, *PERCEPTION_KEYS]
     out_keys = [
-        "action", "winner", "novel", "proto", "xi", "sigma", "taken", "shielded", "aim",
-        "option", "option_entry",
-    ]  # fmt: skip
+        "action",
+        "winner",
+        "novel",
+        "proto",
+        "xi",
+        "sigma",
+        "taken",
+        "shielded",
+        "aim",
+        "option",
+        "option_entry",
+    ]
 
     def __init__(
         self,
@@ -165,15 +175,26 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         self.reflex = FuzzyReflex(config.reflex)
         self.input_dim = perception.input_dim
         self.experts = ExpertBank(
-            batch, len(self.expert_names), self.input_dim, xc.capacity, xc.max_neurons,
+            batch,
+            len(self.expert_names),
+            self.input_dim,
+            xc.capacity,
+            xc.max_neurons,
             names=self.expert_names,
-        )  # fmt: skip
+        )
         self.options = None
         if config.options.enabled:
             self.options = SubgoalOptions(
-                knowledge, batch, config.options, self.seeds, subgoals, config.option_critic,
-                config.crossings, robot, config.env.max_actions,
-            )  # fmt: skip
+                knowledge,
+                batch,
+                config.options,
+                self.seeds,
+                subgoals,
+                config.option_critic,
+                config.crossings,
+                robot,
+                config.env.max_actions,
+            )
         self.shield = (
             IRShield(ShieldConfig(margin=config.shield.margin), robot)
             if config.shield.enabled
@@ -217,8 +238,13 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         estimate starts)."""
         seen = self.perception.perceive(sonar, odometry, goal)
         winner, novel = self._winners(seen["expert"], seen["x"])
-        return PerceptionResult(seen["region"], seen["expert"], seen["x"],
-                                torch.from_numpy(winner), torch.from_numpy(novel))  # fmt: skip
+        return PerceptionResult(
+            seen["region"],
+            seen["expert"],
+            seen["x"],
+            torch.from_numpy(winner),
+            torch.from_numpy(novel),
+        )
 
     def _winners(self, expert: torch.Tensor, x: torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
         """The nearest neuron of each robot's expert to its input and whether none lies within
@@ -237,19 +263,19 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         return {
             "generators": [g.get_state() for g in self.generators],
             "option_generators": [g.get_state() for g in options.generators]
-            if options is not None else [],
+            if options is not None
+            else [],
             "normals": self._normals.clone(),
             "uniforms": self._uniforms.clone(),
             "drawn": int(self._drawn),
-        }  # fmt: skip
+        }
 
     def load_random_state(self, state: dict[str, Any]) -> None:
         """Go on drawing from :meth:`random_state` (a policy of the same config and seeds)."""
         for g, saved in zip(self.generators, state["generators"], strict=True):
             g.set_state(saved)
         if self.options is not None:
-            for g, saved in zip(self.options.generators, state["option_generators"],
-                                strict=True):  # fmt: skip
+            for g, saved in zip(self.options.generators, state["option_generators"], strict=True):
                 g.set_state(saved)
         self._normals = state["normals"].clone()
         self._uniforms = state["uniforms"].clone()

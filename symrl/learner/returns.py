@@ -34,8 +34,9 @@ class TrialReturns(BufferViews):
         self.choices = choices is not None
         if choices is not None:
             self.register_buffer(
-                "choice_return", torch.full((batch, regions, choices), math.nan,
-                                            dtype=torch.float64))  # fmt: skip
+                "choice_return",
+                torch.full((batch, regions, choices), math.nan, dtype=torch.float64),
+            )
 
     def enter(self, rows: np.ndarray, region: np.ndarray, option: np.ndarray | None) -> None:
         """Robots ``rows`` chose an option (``option[rows]``, with choices) in region

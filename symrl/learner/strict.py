@@ -74,13 +74,19 @@ def _number(key: str, value: Any, annotation: Any, shown: Any) -> str | None:
         return f"{key}={shown!r}: expected a finite number"
     if isinstance(value, (bool, str)):
         example = "e.g. 20" if annotation is int else "e.g. 0.9"
-        return (f"{key}={shown!r}: expected a number, not {_what(value)} "
-                f"(write it unquoted, {example})")  # fmt: skip
-    if annotation is float and isinstance(value, _NUMBER) and math.isfinite(value) and (
-        abs(value) > MAX_MAGNITUDE
+        return (
+            f"{key}={shown!r}: expected a number, not {_what(value)} (write it unquoted, {example})"
+        )
+    if (
+        annotation is float
+        and isinstance(value, _NUMBER)
+        and math.isfinite(value)
+        and (abs(value) > MAX_MAGNITUDE)
     ):
-        return (f"{key}={shown!r}: out of range; a number within +-{MAX_MAGNITUDE:g} is "
-                "expected (a larger one overflows the arithmetic)")  # fmt: skip
+        return (
+            f"{key}={shown!r}: out of range; a number within +-{MAX_MAGNITUDE:g} is "
+            "expected (a larger one overflows the arithmetic)"
+        )
     if annotation is int and isinstance(value, int) and abs(value) >= 2**63:
         return f"{key}={shown!r}: out of range; an integer below 2**63 is expected"
     return None

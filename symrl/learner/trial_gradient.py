@@ -113,8 +113,11 @@ def _sector_rays(sectors: tuple[tuple[int, ...], ...]) -> tuple[np.ndarray, bool
 
 
 def reflex_partials(
-    reflex: FuzzyReflex, sonar: np.ndarray, beta: np.ndarray,
-    eps: float = 1e-7, jump: float = 1e-4,
+    reflex: FuzzyReflex,
+    sonar: np.ndarray,
+    beta: np.ndarray,
+    eps: float = 1e-7,
+    jump: float = 1e-4,
 ) -> tuple[np.ndarray, np.ndarray]:
     """dR/d beta (T,) and dR/d sonar (T, n) of the reflex's output at T inputs (float64).
 

@@ -119,8 +119,18 @@ class TeseoUpdate:
     @property
     def in_keys(self) -> list:
         k = self.tensor_keys
-        own = [k.expert, k.winner, k.novel, k.x, k.proto, k.xi, k.taken, k.region,
-               k.option_entry, k.state_reward]  # fmt: skip
+        own = [
+            k.expert,
+            k.winner,
+            k.novel,
+            k.x,
+            k.proto,
+            k.xi,
+            k.taken,
+            k.region,
+            k.option_entry,
+            k.state_reward,
+        ]
         reached = [k.expert, k.x, k.reward, k.terminated, k.truncated]
         if self.record is not None:
             own += [k.sonar, k.pose, k.aim, k.shielded]
@@ -132,8 +142,10 @@ class TeseoUpdate:
         known = {f.name for f in fields(UpdateKeys)}
         for key in renamed:
             if key not in known:
-                raise ValueError(f"{key!r} is not an accepted tensordict key for the update "
-                                 f"(accepted: {sorted(known)})")  # fmt: skip
+                raise ValueError(
+                    f"{key!r} is not an accepted tensordict key for the update "
+                    f"(accepted: {sorted(known)})"
+                )
         self.tensor_keys = replace(self.tensor_keys, **renamed)
 
     def state_dict(self) -> dict[str, torch.Tensor]:
@@ -170,8 +182,12 @@ class TeseoUpdate:
             self._observe_crossings(td, nxt)
         if not cfg.experts.learning:
             zero = torch.zeros(batch, dtype=torch.float64)
-            return TensorDict(td_error=zero, grown=torch.zeros(batch, dtype=torch.long),
-                              neurons=policy.neurons().sum(-1), batch_size=[batch])  # fmt: skip
+            return TensorDict(
+                td_error=zero,
+                grown=torch.zeros(batch, dtype=torch.long),
+                neurons=policy.neurons().sum(-1),
+                batch_size=[batch],
+            )
         bank = self.experts
         expert, winner = read(td, k.expert).numpy(), read(td, k.winner).numpy()
         x, proto = read(td, k.x).numpy(), read(td, k.proto).numpy()
@@ -193,10 +209,15 @@ class TeseoUpdate:
 
         if self.record is not None:  # the poses the robot steered by (its belief)
             self.record.append(
-                read(td, k.pose).numpy(), read(td, k.sonar).numpy(), read(td, k.aim).numpy(),
-                read(td, k.shielded).numpy(), flat.row_base + expert, winner,
-                read(nxt, k.pose).numpy(), read(nxt, k.sonar).numpy(),
-            )  # fmt: skip
+                read(td, k.pose).numpy(),
+                read(td, k.sonar).numpy(),
+                read(td, k.aim).numpy(),
+                read(td, k.shielded).numpy(),
+                flat.row_base + expert,
+                winner,
+                read(nxt, k.pose).numpy(),
+                read(nxt, k.sonar).numpy(),
+            )
 
         # 2. the utility of the state reached
         terminated = read(nxt, k.terminated).numpy().reshape(-1)
@@ -226,13 +247,23 @@ class TeseoUpdate:
         # TD(0) and REINFORCE on the rows that did not split (a split row keeps its values),
         # the centre shift where the error is positive
         step = np.where(split, 0.0, delta)
-        bank.learn(index, u_prev, step, read(td, k.xi).numpy(), x, ~split & (delta > 0),
-                   (update.eta, update.beta, update.kappa))  # fmt: skip
+        bank.learn(
+            index,
+            u_prev,
+            step,
+            read(td, k.xi).numpy(),
+            x,
+            ~split & (delta > 0),
+            (update.eta, update.beta, update.kappa),
+        )
         return new_tensordict(
-            {"td_error": torch.from_numpy(delta), "grown": torch.from_numpy(grown),
-             "neurons": torch.from_numpy(bank.flat.counts.reshape(batch, -1).sum(-1))},
+            {
+                "td_error": torch.from_numpy(delta),
+                "grown": torch.from_numpy(grown),
+                "neurons": torch.from_numpy(bank.flat.counts.reshape(batch, -1).sum(-1)),
+            },
             torch.Size([batch]),
-        )  # fmt: skip
+        )
 
     def _observe_crossings(self, td: TensorDictBase, nxt: TensorDictBase) -> None:
         """The crossing evidence of the state reached (and of a trial's first state): the
@@ -254,8 +285,13 @@ class TeseoUpdate:
         if moved.any():
             names = policy.region_names
             for b in np.flatnonzero(moved).tolist():
-                crossings.cross(b, names[int(region[b])], names[int(region_next[b])],
-                                pose[b, :2], pose_next[b, :2])  # fmt: skip
+                crossings.cross(
+                    b,
+                    names[int(region[b])],
+                    names[int(region_next[b])],
+                    pose[b, :2],
+                    pose_next[b, :2],
+                )
 
     @no_grad
     def end_trial(
@@ -294,10 +330,14 @@ class TeseoUpdate:
         progress.count(rows_np)
         best = progress.best_totals(rows_np)
         return new_tensordict(
-            {"replaced": torch.from_numpy(replaced), "improved": torch.from_numpy(improved),
-             "best_total": torch.from_numpy(best), "temperature": torch.from_numpy(explored)},
+            {
+                "replaced": torch.from_numpy(replaced),
+                "improved": torch.from_numpy(improved),
+                "best_total": torch.from_numpy(best),
+                "temperature": torch.from_numpy(explored),
+            },
             torch.Size([n]),
-        )  # fmt: skip
+        )
 
     def _trial_gradient_step(self, rows: np.ndarray) -> None:
         """mu_j += clip(rate * sum of dJ/da_t over the steps neuron j acted, +-max_step), kept
@@ -315,11 +355,18 @@ class TeseoUpdate:
             # the price of one action more: the trial's own mean cost per action
             cost = tg.step_cost * max(-float(returns[b]), 0.0) / n
             grad = trial_gradient(
-                policy.reflex, rec.pose[b, : n + 1], rec.sonar[b, : n + 1], rec.aim[b, :n],
-                rec.held[b, :n], (goal.x, goal.y),
-                robot.step, robot.sonar_range, robot.close_distance, cost,
+                policy.reflex,
+                rec.pose[b, : n + 1],
+                rec.sonar[b, : n + 1],
+                rec.aim[b, :n],
+                rec.held[b, :n],
+                (goal.x, goal.y),
+                robot.step,
+                robot.sonar_range,
+                robot.close_distance,
+                cost,
                 reactive=cfg.experts.residual,
-            )  # fmt: skip
+            )
             index = rec.row[b, :n] * flat.capacity + rec.neuron[b, :n]
             # per neuron, its steps' sum in the steps' order (bincount's), read at the neurons
             # that acted; clipped by min/max (np.unique and np.clip cost several times as much

@@ -63,7 +63,13 @@ LADDER = ("reflex_only", "paper_literal", "paper", "paper_passages", "paper_map"
 learner, on the same seeds."""
 
 RECIPES = (
-    "paper", "paper_passages", "paper_map", "paper_literal", "no_partition", "no_reflex", "plain",
+    "paper",
+    "paper_passages",
+    "paper_map",
+    "paper_literal",
+    "no_partition",
+    "no_reflex",
+    "plain",
     "reflex_only",
 )
 
@@ -131,13 +137,23 @@ def changes_of(recipe: str, base: str = "paper_literal") -> list[Variant]:
         if isinstance(value, dict) and isinstance(back, dict):  # only the entries that differ
             keys = [k for k in {**back, **value} if value.get(k) != back.get(k)]
             shown = ({k: value.get(k) for k in keys}, {k: back.get(k) for k in keys})
-        variants.append(Variant(
-            f"{name}-without-{key}", recipe, (f"{key}={json.dumps(back)}",),
-            f"{key}: {_short(shown[0])} -> {_short(shown[1])}",
-        ))  # fmt: skip
+        variants.append(
+            Variant(
+                f"{name}-without-{key}",
+                recipe,
+                (f"{key}={json.dumps(back)}",),
+                f"{key}: {_short(shown[0])} -> {_short(shown[1])}",
+            )
+        )
     if mine.experts.learning:
-        variants.append(Variant(f"{name}-experts-off", recipe, ("experts.learning=false",),
-                                "experts.learning: true -> false"))  # fmt: skip
+        variants.append(
+            Variant(
+                f"{name}-experts-off",
+                recipe,
+                ("experts.learning=false",),
+                "experts.learning: true -> false",
+            )
+        )
     return variants
 
 
@@ -199,6 +215,7 @@ def changes_markdown(
 def _reached(row: dict[str, Any]) -> bool:
     value = row["reached_goal"]
     return value is True or str(value) == "True"
+
 
 def _pm(d: dict[str, float], fmt: str = ".1f") -> str:
     if not np.isfinite(d["mean"]):
@@ -315,14 +332,24 @@ def run_ablation(
     for variant in variants:
         recipe = variant.name
         r0 = time.perf_counter()
-        sets_r = run_sets(variant.recipe, sets, trials, seed,
-                          [f"env.map={map}", *variant.overrides], starts, workers,
-                          keep=Path(out) / recipe / "sets" if keep_sets and out
-                          else None)  # fmt: skip
+        sets_r = run_sets(
+            variant.recipe,
+            sets,
+            trials,
+            seed,
+            [f"env.map={map}", *variant.overrides],
+            starts,
+            workers,
+            keep=Path(out) / recipe / "sets" if keep_sets and out else None,
+        )
         rows = [r for s in sets_r for r in s.rows]
         table = table1(rows)
-        table.update(optimum=opt, recipe=recipe, seeds=[seed, seed + sets - 1],
-                     knowledge=load_config(variant.recipe, list(variant.overrides)).knowledge)
+        table.update(
+            optimum=opt,
+            recipe=recipe,
+            seeds=[seed, seed + sets - 1],
+            knowledge=load_config(variant.recipe, list(variant.overrides)).knowledge,
+        )
         if variant.overrides:
             table["overrides"] = list(variant.overrides)
         if world.name == "hailu2001":  # the paper's numbers are of its world only
@@ -332,8 +359,9 @@ def run_ablation(
         wall_r = time.perf_counter() - r0
         table["wall_time_s"] = round(wall_r, 1)
         table["map"] = world.name
-        study = StudyResult(recipe, sets_r, table, Path(out) / recipe if out else None, wall_r,
-                            world)  # fmt: skip
+        study = StudyResult(
+            recipe, sets_r, table, Path(out) / recipe if out else None, wall_r, world
+        )
         studies[recipe] = study
         summary[recipe] = summarise(rows)
         summary[recipe]["wall_time_s"] = round(wall_r, 1)
@@ -352,7 +380,8 @@ def run_ablation(
         (out / "summary.md").write_text(summary_markdown(summary))
         if any(v.change for v in variants):
             (out / "changes.md").write_text(
-                changes_markdown(variants, {n: studies[n].rows for n in names}))
+                changes_markdown(variants, {n: studies[n].rows for n in names})
+            )
         if figures:
             from symrl.figures import plot_comparison
 
@@ -364,17 +393,17 @@ def run_ablation(
             }
             every = [r for r in summary if not r.startswith("_") and r not in put_back]
             plot_comparison(
-                {r: {q: curves(read_trials_csv(out / r / "trials.csv"), q) for q in qs}
-                 for r in every},
+                {
+                    r: {q: curves(read_trials_csv(out / r / "trials.csv"), q) for q in qs}
+                    for r in every
+                },
                 out / "comparison.png",
                 qs,
             )
     return summary
 
 
-def _merge(
-    out: Path, summary: dict[str, Any], sets: int, trials: int, seed: int
-) -> dict[str, Any]:
+def _merge(out: Path, summary: dict[str, Any], sets: int, trials: int, seed: int) -> dict[str, Any]:
     """Keep the rows of recipes run earlier into the same folder with the same sets, trials and
     seeds (so one recipe, e.g. ``paper``, can be re-run alone); recipes in RECIPES order."""
     old_path = out / "summary.json"
@@ -383,15 +412,20 @@ def _merge(
     if old_path.is_file():
         old = json.loads(old_path.read_text())
         same = old.get("_seeds") == summary["_seeds"] and old.get(
-            "_map", "hailu2001") == summary.get("_map", "hailu2001")
+            "_map", "hailu2001"
+        ) == summary.get("_map", "hailu2001")
         runs = [
-            r for r in old.get("_runs", [])
+            r
+            for r in old.get("_runs", [])
             if same and not set(r["recipes"]) <= {k for k in summary if not k.startswith("_")}
         ]
         for recipe, s in old.items():
             if (
-                not recipe.startswith("_") and recipe not in summary and same
-                and s.get("sets") == sets and s.get("trials") == trials
+                not recipe.startswith("_")
+                and recipe not in summary
+                and same
+                and s.get("sets") == sets
+                and s.get("trials") == trials
                 and (out / recipe / "trials.csv").is_file()
             ):
                 merged[recipe] = s
@@ -416,18 +450,33 @@ def ablate_command(args: argparse.Namespace) -> int:
     recipes: list[str | Variant] = []
     if changes:
         recipes += changes_of(changes, args.base)
-    recipes += [r for r in named or (() if changes else RECIPES) if r not in
-                {v.name for v in recipes if isinstance(v, Variant)}]  # fmt: skip
+    recipes += [
+        r
+        for r in named or (() if changes else RECIPES)
+        if r not in {v.name for v in recipes if isinstance(v, Variant)}
+    ]
     from symrl.studies import checkpointing
 
     settings = {
-        "variants": [[v.name, v.recipe, list(v.overrides)] if isinstance(v, Variant) else v
-                     for v in recipes],
-        "sets": args.sets, "trials": args.trials, "seed": args.seed, "map": args.map,
-    }  # fmt: skip
+        "variants": [
+            [v.name, v.recipe, list(v.overrides)] if isinstance(v, Variant) else v for v in recipes
+        ],
+        "sets": args.sets,
+        "trials": args.trials,
+        "seed": args.seed,
+        "map": args.map,
+    }
     with checkpointing.running(args.out, "ablate", settings, bool(getattr(args, "resume", 0))):
-        summary = run_ablation(recipes, args.sets, args.trials, args.seed, args.workers,
-                               args.out, map=args.map, keep_sets=True)  # fmt: skip
+        summary = run_ablation(
+            recipes,
+            args.sets,
+            args.trials,
+            args.seed,
+            args.workers,
+            args.out,
+            map=args.map,
+            keep_sets=True,
+        )
     print(summary_markdown(summary))
     if ladder:
         table = ladder_markdown(summary)

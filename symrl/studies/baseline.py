@@ -109,9 +109,16 @@ def run_config(map: str = "hailu2001", seed: int = 100, episodes: int = 20) -> R
     -65.45 with `paper`'s halved sets, SAC residual at 20 trials 43.9 / -23.19 against 48.5 /
     -25.45 (seeds 100-104; RESULTS.md, "Modern baselines")."""
     peaks = list(ReflexConfig().peaks)
-    return load_config("paper_map", [f"env.map={map}", f"run.seed={seed}", f"run.trials={episodes}",
-                                 f"run.image_every={max(episodes // 4, 1)}",
-                                 f"reflex.peaks={peaks}"])  # fmt: skip
+    return load_config(
+        "paper_map",
+        [
+            f"env.map={map}",
+            f"run.seed={seed}",
+            f"run.trials={episodes}",
+            f"run.image_every={max(episodes // 4, 1)}",
+            f"reflex.peaks={peaks}",
+        ],
+    )
 
 
 def robot_seeds(seed: int, envs: int) -> list[int]:
@@ -172,9 +179,17 @@ def summarise(rows: Sequence[dict[str, Any]], budget: int) -> dict[str, Any]:
 # Checkpoints and greedy trials
 
 
-def save_baseline(path: Path, algorithm: str, agent: Agent, priors: Priors, config: RunConfig,
-                  world: Any, seed: int, n_obs: int,
-                  resume: dict[str, Any] | None = None) -> None:  # fmt: skip
+def save_baseline(
+    path: Path,
+    algorithm: str,
+    agent: Agent,
+    priors: Priors,
+    config: RunConfig,
+    world: Any,
+    seed: int,
+    n_obs: int,
+    resume: dict[str, Any] | None = None,
+) -> None:
     """The actor, how to rebuild it, the priors, config and map content: self-contained; with
     ``resume`` also the run state to go on from (:func:`load_run_state`). Written atomically: a
     crash leaves the previous file."""
@@ -199,8 +214,12 @@ def save_baseline(path: Path, algorithm: str, agent: Agent, priors: Priors, conf
     )
 
 
-def load_run_state(logdir: str | Path, settings: dict[str, Any], episodes: int,
-                   knowledge: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
+def load_run_state(
+    logdir: str | Path,
+    settings: dict[str, Any],
+    episodes: int,
+    knowledge: dict[str, Any] | None = None,
+) -> dict[str, Any]:
     """The run state in ``logdir/checkpoint.pt`` to go on to ``episodes`` trials, checked
     against this run's ``settings`` (algorithm, priors, seed, robots, hyper-parameters) and
     ``knowledge`` (the ``env``, ``reflex`` and ``shield`` sections it would use, checked against
@@ -218,8 +237,10 @@ def load_run_state(logdir: str | Path, settings: dict[str, Any], episodes: int,
     if not isinstance(data, dict) or data.get("kind") != CHECKPOINT_KIND:
         raise CheckpointError(f"--resume {str(folder)!r}: not a baseline run")
     if not isinstance(state, dict):
-        raise CheckpointError(f"--resume {str(folder)!r}: the checkpoint holds the actor only, "
-                              "no run state to go on from")  # fmt: skip
+        raise CheckpointError(
+            f"--resume {str(folder)!r}: the checkpoint holds the actor only, "
+            "no run state to go on from"
+        )
     if state.get("format") != SNAPSHOT_FORMAT:
         raise CheckpointError(
             f"--resume {str(folder)!r}: run state format {state.get('format')!r}, this symrl "
@@ -238,8 +259,9 @@ def load_run_state(logdir: str | Path, settings: dict[str, Any], episodes: int,
             )
     done = len(state["rows"])
     if episodes < done:
-        raise ValueError(f"--episodes {episodes}: the run in {str(folder)!r} has done {done} "
-                         "trials already")  # fmt: skip
+        raise ValueError(
+            f"--episodes {episodes}: the run in {str(folder)!r} has done {done} trials already"
+        )
     return state
 
 
@@ -279,8 +301,15 @@ class BaselineController(TensorDictModuleBase):
     ``begin_trial``); greedy under TorchRL's DETERMINISTIC exploration type (the actor's mode).
     """
 
-    def __init__(self, actor: Any, priors: Priors, config: RunConfig, world: Any,
-                 algorithm: str, batch: int = 1) -> None:  # fmt: skip
+    def __init__(
+        self,
+        actor: Any,
+        priors: Priors,
+        config: RunConfig,
+        world: Any,
+        algorithm: str,
+        batch: int = 1,
+    ) -> None:
         super().__init__()
         self.actor, self.priors, self.config, self.world = actor, priors, config, world
         self.algorithm, self.batch = algorithm, batch
@@ -296,8 +325,9 @@ class BaselineController(TensorDictModuleBase):
         self.actor(td)
         return self.to_action(td)
 
-    def evaluate(self, starts: Sequence[Any] | None = None, seed: int = 0,
-                 world: Any = None) -> list[dict[str, Any]]:  # fmt: skip
+    def evaluate(
+        self, starts: Sequence[Any] | None = None, seed: int = 0, world: Any = None
+    ) -> list[dict[str, Any]]:
         """One greedy trial from each start (radians; None: the map's start), noise on."""
         from symrl.evaluate import rollout
 
@@ -380,18 +410,40 @@ def train_baseline(
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
-        return _train_baseline(algorithm, seed, episodes, priors, map, envs, logdir, progress,
-                               overwrite, resume, checkpoint_every, stop,
-                               settings)  # fmt: skip
+        return _train_baseline(
+            algorithm,
+            seed,
+            episodes,
+            priors,
+            map,
+            envs,
+            logdir,
+            progress,
+            overwrite,
+            resume,
+            checkpoint_every,
+            stop,
+            settings,
+        )
     finally:
         torch.set_num_threads(threads)
 
 
-def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | None, map: str,
-                    envs: int | None, logdir: str | Path | None, progress: bool,
-                    overwrite: bool, resume: bool, checkpoint_every: int,
-                    stop: Callable[[], bool] | None,
-                    settings: dict[str, Any]) -> dict[str, Any]:  # fmt: skip
+def _train_baseline(
+    algorithm: str,
+    seed: int,
+    episodes: int,
+    priors: Priors | None,
+    map: str,
+    envs: int | None,
+    logdir: str | Path | None,
+    progress: bool,
+    overwrite: bool,
+    resume: bool,
+    checkpoint_every: int,
+    stop: Callable[[], bool] | None,
+    settings: dict[str, Any],
+) -> dict[str, Any]:
     from tqdm.auto import tqdm
 
     from symrl.runs import BASE_COLUMNS, RunWriter
@@ -429,9 +481,15 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
     writer = None
     if logdir is not None:
         settings_out = {**run_settings, "episodes": episodes, **knowledge_of(config)}
-        writer = RunWriter(logdir, config, world, overwrite=overwrite,
-                           resume_rows=state["rows"] if state is not None else None,
-                           columns=list(BASE_COLUMNS), settings=settings_out)  # fmt: skip
+        writer = RunWriter(
+            logdir,
+            config,
+            world,
+            overwrite=overwrite,
+            resume_rows=state["rows"] if state is not None else None,
+            columns=list(BASE_COLUMNS),
+            settings=settings_out,
+        )
     if state is not None:
         agent.load_state(state["agent"])
         env.base_env.load_run_state(state["env"])
@@ -440,27 +498,49 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
         rows, pending = list(state["rows"]), list(state["pending"])
         frames, wall0, cpu_before = int(state["frames"]), state["wall_s"], state["cpu_s"]
         at20 = tuple(state["at20"]) if state["at20"] is not None else None
-    bar = tqdm(total=episodes, initial=len(rows), unit="trial", disable=not progress,
-               desc=f"{algorithm} {priors.label()} seed {seed}", mininterval=5)  # fmt: skip
+    bar = tqdm(
+        total=episodes,
+        initial=len(rows),
+        unit="trial",
+        disable=not progress,
+        desc=f"{algorithm} {priors.label()} seed {seed}",
+        mininterval=5,
+    )
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
     def elapsed() -> tuple[float, float]:
-        return (wall0 + time.perf_counter() - t0,
-                cpu_before + time.process_time() - cpu0)  # fmt: skip
+        return (wall0 + time.perf_counter() - t0, cpu_before + time.process_time() - cpu0)
 
     def snapshot(td: TensorDictBase) -> None:
         if writer is None:
             return
         wall, cpu = elapsed()
         run_state = {
-            "format": SNAPSHOT_FORMAT, "settings": run_settings, "rows": rows,
-            "pending": pending, "agent": agent.state(), "env": env.base_env.run_state(),
-            "recorder": recorder.state(), "torch_rng": torch.get_rng_state(),
-            "td": td.to_dict(), "frames": frames, "wall_s": wall, "cpu_s": cpu,
+            "format": SNAPSHOT_FORMAT,
+            "settings": run_settings,
+            "rows": rows,
+            "pending": pending,
+            "agent": agent.state(),
+            "env": env.base_env.run_state(),
+            "recorder": recorder.state(),
+            "torch_rng": torch.get_rng_state(),
+            "td": td.to_dict(),
+            "frames": frames,
+            "wall_s": wall,
+            "cpu_s": cpu,
             "at20": list(at20) if at20 is not None else None,
-        }  # fmt: skip
-        save_baseline(writer.dir / "checkpoint.pt", algorithm, agent, priors, config,
-                      world, seed, n_obs, resume=run_state)  # fmt: skip
+        }
+        save_baseline(
+            writer.dir / "checkpoint.pt",
+            algorithm,
+            agent,
+            priors,
+            config,
+            world,
+            seed,
+            n_obs,
+            resume=run_state,
+        )
 
     def take(record: dict[str, Any]) -> None:
         rows.append(record)
@@ -488,8 +568,9 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
                 for b in np.flatnonzero(done):  # robots in index order
                     record = recorder.finish(int(b))
                     del record["mean_abs_td_error"]  # the paper learner's column
-                    record.update(trial=len(rows) + len(pending) + 1,
-                                  reached_goal=bool(recorder.reached[b]))  # fmt: skip
+                    record.update(
+                        trial=len(rows) + len(pending) + 1, reached_goal=bool(recorder.reached[b])
+                    )
                     if len(rows) < episodes:
                         take(record)
                     else:
@@ -522,8 +603,11 @@ def _train_baseline(algorithm: str, seed: int, episodes: int, priors: Priors | N
         "settings": asdict(cfg),
         "rows": rows,
         "stopped": stopped,
-        "at20": {**summarise(rows, 20), "wall_time_s": at20[0] if at20 else None,
-                 "frames": at20[1] if at20 else None},  # fmt: skip
+        "at20": {
+            **summarise(rows, 20),
+            "wall_time_s": at20[0] if at20 else None,
+            "frames": at20[1] if at20 else None,
+        },
         "end": {**summarise(rows, episodes), "wall_time_s": round(wall, 1), "frames": frames},
         "cpu_time_s": round(cpu, 1),
     }
@@ -574,15 +658,21 @@ def parse_seeds(text: str) -> list[int]:
 
 def _settings(algorithm: str, priors: Priors, seed: int, envs: int, cfg: Any) -> dict[str, Any]:
     """What a run records as its settings (``config.yaml``; checked on ``--resume``)."""
-    return {"baseline": algorithm, "priors": asdict(priors), "seed": seed, "envs": envs,
-            algorithm: asdict(cfg)}  # fmt: skip
+    return {
+        "baseline": algorithm,
+        "priors": asdict(priors),
+        "seed": seed,
+        "envs": envs,
+        algorithm: asdict(cfg),
+    }
 
 
 def _run_settings(args: argparse.Namespace, priors: Priors, seed: int) -> dict[str, Any]:
     """The settings of the run of ``args`` for ``seed``."""
     cfg = _algorithms()[args.algorithm][1]()
-    return _settings(args.algorithm, priors, seed, cfg.envs if args.envs is None else args.envs,
-                     cfg)  # fmt: skip
+    return _settings(
+        args.algorithm, priors, seed, cfg.envs if args.envs is None else args.envs, cfg
+    )
 
 
 def summary_markdown(results: list[dict[str, Any]]) -> str:
@@ -615,17 +705,23 @@ def baseline_command(args: argparse.Namespace, signalled: list[int] | None = Non
     if args.envs is not None and not 1 <= args.envs <= MAX_ENVS:
         raise ValueError(f"--envs {args.envs}: must be within 1..{MAX_ENVS}")
     if args.correction is not None and not args.residual:
-        raise ValueError(f"--correction {args.correction:g}: only with --residual (it bounds "
-                         "the residual's correction; without --residual it would be ignored)")
+        raise ValueError(
+            f"--correction {args.correction:g}: only with --residual (it bounds "
+            "the residual's correction; without --residual it would be ignored)"
+        )
     if args.workers < 1:
         raise ValueError(f"--workers {args.workers}: must be >= 1")
     if args.checkpoint_every < 1:
         raise ValueError(f"--checkpoint-every {args.checkpoint_every}: must be >= 1")
     if args.resume and args.overwrite:
-        raise ValueError("--resume goes on with the runs in --out, --overwrite replaces them: "
-                         "give one")  # fmt: skip
-    priors = Priors(residual=args.residual, regions=args.regions,
-                    correction=0.25 if args.correction is None else args.correction)
+        raise ValueError(
+            "--resume goes on with the runs in --out, --overwrite replaces them: give one"
+        )
+    priors = Priors(
+        residual=args.residual,
+        regions=args.regions,
+        correction=0.25 if args.correction is None else args.correction,
+    )
     out = Path(args.out or f"results/baseline-{args.algorithm}-{priors.label()}")
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {str(out)!r}: exists and is not a folder")
@@ -633,35 +729,60 @@ def baseline_command(args: argparse.Namespace, signalled: list[int] | None = Non
     resumed = [args.resume and (run / "checkpoint.pt").is_file() for run in runs]
     for run, goes_on in zip(runs, resumed, strict=True):
         if (run / "config.yaml").exists() and not (args.overwrite or goes_on):
-            hint = ("it has no checkpoint.pt to go on from" if args.resume
-                    else "pass --overwrite to replace it, or --resume to go on with it")
-            raise FileExistsError(f"--out {str(out)!r}: {run.name} already holds a run "
-                                  f"({hint})")  # fmt: skip
+            hint = (
+                "it has no checkpoint.pt to go on from"
+                if args.resume
+                else "pass --overwrite to replace it, or --resume to go on with it"
+            )
+            raise FileExistsError(f"--out {str(out)!r}: {run.name} already holds a run ({hint})")
     for run, goes_on, seed in zip(runs, resumed, seeds, strict=True):
         if goes_on:  # every run's settings are checked before any of them trains
-            load_run_state(run, _run_settings(args, priors, seed), args.episodes,
-                           knowledge_of(run_config(args.map, seed, args.episodes), priors))
+            load_run_state(
+                run,
+                _run_settings(args, priors, seed),
+                args.episodes,
+                knowledge_of(run_config(args.map, seed, args.episodes), priors),
+            )
     from symrl.locks import holding
 
     with holding(out, "--out"):
         return _baseline_runs(args, signalled, seeds, priors, out, runs, resumed)
 
 
-def _baseline_runs(args: argparse.Namespace, signalled: list[int] | None, seeds: list[int],
-                   priors: Priors, out: Path, runs: list[Path], resumed: list[bool]) -> int:
+def _baseline_runs(
+    args: argparse.Namespace,
+    signalled: list[int] | None,
+    seeds: list[int],
+    priors: Priors,
+    out: Path,
+    runs: list[Path],
+    resumed: list[bool],
+) -> int:
     """The runs of ``symrl baseline`` once its inputs are checked (``out`` locked)."""
     from symrl.studies.runner import run_jobs
 
     t0 = time.perf_counter()
     stop = (lambda: bool(signalled)) if signalled is not None else None
-    jobs = [{"algorithm": args.algorithm, "seed": s, "episodes": args.episodes,
-             "priors": priors, "map": args.map, "envs": args.envs, "logdir": str(run),
-             "overwrite": args.overwrite, "resume": goes_on,
-             "checkpoint_every": args.checkpoint_every, **({"stop": stop} if stop else {})}
-            for s, run, goes_on in zip(seeds, runs, resumed, strict=True)]  # fmt: skip
+    jobs = [
+        {
+            "algorithm": args.algorithm,
+            "seed": s,
+            "episodes": args.episodes,
+            "priors": priors,
+            "map": args.map,
+            "envs": args.envs,
+            "logdir": str(run),
+            "overwrite": args.overwrite,
+            "resume": goes_on,
+            "checkpoint_every": args.checkpoint_every,
+            **({"stop": stop} if stop else {}),
+        }
+        for s, run, goes_on in zip(seeds, runs, resumed, strict=True)
+    ]
     if stop is None:
-        results = run_jobs(train_baseline, jobs, workers=args.workers,
-                           desc=f"{args.algorithm} {priors.label()}")  # fmt: skip
+        results = run_jobs(
+            train_baseline, jobs, workers=args.workers, desc=f"{args.algorithm} {priors.label()}"
+        )
     else:  # one worker: here, seed after seed, until a signal stops the current run
         results = []
         for job in jobs:
@@ -674,27 +795,35 @@ def _baseline_runs(args: argparse.Namespace, signalled: list[int] | None, seeds:
         where = "before its first run"
         if results:
             last = results[-1]
-            where = (f"after {len(last['rows'])} of {args.episodes} trials of seed "
-                     f"{last['seed']} (its state is saved in {out}/seed-{last['seed']}/)")
-        print(f"symrl baseline: stopped by {signal.Signals(signalled[0]).name} {where}; go "
-              "on with the same command and --resume", file=sys.stderr)  # fmt: skip
+            where = (
+                f"after {len(last['rows'])} of {args.episodes} trials of seed "
+                f"{last['seed']} (its state is saved in {out}/seed-{last['seed']}/)"
+            )
+        print(
+            f"symrl baseline: stopped by {signal.Signals(signalled[0]).name} {where}; go "
+            "on with the same command and --resume",
+            file=sys.stderr,
+        )
         return 128 + int(signalled[0])
     wall = round(time.perf_counter() - t0, 1)
     summary = [{k: v for k, v in r.items() if k != "rows"} for r in results]
     before = out / "summary.json"  # runs of other seeds in the same folder are kept
     if before.is_file():
-        kept = [r for r in json.loads(before.read_text()).get("runs", [])
-                if r.get("seed") not in seeds]  # fmt: skip
+        kept = [
+            r for r in json.loads(before.read_text()).get("runs", []) if r.get("seed") not in seeds
+        ]
         summary = sorted(kept + summary, key=lambda r: r["seed"])
-    (out / "summary.json").write_text(json.dumps({"runs": summary, "wall_time_s": wall},
-                                                 indent=2))  # fmt: skip
+    (out / "summary.json").write_text(json.dumps({"runs": summary, "wall_time_s": wall}, indent=2))
     md = summary_markdown(results)
     (out / "summary.md").write_text(md)
     from symrl.figures import plot_baseline
 
-    plot_baseline(results, out / "curves.png",
-                  f"{args.algorithm.upper()} ({priors.label()}), map {args.map}")
+    plot_baseline(
+        results, out / "curves.png", f"{args.algorithm.upper()} ({priors.label()}), map {args.map}"
+    )
     print(md)
-    print(f"wrote {out}/ (seed-*/ run folders, summary.md, summary.json, curves.png); "
-          f"wall time {wall} s")  # fmt: skip
+    print(
+        f"wrote {out}/ (seed-*/ run folders, summary.md, summary.json, curves.png); "
+        f"wall time {wall} s"
+    )
     return 0

@@ -33,12 +33,20 @@ def batch_files(folder: str | Path) -> list[Path]:
 class BatchKeeper:
     """Saves and finds the state of one batch of sets (``indices``) of a study."""
 
-    def __init__(self, folder: str | Path, config_data: dict[str, Any], indices: Sequence[int],
-                 starts: Sequence[Any]) -> None:
+    def __init__(
+        self,
+        folder: str | Path,
+        config_data: dict[str, Any],
+        indices: Sequence[int],
+        starts: Sequence[Any],
+    ) -> None:
         self.folder = Path(folder)
         self.path = self.folder / ("batch-" + "-".join(f"{int(k):03d}" for k in indices) + ".pt")
-        self.settings = {"config": config_data, "sets": [int(k) for k in indices],
-                         "starts": [[float(v) for v in s] for s in starts]}  # fmt: skip
+        self.settings = {
+            "config": config_data,
+            "sets": [int(k) for k in indices],
+            "starts": [[float(v) for v in s] for s in starts],
+        }
         self._last = time.monotonic()
 
     def saved(self) -> dict[str, Any] | None:
@@ -83,8 +91,13 @@ def _difference(saved: dict[str, Any], given: dict[str, Any]) -> str:
     return ", ".join(f"{k} {saved.get(k)!r} there, {given.get(k)!r} now" for k in keys[:3])
 
 
-def begin(out: str | Path, command: str, settings: dict[str, Any], resume: bool,
-          overwrite: bool | None = None) -> bool:
+def begin(
+    out: str | Path,
+    command: str,
+    settings: dict[str, Any],
+    resume: bool,
+    overwrite: bool | None = None,
+) -> bool:
     """Mark ``out`` as written by a running ``symrl command`` with ``settings`` (plain JSON
     values), after checking it against what the folder holds, each fault one line: a stopped
     run there goes on only with ``resume`` and the same settings, or is replaced with
@@ -136,8 +149,13 @@ def forget_kept(folder: str | Path) -> None:
 
 
 @contextlib.contextmanager
-def running(out: str | Path, command: str, settings: dict[str, Any], resume: bool,
-            overwrite: bool | None = None) -> Iterator[bool]:
+def running(
+    out: str | Path,
+    command: str,
+    settings: dict[str, Any],
+    resume: bool,
+    overwrite: bool | None = None,
+) -> Iterator[bool]:
     """:func:`begin`, the command's work, then :func:`end`; a stop (Ctrl-C, SIGTERM, SIGHUP,
     or a kill, which runs nothing) leaves the folder marked as stopped; an error does not
     (a run that failed is not one to go on with). Yields whether a stopped run goes on."""

@@ -34,8 +34,16 @@ import numpy as np
 from symrl.studies.placement import OTHER_STARTS
 from symrl.studies.runner import evaluate_states, resolve_config, run_sets, summarise
 
-__all__ = ["STARTS", "OBSTACLE", "NOISE_LEVELS", "starts_for", "obstacle_for", "transfer",
-           "run_generalisation", "generalise_command"]
+__all__ = [
+    "STARTS",
+    "OBSTACLE",
+    "NOISE_LEVELS",
+    "starts_for",
+    "obstacle_for",
+    "transfer",
+    "run_generalisation",
+    "generalise_command",
+]
 
 STARTS: tuple[tuple[float, float, float], ...] = OTHER_STARTS + (
     (-1.1, -2.1, 0.0),  # the concave corner's far end
@@ -53,8 +61,10 @@ NOISE_LEVELS: tuple[tuple[str, list[str]], ...] = (
     ("default (rot 0.5 deg, sonar 0.01 m)", []),
     ("odometry rot 2 deg", ["env.robot.rotation_noise_deg=2.0"]),
     ("odometry rot 5 deg", ["env.robot.rotation_noise_deg=5.0"]),
-    ("odometry rot 5 deg + transl 5%",
-     ["env.robot.rotation_noise_deg=5.0", "env.robot.translation_noise=0.05"]),
+    (
+        "odometry rot 5 deg + transl 5%",
+        ["env.robot.rotation_noise_deg=5.0", "env.robot.translation_noise=0.05"],
+    ),
     ("sonar 0.05 m", ["env.robot.sonar_noise_std=0.05"]),
     ("sonar 0.15 m", ["env.robot.sonar_noise_std=0.15"]),
 )
@@ -85,13 +95,16 @@ def obstacle_for(world) -> list[list[float]]:
         return OBSTACLE
     box = derived_obstacle(world)
     if box is None:
-        raise ValueError(f"map {world.name!r}: no place on the shortest path for a new obstacle "
-                         "that leaves the goal reachable")
+        raise ValueError(
+            f"map {world.name!r}: no place on the shortest path for a new obstacle "
+            "that leaves the goal reachable"
+        )
     return box
 
 
-def transfer(recipe: str, sets: int, trials: int, seed: int, workers: int | None = 1,
-             map: str = "hailu2001") -> list[dict[str, Any]]:
+def transfer(
+    recipe: str, sets: int, trials: int, seed: int, workers: int | None = 1, map: str = "hailu2001"
+) -> list[dict[str, Any]]:
     """Train ``recipe`` and take the reflex alone (set k: seed + k) in ``map``; drive both from
     its other start poses, from the usual start, and past the new obstacle. One dict per set."""
     from symrl.world import load_map
@@ -106,9 +119,12 @@ def transfer(recipe: str, sets: int, trials: int, seed: int, workers: int | None
         states = [s.controller for s in run_sets(config, sets, n, seed, workers=workers)]
         pairs = [(k, j) for k in range(sets) for j in range(len(STARTS))]
         starts = evaluate_states(
-            config, world, [states[k] for k, _ in pairs], [STARTS[j] for _, j in pairs],
+            config,
+            world,
+            [states[k] for k, _ in pairs],
+            [STARTS[j] for _, j in pairs],
             [seed + k + 1000 * (j + 1) for k, j in pairs],
-        )  # fmt: skip
+        )
         seeds = [seed + k + 999 for k in range(sets)]
         homes = evaluate_states(config, world, states, [home] * sets, seeds)
         # the env holds the new obstacle, the agent only the map it learned in
@@ -161,12 +177,21 @@ def run_generalisation(
     world = load_map(map)
     poses = starts_for(world)
     moved = transfer(recipe, sets, trials, seed, workers, map)
-    noisy = [run_sets(recipe, sets, trials, seed, [*overrides, f"env.map={map}"], (), workers)
-             for _, overrides in noise_levels]  # fmt: skip
+    noisy = [
+        run_sets(recipe, sets, trials, seed, [*overrides, f"env.map={map}"], (), workers)
+        for _, overrides in noise_levels
+    ]
     report: dict[str, Any] = {
-        "recipe": recipe, "sets": sets, "trials": trials, "seeds": [seed, seed + sets - 1],
-        "provenance": code, "map": world.name, "start": list(world_start(world)),
-        "obstacle": obstacle_for(world), "starts": [], "noise": [],
+        "recipe": recipe,
+        "sets": sets,
+        "trials": trials,
+        "seeds": [seed, seed + sets - 1],
+        "provenance": code,
+        "map": world.name,
+        "start": list(world_start(world)),
+        "obstacle": obstacle_for(world),
+        "starts": [],
+        "noise": [],
     }
     for who in ("learned", "reflex_only"):
         report[f"home_{who}"] = _rate([t[who]["home"] for t in moved])
@@ -203,8 +228,11 @@ def markdown(report: dict[str, Any]) -> str:
     x0, y0, h0 = report.get("start", (0.0, 0.0, 0.0))
     box = np.asarray(report.get("obstacle", OBSTACLE), dtype=float)
     (bx0, by0), (bx1, by1) = box.min(axis=0), box.max(axis=0)
-    what = (f"{bx1 - bx0:.2g} m box at ({(bx0 + bx1) / 2:.2f}, {(by0 + by1) / 2:.2f})"
-            if abs((bx1 - bx0) - (by1 - by0)) < 1e-6 else "polygon")  # fmt: skip
+    what = (
+        f"{bx1 - bx0:.2g} m box at ({(bx0 + bx1) / 2:.2f}, {(by0 + by1) / 2:.2f})"
+        if abs((bx1 - bx0) - (by1 - by0)) < 1e-6
+        else "polygon"
+    )
     code = report.get("provenance", {})
     revision = f"{code.get('revision') or '?'}{'+dirty' if code.get('dirty') else ''}"
     lines = [
@@ -283,6 +311,8 @@ def generalise_command(args: argparse.Namespace) -> int:
         args.recipe, args.sets, args.trials, args.seed, args.workers, args.out, map=args.map
     )
     print(markdown(report))
-    print(f"wrote {args.out}/ (generalise.md, generalise.json, starts.png, obstacle.png); "
-          f"wall time {report['wall_time_s']:.1f} s")
+    print(
+        f"wrote {args.out}/ (generalise.md, generalise.json, starts.png, obstacle.png); "
+        f"wall time {report['wall_time_s']:.1f} s"
+    )
     return 0

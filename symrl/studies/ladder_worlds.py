@@ -17,8 +17,15 @@ from typing import Any
 
 from symrl.studies.runner import LAST, curves, optimum
 
-__all__ = ["FAILED_FROM", "ladder_worlds_command", "ladder_worlds_markdown", "ladder_worlds_rows",
-           "parse_maps", "run_ladder_worlds", "write_ladder_worlds"]  # fmt: skip
+__all__ = [
+    "FAILED_FROM",
+    "ladder_worlds_command",
+    "ladder_worlds_markdown",
+    "ladder_worlds_rows",
+    "parse_maps",
+    "run_ladder_worlds",
+    "write_ladder_worlds",
+]
 
 FAILED_FROM = 5
 """Trials from this one on count as failed if they miss the goal (as in ``changes.md``)."""
@@ -32,8 +39,10 @@ def parse_maps(value: str) -> list[str]:
 
     names = [part.strip() for part in value.split(",")]
     if not value.strip(", ") or not all(names):
-        raise ValueError(f"--maps {value!r}: an empty name in the list; name the worlds, "
-                         "e.g. hailu2001,check/winding")  # fmt: skip
+        raise ValueError(
+            f"--maps {value!r}: an empty name in the list; name the worlds, "
+            "e.g. hailu2001,check/winding"
+        )
     seen: dict[str, str] = {}
     for name in names:
         try:
@@ -41,8 +50,10 @@ def parse_maps(value: str) -> list[str]:
         except MapError as err:
             raise ValueError(f"--maps {value!r}: {err}") from None
         if world.name in seen:
-            raise ValueError(f"--maps {value!r}: {seen[world.name]!r} and {name!r} are both "
-                             f"named {world.name!r} (one results folder per world name)")
+            raise ValueError(
+                f"--maps {value!r}: {seen[world.name]!r} and {name!r} are both "
+                f"named {world.name!r} (one results folder per world name)"
+            )
         seen[world.name] = name
     return names
 
@@ -64,19 +75,27 @@ def ladder_worlds_rows(
             total = curves(r, "total_reinforcement")[:, -last:].mean(axis=1)
             reached = curves(r, "reached_goal")
             sd = float(steps.std(ddof=1)) if len(steps) > 1 else 0.0
-            out.append({
-                "world": world, "recipe": recipe, "optimum": opt, "sets": len(steps),
-                "trials": reached.shape[1],
-                "actions_last": float(steps.mean()), "actions_last_sd": sd,
-                "ratio": float(steps.mean()) / opt, "ratio_sd": sd / opt,
-                "total_last": float(total.mean()),
-                "success_last": float(reached[:, -last:].mean()),
-                "failed_from": sum(1 for x in r if int(x["trial"]) >= FAILED_FROM
-                                   and not _reached(x)),
-                "trials_from": sum(1 for x in r if int(x["trial"]) >= FAILED_FROM),
-                "failed_all": sum(1 for x in r if not _reached(x)),
-                "trials_all": len(r),
-            })  # fmt: skip
+            out.append(
+                {
+                    "world": world,
+                    "recipe": recipe,
+                    "optimum": opt,
+                    "sets": len(steps),
+                    "trials": reached.shape[1],
+                    "actions_last": float(steps.mean()),
+                    "actions_last_sd": sd,
+                    "ratio": float(steps.mean()) / opt,
+                    "ratio_sd": sd / opt,
+                    "total_last": float(total.mean()),
+                    "success_last": float(reached[:, -last:].mean()),
+                    "failed_from": sum(
+                        1 for x in r if int(x["trial"]) >= FAILED_FROM and not _reached(x)
+                    ),
+                    "trials_from": sum(1 for x in r if int(x["trial"]) >= FAILED_FROM),
+                    "failed_all": sum(1 for x in r if not _reached(x)),
+                    "trials_all": len(r),
+                }
+            )
     return out
 
 
@@ -134,8 +153,9 @@ def run_ladder_worlds(
     for name in maps:
         world = load_map(name).name
         folder = out / world
-        summary = run_ablation(recipes, sets, trials, seed, workers, folder, figures=figures,
-                               map=name)  # fmt: skip
+        summary = run_ablation(
+            recipes, sets, trials, seed, workers, folder, figures=figures, map=name
+        )
         (folder / "ladder.md").write_text(ladder_markdown(summary))
         print(f"## {world}\n\n{summary_markdown(summary)}", flush=True)
         optima[world] = int(optimum(name)["steps"])
@@ -164,10 +184,13 @@ def ladder_worlds_command(args: Any) -> int:
 
     if args.recipes or getattr(args, "changes_of", None):
         raise ValueError("--ladder runs its own recipes: give it without --recipes or --changes-of")
-    entries = run_ladder_worlds(parse_maps(args.maps), LADDER, args.sets, args.trials, args.seed,
-                                args.workers, args.out)  # fmt: skip
+    entries = run_ladder_worlds(
+        parse_maps(args.maps), LADDER, args.sets, args.trials, args.seed, args.workers, args.out
+    )
     print(ladder_worlds_markdown(entries))
     wall = time.perf_counter() - getattr(args, "started", time.perf_counter())
-    print(f"wrote {args.out}/ (ladder-worlds.md, ladder-worlds.json, ladder-worlds.png, one "
-          f"folder per world); wall time {wall:.1f} s")
+    print(
+        f"wrote {args.out}/ (ladder-worlds.md, ladder-worlds.json, ladder-worlds.png, one "
+        f"folder per world); wall time {wall:.1f} s"
+    )
     return 0

@@ -26,8 +26,15 @@ from shapely.geometry import LineString, MultiLineString, Point, box
 from symrl.knowledge.planner import shortest_path
 from symrl.world.worldmap import BODY_RADIUS, WorldMap, reaches_goal
 
-__all__ = ["OTHER_STARTS", "GRID", "map_starts", "derived_starts", "derived_obstacle",
-           "study_starts", "near_start"]
+__all__ = [
+    "OTHER_STARTS",
+    "GRID",
+    "map_starts",
+    "derived_starts",
+    "derived_obstacle",
+    "study_starts",
+    "near_start",
+]
 
 GRID = 0.25
 """Spacing (metres) of the candidate grid for derived start poses."""
@@ -121,8 +128,9 @@ def _facing_goal(world: WorldMap, x: float, y: float) -> Pose3:
     return (round(float(x), 4), round(float(y), 4), math.atan2(g.y - y, g.x - x))
 
 
-def derived_starts(world: WorldMap, n: int = 4, margin: float = 0.1, near: bool = True
-                   ) -> tuple[Pose3, ...]:
+def derived_starts(
+    world: WorldMap, n: int = 4, margin: float = 0.1, near: bool = True
+) -> tuple[Pose3, ...]:
     """``n`` free start poses from the walls, spread by farthest-point choice: in the start's
     region and its neighbouring regions (``near``), or in the other regions (``near=False``;
     fewer or none when the map has no other region the start connects to)."""
@@ -182,8 +190,9 @@ def derived_obstacle(
                 continue
             if not free.contains(poly) or any(poly.intersects(t) for t in thin):
                 continue
-            corners = [[round(float(x), 4), round(float(y), 4)]
-                       for x, y in list(poly.exterior.coords)[:-1]]  # fmt: skip
+            corners = [
+                [round(float(x), 4), round(float(y), 4)] for x, y in list(poly.exterior.coords)[:-1]
+            ]
             if reaches_goal(world.with_obstacle(corners)):
                 return corners
     return None

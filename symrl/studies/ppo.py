@@ -20,8 +20,15 @@ from symrl.studies.actor import make_actor
 
 __all__ = ["PPOConfig", "PPOAgent"]
 
-_KEYS = ("observation", "control", "control_log_prob", ("next", "observation"),
-         ("next", "reward"), ("next", "done"), ("next", "terminated"))  # fmt: skip
+_KEYS = (
+    "observation",
+    "control",
+    "control_log_prob",
+    ("next", "observation"),
+    ("next", "reward"),
+    ("next", "done"),
+    ("next", "terminated"),
+)
 
 
 @dataclass
@@ -69,15 +76,18 @@ class PPOAgent:
         self.actor_spec: dict[str, Any] = {"cells": list(cells), "activation": "tanh"}
         self.actor = make_actor(n_obs, cells, "tanh")
         critic = ValueOperator(
-            MLP(in_features=n_obs, out_features=1, num_cells=list(cells),
-                activation_class=nn.Tanh),
+            MLP(in_features=n_obs, out_features=1, num_cells=list(cells), activation_class=nn.Tanh),
             in_keys=["observation"],
-        )  # fmt: skip
+        )
         self.gae = GAE(gamma=cfg.gamma, lmbda=cfg.lmbda, value_network=critic, average_gae=True)
         self.loss = ClipPPOLoss(
-            self.actor, critic, clip_epsilon=cfg.clip, entropy_bonus=cfg.entropy_coef > 0,
-            entropy_coeff=cfg.entropy_coef, critic_coeff=cfg.critic_coef,
-        )  # fmt: skip
+            self.actor,
+            critic,
+            clip_epsilon=cfg.clip,
+            entropy_bonus=cfg.entropy_coef > 0,
+            entropy_coeff=cfg.entropy_coef,
+            critic_coeff=cfg.critic_coef,
+        )
         self.loss.set_keys(action="control", sample_log_prob="control_log_prob")
         self.optim = torch.optim.Adam(self.loss.parameters(), lr=cfg.lr)
         self.steps: list[TensorDictBase] = []
@@ -100,7 +110,7 @@ class PPOAgent:
         for _ in range(self.cfg.epochs):
             order = torch.randperm(n)
             for start in range(0, n - size + 1, size):
-                out = self.loss(flat[order[start:start + size]])
+                out = self.loss(flat[order[start : start + size]])
                 total = out["loss_objective"] + out["loss_critic"]
                 entropy = out.get("loss_entropy", None)
                 if entropy is not None:

@@ -67,8 +67,9 @@ class Priors:
 
     def label(self) -> str:
         """Short name of the variant: scratch, residual, regions, residual+regions."""
-        parts = [name for name, on in (("residual", self.residual), ("regions", self.regions))
-                 if on]  # fmt: skip
+        parts = [
+            name for name, on in (("residual", self.residual), ("regions", self.regions)) if on
+        ]
         return "+".join(parts) or "scratch"
 
 

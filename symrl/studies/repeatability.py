@@ -45,12 +45,18 @@ PAPER_TABLE1 = {
 """Hailu (2001), Table 1: real robot, 10 sets x 20 trials, at the last trial."""
 
 TABLE_KEYS = (
-    "neurons", "steps", "total_reinforcement", "collisions", "reached_goal", "path_length"
+    "neurons",
+    "steps",
+    "total_reinforcement",
+    "collisions",
+    "reached_goal",
+    "path_length",
 )
 
 
-def table1_markdown(recipe: str, table: dict[str, Any], opt: dict[str, Any] | None,
-                    paper: bool = True) -> str:
+def table1_markdown(
+    recipe: str, table: dict[str, Any], opt: dict[str, Any] | None, paper: bool = True
+) -> str:
     """Table 1 beside the paper's numbers (``paper``: only meaningful on its world) and the
     optimum, as Markdown."""
     if not paper:
@@ -150,9 +156,18 @@ def run_study(
         starts = OTHER_STARTS if config.env.map == "hailu2001" else study_starts(world)
     keep = Path(out) / "sets" if out is not None else None  # finished sets, kept for a re-run
     best: dict[str, Any] = {}
-    results = run_sets(config, sets, trials, seed, (), starts, workers, progress=progress,
-                       keep=keep,
-                       while_waiting=lambda: best.update(optimum(config.env.map)))  # fmt: skip
+    results = run_sets(
+        config,
+        sets,
+        trials,
+        seed,
+        (),
+        starts,
+        workers,
+        progress=progress,
+        keep=keep,
+        while_waiting=lambda: best.update(optimum(config.env.map)),
+    )
     # one per worker batch (kept sets loaded from disk carry their batch's timings by value)
     batches = {tuple(sorted(r.timings.items())): r.timings for r in results}.values()
     train_cpu = sum(t.get("cpu_seconds", 0.0) for t in batches)
@@ -171,8 +186,7 @@ def run_study(
     table["train_cpu_s"] = round(train_cpu, 3)
     wall = time.perf_counter() - t0
     table["wall_time_s"] = round(wall, 2)
-    study = StudyResult(config.recipe, results, table, Path(out) if out else None, wall,
-                        world)  # fmt: skip
+    study = StudyResult(config.recipe, results, table, Path(out) if out else None, wall, world)
     if out is not None:
         write_study(study, figures=figures)
     return study
@@ -191,9 +205,13 @@ def write_study(study: StudyResult, figures: bool = True) -> None:
     md = table1_markdown(study.recipe, study.table, study.table.get("optimum"), paper=not own)
     starts = study.table.get("other_starts", [])
     if starts:
-        md += "\nFinal controller (greedy) from other start poses: " + "; ".join(
-            f"({s['start'][0]:g}, {s['start'][1]:g}) {s['reached']}/{s['sets']}" for s in starts
-        ) + "\n"
+        md += (
+            "\nFinal controller (greedy) from other start poses: "
+            + "; ".join(
+                f"({s['start'][0]:g}, {s['start'][1]:g}) {s['reached']}/{s['sets']}" for s in starts
+            )
+            + "\n"
+        )
     (out / "table1.md").write_text(md)
     if figures:
         write_figures(study)
@@ -220,11 +238,15 @@ def write_figures(study: StudyResult) -> None:
         ref[f"steps:shortest path {opt['steps']}"] = opt["steps"]
     curves_figure: drawing.Figure = (
         "plot_curves",
-        ({k: curves(rows, k) for k in ("neurons", "steps", "total_reinforcement")},
-         out / "curves.png"),
-        {"reference": ref,
-         "title": f"{study.recipe}: mean over {len(study.sets)} sets, bars min-max (Figs 7-9)"},
-    )  # fmt: skip
+        (
+            {k: curves(rows, k) for k in ("neurons", "steps", "total_reinforcement")},
+            out / "curves.png",
+        ),
+        {
+            "reference": ref,
+            "title": f"{study.recipe}: mean over {len(study.sets)} sets, bars min-max (Figs 7-9)",
+        },
+    )
     s0 = study.sets[0]
     trials = sorted(s0.paths)
     first, last = trials[0], trials[-1]
@@ -233,7 +255,9 @@ def write_figures(study: StudyResult) -> None:
         (f"set 0, trial {last} (final)", [s0.paths[last]], []),
     ]
     trajectories_figure: drawing.Figure = (
-        "plot_paths", (world, first_last, out / "trajectories.png"), {}
+        "plot_paths",
+        (world, first_last, out / "trajectories.png"),
+        {},
     )
     success = [t for t in trials if t not in (first, last)]
     panels = [(f"trial {first} (first) + ghosts", [s0.paths[first]], [s0.ghosts[first]])]
@@ -251,8 +275,11 @@ def write_figures(study: StudyResult) -> None:
                 [],
             )
         )
-    ghosts_figure: drawing.Figure = ("plot_paths", (world, panels, out / "ghosts.png"),
-                                     {"columns": 2})  # fmt: skip
+    ghosts_figure: drawing.Figure = (
+        "plot_paths",
+        (world, panels, out / "ghosts.png"),
+        {"columns": 2},
+    )
     figures = [ghosts_figure, curves_figure, trajectories_figure]
     set0 = [r for r in rows if int(r["set"]) == s0.index]
     if world is not None and set0 and "stretches" in set0[0]:
@@ -277,8 +304,10 @@ def study_command(args: argparse.Namespace) -> int:
         out=out,
     )
     print((out / "table1.md").read_text())
-    print(f"wrote {out}/ (trials.csv, table1.md, table1.json, curves.png, trajectories.png, "
-          f"ghosts.png); wall time {time.perf_counter() - started:.1f} s, training "
-          f"{study.table['train_steps'] / max(study.table['train_cpu_s'], 1e-9):.0f} "
-          "robot-steps per CPU second")
+    print(
+        f"wrote {out}/ (trials.csv, table1.md, table1.json, curves.png, trajectories.png, "
+        f"ghosts.png); wall time {time.perf_counter() - started:.1f} s, training "
+        f"{study.table['train_steps'] / max(study.table['train_cpu_s'], 1e-9):.0f} "
+        "robot-steps per CPU second"
+    )
     return 0

@@ -26,8 +26,15 @@ COMMANDS = {
 }
 """The commands whose folders this report reads (the baselines': ``BASELINE_VARIANTS``)."""
 
-RECIPE_ORDER = ("paper", "paper_map", "paper_literal", "no_partition", "reflex_only",
-                "no_reflex", "plain")  # fmt: skip
+RECIPE_ORDER = (
+    "paper",
+    "paper_map",
+    "paper_literal",
+    "no_partition",
+    "reflex_only",
+    "no_reflex",
+    "plain",
+)
 """The order of the recipes in the tables: the headline learners first."""
 
 STUDIED = ("paper", "paper_map")
@@ -97,7 +104,9 @@ def _section_plan(results: Path, figures: Path) -> list[str]:
         + ("." if plan["optimum_actions_exact"] else " - NOT confirmed (see plan.json)."),
         f"- Replayed in the env without noise: {replay}. The shortest path hugs the door post, so "
         "its total reinforcement (f1 near walls) is far from the best reachable total: steps and "
-        "reinforcement are optimised by different paths." if replay else "- (no env replay)",
+        "reinforcement are optimised by different paths."
+        if replay
+        else "- (no env replay)",
         "",
         _fig(results / "plan" / "plan.png", figures, "plan.png"),
         "",
@@ -167,8 +176,12 @@ def table1_comparison(results: Path) -> str:
 
 def _section_table1(results: Path, figures: Path) -> list[str]:
     folder = results / "ablate"
-    out = ["## Table 1 on the paper's measures", "",
-           f"Command: `{COMMANDS['ablate']}` (one study per recipe, the same seeds)", ""]
+    out = [
+        "## Table 1 on the paper's measures",
+        "",
+        f"Command: `{COMMANDS['ablate']}` (one study per recipe, the same seeds)",
+        "",
+    ]
     recipes = _recipes_in(folder)
     if not recipes:
         return out + ["*Not run yet.*", ""]
@@ -197,40 +210,55 @@ def _section_study(results: Path, figures: Path) -> list[str]:
         if table is None:
             continue
         out += [
-            f"## Table 1 and Figs 5-9: `{recipe}` (`symrl study {recipe}`)", "",
+            f"## Table 1 and Figs 5-9: `{recipe}` (`symrl study {recipe}`)",
+            "",
             f"Command: `{COMMANDS['ablate']}` (its `{recipe}` folder holds the same runs as "
-            f"`symrl study {recipe} --sets 10 --trials 20 --seed 100`)", "",
-            measured_at(table), "",
+            f"`symrl study {recipe} --sets 10 --trials 20 --seed 100`)",
+            "",
+            measured_at(table),
+            "",
             (folder / "table1.md").read_text(),
             f"Wall time {table.get('wall_time_s')} s (2 shared cores); seeds "
             f"{table['seeds'][0]}-{table['seeds'][1]}.",
             "",
-            "Learning curves (Figs 7-9; mean over sets, bars min-max):", "",
-            _fig(folder / "curves.png", figures, f"study-{recipe}-curves.png"), "",
-            "First and final trajectories of set 0 (Fig 6):", "",
-            _fig(folder / "trajectories.png", figures, f"study-{recipe}-trajectories.png"), "",
+            "Learning curves (Figs 7-9; mean over sets, bars min-max):",
+            "",
+            _fig(folder / "curves.png", figures, f"study-{recipe}-curves.png"),
+            "",
+            "First and final trajectories of set 0 (Fig 6):",
+            "",
+            _fig(folder / "trajectories.png", figures, f"study-{recipe}-trajectories.png"),
+            "",
             "Paths with neuron-toggle ghosts, and the final controller from four other starts "
-            "(Fig 5):", "",
-            _fig(folder / "ghosts.png", figures, f"study-{recipe}-ghosts.png"), "",
-        ]  # fmt: skip
+            "(Fig 5):",
+            "",
+            _fig(folder / "ghosts.png", figures, f"study-{recipe}-ghosts.png"),
+            "",
+        ]
     return out
 
 
 def _section_changes(results: Path, figures: Path) -> list[str]:
     folder = results / "changes-s100"
-    out = ["## Which setting of `paper_map` buys what (`symrl ablate --changes-of paper_map`)", "",
-           f"Command: `{COMMANDS['changes']}`", ""]
+    out = [
+        "## Which setting of `paper_map` buys what (`symrl ablate --changes-of paper_map`)",
+        "",
+        f"Command: `{COMMANDS['changes']}`",
+        "",
+    ]
     changes = folder / "changes.md"
     if not changes.is_file():
         return out + ["*Not run yet.*", ""]
     tables = [_load(p) for p in sorted(folder.glob("*/table1.json"))]
     out += [
-        measured_at(*tables), "",
+        measured_at(*tables),
+        "",
         "Each setting in which `paper_map` differs from `paper_literal`, put back in turn; Δ is "
         "the paired difference over the sets (mean ± standard error), positive: `paper_map` is "
-        "better with its setting.", "",
+        "better with its setting.",
+        "",
         changes.read_text(),
-    ]  # fmt: skip
+    ]
     return out
 
 
@@ -239,26 +267,39 @@ def _section_ladder(results: Path, figures: Path) -> list[str]:
     from symrl.studies.ablation import LADDER, ladder_markdown
 
     folder = results / "ablate"
-    out = ["## The knowledge ladder (`symrl ablate --ladder`)", "",
-           f"From the ablation's folder (command: `{COMMANDS['ablate']}`; "
-           "`symrl ablate --ladder` runs these recipes alone).", ""]  # fmt: skip
+    out = [
+        "## The knowledge ladder (`symrl ablate --ladder`)",
+        "",
+        f"From the ablation's folder (command: `{COMMANDS['ablate']}`; "
+        "`symrl ablate --ladder` runs these recipes alone).",
+        "",
+    ]
     summary = _load(folder / "summary.json")
     if summary is None or not all(r in summary for r in LADDER):
         return out + ["*Not run yet.*", ""]
     rows = {r: summary[r] for r in LADDER}
     rows.update({k: v for k, v in summary.items() if k.startswith("_")})
     out += [measured_at(*(_load(folder / r / "table1.json") for r in LADDER)), ""]
-    return out + [ladder_markdown(rows), "Mean ± std over sets of each set's last-5-trial mean "
-                  "(trial 1: its first trial); the paper's row is its own measure, the last "
-                  "trial.", ""]
+    return out + [
+        ladder_markdown(rows),
+        "Mean ± std over sets of each set's last-5-trial mean "
+        "(trial 1: its first trial); the paper's row is its own measure, the last "
+        "trial.",
+        "",
+    ]
 
 
 def _section_ablate(results: Path, figures: Path) -> list[str]:
     from symrl.studies.ablation import summary_markdown
 
     folder = results / "ablate"
-    out = ["## Ablations (`symrl ablate`)", "", f"Command: `{COMMANDS['ablate']}` (a recipe can be "
-           "re-run alone with `--recipes NAME`; the folder keeps the others)", ""]
+    out = [
+        "## Ablations (`symrl ablate`)",
+        "",
+        f"Command: `{COMMANDS['ablate']}` (a recipe can be "
+        "re-run alone with `--recipes NAME`; the folder keeps the others)",
+        "",
+    ]
     summary = _load(folder / "summary.json")
     if summary is None:
         return out + ["*Not run yet.*", ""]
@@ -273,8 +314,9 @@ def _section_ablate(results: Path, figures: Path) -> list[str]:
         "reached the goal (sets that never did in brackets).",
         "",
         f"CPU time per recipe (sum over its sets): {cpu}. Wall time (2 workers): "
-        + "; ".join(f"{', '.join(r['recipes'])}: {r['wall_time_s']:.0f} s"
-                    for r in summary.get("_runs", []))
+        + "; ".join(
+            f"{', '.join(r['recipes'])}: {r['wall_time_s']:.0f} s" for r in summary.get("_runs", [])
+        )
         + f". Seeds {summary['_seeds'][0]}-{summary['_seeds'][1]}.",
         "",
         _fig(folder / "comparison.png", figures, "ablate-comparison.png"),
@@ -290,25 +332,55 @@ def _section_ablate(results: Path, figures: Path) -> list[str]:
 
 
 BASELINE_VARIANTS = (
-    ("paper-20", "paper learner (`paper_map`)", "symrl sweep --recipes paper_map --seeds 100-104 "
-     "--trials 20 --out results/baselines/paper-20"),
-    ("reflex-20", "reference: the shielded reflex alone (no learning)", "symrl sweep --recipes "
-     "paper_map --seeds 100-104 --trials 20 --out results/baselines/reflex-20 "
-     "experts.learning=false options.enabled=false "
-     "'reflex.peaks=[1.5707963267948966,0.0,-1.5707963267948966]'"),
-    ("sac-scratch", "SAC from scratch", "symrl baseline sac --episodes {n} --seeds 100-104 "
-     "--out results/baselines/sac-scratch"),
-    ("sac-residual", "SAC residual", "symrl baseline sac --residual --episodes {n} "
-     "--seeds 100-104 --out results/baselines/sac-residual"),
-    ("sac-residual+regions", "SAC residual + regions", "symrl baseline sac --residual "
-     "--regions --episodes {n} --seeds 100-104 --out results/baselines/sac-residual+regions"),
-    ("ppo-scratch", "PPO from scratch", "symrl baseline ppo --episodes {n} --seeds 100-104 "
-     "--out results/baselines/ppo-scratch"),
-    ("ppo-residual", "PPO residual", "symrl baseline ppo --residual --episodes {n} "
-     "--seeds 100-104 --out results/baselines/ppo-residual"),
-    ("ppo-residual+regions", "PPO residual + regions", "symrl baseline ppo --residual "
-     "--regions --episodes {n} --seeds 100-104 --out results/baselines/ppo-residual+regions"),
-)  # fmt: skip
+    (
+        "paper-20",
+        "paper learner (`paper_map`)",
+        "symrl sweep --recipes paper_map --seeds 100-104 "
+        "--trials 20 --out results/baselines/paper-20",
+    ),
+    (
+        "reflex-20",
+        "reference: the shielded reflex alone (no learning)",
+        "symrl sweep --recipes "
+        "paper_map --seeds 100-104 --trials 20 --out results/baselines/reflex-20 "
+        "experts.learning=false options.enabled=false "
+        "'reflex.peaks=[1.5707963267948966,0.0,-1.5707963267948966]'",
+    ),
+    (
+        "sac-scratch",
+        "SAC from scratch",
+        "symrl baseline sac --episodes {n} --seeds 100-104 --out results/baselines/sac-scratch",
+    ),
+    (
+        "sac-residual",
+        "SAC residual",
+        "symrl baseline sac --residual --episodes {n} "
+        "--seeds 100-104 --out results/baselines/sac-residual",
+    ),
+    (
+        "sac-residual+regions",
+        "SAC residual + regions",
+        "symrl baseline sac --residual "
+        "--regions --episodes {n} --seeds 100-104 --out results/baselines/sac-residual+regions",
+    ),
+    (
+        "ppo-scratch",
+        "PPO from scratch",
+        "symrl baseline ppo --episodes {n} --seeds 100-104 --out results/baselines/ppo-scratch",
+    ),
+    (
+        "ppo-residual",
+        "PPO residual",
+        "symrl baseline ppo --residual --episodes {n} "
+        "--seeds 100-104 --out results/baselines/ppo-residual",
+    ),
+    (
+        "ppo-residual+regions",
+        "PPO residual + regions",
+        "symrl baseline ppo --residual "
+        "--regions --episodes {n} --seeds 100-104 --out results/baselines/ppo-residual+regions",
+    ),
+)
 """Folder under ``results/baselines``, label and command of each learner compared."""
 
 
@@ -320,9 +392,10 @@ def baseline_runs(folder: Path) -> list[dict[str, Any]]:
     data = _load(folder / "summary.json")
     timing = {}
     if data is not None and "runs" in data and data["runs"] and "at20" in data["runs"][0]:
-        timing = {(r["seed"], r["end"]["trials"]): (r["at20"]["wall_time_s"],
-                                                     r["end"]["wall_time_s"])
-                  for r in data["runs"]}  # fmt: skip
+        timing = {
+            (r["seed"], r["end"]["trials"]): (r["at20"]["wall_time_s"], r["end"]["wall_time_s"])
+            for r in data["runs"]
+        }
     runs = []
     for csv in sorted(folder.glob("seed-*/trials.csv")) + sorted(folder.glob("runs/*/trials.csv")):
         seed = int(re.findall(r"\d+$", csv.parent.name)[0])  # seed-100, paper__MAP__s100
@@ -378,8 +451,11 @@ def baseline_table(results: Path) -> tuple[str, dict[str, list[list[dict[str, An
         for n in sorted({min(20, min(lengths)), min(lengths), max(lengths)}):
             done = [r for r in runs if len(r["rows"]) >= n]
             s = [summarise(r["rows"], n) for r in done]
-            walls = [r["wall"][0] if n == 20 else r["wall"][1] if len(r["rows"]) == n else None
-                     for r in done if r["wall"]]  # fmt: skip
+            walls = [
+                r["wall"][0] if n == 20 else r["wall"][1] if len(r["rows"]) == n else None
+                for r in done
+                if r["wall"]
+            ]
             lines.append(
                 f"| {label} | {n} | {len(done)} | {_first([x['first_success'] for x in s])} "
                 f"| {_first([x['first_reliable'] for x in s])} "
@@ -407,11 +483,13 @@ def baseline_blocks(results: Path, least: int = 200) -> str:
         longest = max(len(r["rows"]) for r in runs)
         size = 100 if longest <= 1000 else 250
         for lo in range(0, longest - size + 1, size):
-            blocks = [r["rows"][lo:lo + size] for r in runs if len(r["rows"]) >= lo + size]
+            blocks = [r["rows"][lo : lo + size] for r in runs if len(r["rows"]) >= lo + size]
             actions = [sum(t["steps"] for t in b) / size for b in blocks]
             totals = [sum(t["total_reinforcement"] for t in b) / size for b in blocks]
-            lines.append(f"| {label} | {lo + 1}-{lo + size} | {len(blocks)} "
-                         f"| {_mean_sd(actions)} | {_mean_sd(totals, 2)} |")  # fmt: skip
+            lines.append(
+                f"| {label} | {lo + 1}-{lo + size} | {len(blocks)} "
+                f"| {_mean_sd(actions)} | {_mean_sd(totals, 2)} |"
+            )
     return "\n".join(lines) + "\n" if len(lines) > 2 else ""
 
 
@@ -439,28 +517,43 @@ def _section_baselines(results: Path, figures: Path) -> list[str]:
                 out.append(f"- {label}: `{text}`")
     out += ["", table]
     figures.mkdir(parents=True, exist_ok=True)
-    plot_learning_curves(curves, folder / "comparison.png",
-                         "The paper's learner and SAC / PPO (TorchRL), seeds 100-104",
-                         optimum=25)  # fmt: skip
+    plot_learning_curves(
+        curves,
+        folder / "comparison.png",
+        "The paper's learner and SAC / PPO (TorchRL), seeds 100-104",
+        optimum=25,
+    )
     out += [_fig(folder / "comparison.png", figures, "baselines.png"), ""]
     blocks = baseline_blocks(folder)
     if blocks:
-        out += ["Has a long run levelled? Mean path and total per block of trials (mean ± sd "
-                "over the seeds that ran the whole block):", "", blocks]  # fmt: skip
+        out += [
+            "Has a long run levelled? Mean path and total per block of trials (mean ± sd "
+            "over the seeds that ran the whole block):",
+            "",
+            blocks,
+        ]
     if BASELINE_NOTES.is_file():
         out += [BASELINE_NOTES.read_text(), ""]
     return out
 
 
 def _section_generalise(results: Path, figures: Path) -> list[str]:
-    out = ["## Generalisation (`symrl generalise`)", "",
-           "One recipe per rung of what the robot is told: `reflex_only` (its sensors), `paper` "
-           "(+ the region rules), `paper_map` (+ the map). The new obstacle is in the env's "
-           "world only, never in what the robot is told.", ""]  # fmt: skip
+    out = [
+        "## Generalisation (`symrl generalise`)",
+        "",
+        "One recipe per rung of what the robot is told: `reflex_only` (its sensors), `paper` "
+        "(+ the region rules), `paper_map` (+ the map). The new obstacle is in the env's "
+        "world only, never in what the robot is told.",
+        "",
+    ]
     for recipe in GENERALISE_RECIPES:
         folder = results / f"generalise-{recipe}"
-        out += [f"### `{recipe}`", "", f"Command: `{COMMANDS['generalise'].format(recipe=recipe)}`",
-                ""]
+        out += [
+            f"### `{recipe}`",
+            "",
+            f"Command: `{COMMANDS['generalise'].format(recipe=recipe)}`",
+            "",
+        ]
         data = _load(folder / "generalise.json")
         if data is None:
             out += ["*Not run yet.*", ""]
@@ -484,15 +577,24 @@ def _built_from() -> str:
     import subprocess
 
     try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                              text=True, check=True).stdout.strip()  # fmt: skip
+        head = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True
+        ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         head = "unknown"
     return f"Built with the code at commit `{head}`."
 
 
-SECTIONS = (_section_plan, _section_table1, _section_ladder, _section_study, _section_ablate,
-            _section_changes, _section_baselines, _section_generalise)  # fmt: skip
+SECTIONS = (
+    _section_plan,
+    _section_table1,
+    _section_ladder,
+    _section_study,
+    _section_ablate,
+    _section_changes,
+    _section_baselines,
+    _section_generalise,
+)
 """The report's sections, in order; each returns its Markdown lines, headed by ``## ``."""
 
 
@@ -518,8 +620,9 @@ def carry_over(fresh: list[str], previous: dict[str, str]) -> list[str]:
     return [head, "", body.rstrip("\n"), ""]
 
 
-def build(results: Path = Path("results"), figures: Path = Path("docs/figures"),
-          previous: str = "") -> str:
+def build(
+    results: Path = Path("results"), figures: Path = Path("docs/figures"), previous: str = ""
+) -> str:
     """The whole RESULTS.md text (copies figures as a side effect); ``previous`` is the
     RESULTS.md it replaces, whose sections stand in for those not re-run."""
     from symrl.studies.repeatability import PAPER_TABLE1 as paper
@@ -558,8 +661,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--results", default="results")
     parser.add_argument("--figures", default="docs/figures")
     parser.add_argument("--out", default="RESULTS.md")
-    parser.add_argument("--only", choices=["baselines"], default=None,
-                        help="print one section only (RESULTS.md is left alone)")
+    parser.add_argument(
+        "--only",
+        choices=["baselines"],
+        default=None,
+        help="print one section only (RESULTS.md is left alone)",
+    )
     args = parser.parse_args(argv)
     if args.only == "baselines":
         print("\n".join(_section_baselines(Path(args.results), Path(args.figures))))

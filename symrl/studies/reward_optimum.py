@@ -114,18 +114,29 @@ class Best:
 def headings_to_actions(headings: np.ndarray, start_heading: float) -> np.ndarray:
     """The turns in [-pi, pi] that point the noise-free robot at ``headings`` in turn."""
     previous = np.concatenate(([start_heading], headings[:-1]))
-    return np.array([math.remainder(h - p, _TWO_PI) for h, p in zip(headings, previous,
-                                                                     strict=True)])  # fmt: skip
+    return np.array(
+        [math.remainder(h - p, _TWO_PI) for h, p in zip(headings, previous, strict=True)]
+    )
 
 
-def _batch(world: WorldMap, robot: RobotConfig, x: np.ndarray, y: np.ndarray,
-           h: np.ndarray) -> RobotBatch:  # fmt: skip
+def _batch(
+    world: WorldMap, robot: RobotConfig, x: np.ndarray, y: np.ndarray, h: np.ndarray
+) -> RobotBatch:
     """A noise-free batch of robots placed at the poses (x, y, h), odometry on the true pose."""
     batch = RobotBatch(world, robot, len(x), noise=False, max_actions=10**9)
     ex, ey, clear = batch.walls.closest_many(x, y)
     state = batch.state()
-    state.update(_x=x.copy(), _y=y.copy(), _h=h.copy(), _xo=x.copy(), _yo=y.copy(),
-                 _ho=h.copy(), _ex=ex, _ey=ey, _clear=clear)  # fmt: skip
+    state.update(
+        _x=x.copy(),
+        _y=y.copy(),
+        _h=h.copy(),
+        _xo=x.copy(),
+        _yo=y.copy(),
+        _ho=h.copy(),
+        _ex=ex,
+        _ey=ey,
+        _clear=clear,
+    )
     batch.load_state(state)
     return batch
 
@@ -134,8 +145,9 @@ def _no_rngs(n: int) -> list[Any]:
     return [None] * n  # noise off: the physics draws nothing
 
 
-def rollout(world: WorldMap, robot: RobotConfig, start: Sequence[float],
-            headings: np.ndarray) -> Totals:  # fmt: skip
+def rollout(
+    world: WorldMap, robot: RobotConfig, start: Sequence[float], headings: np.ndarray
+) -> Totals:
     """Drive one noise-free robot per row of ``headings`` (M, T) from ``start``; the reward
     is summed until the goal is reached (the trial ends there, as in the env)."""
     headings = np.atleast_2d(np.asarray(headings, dtype=np.float64))
@@ -149,8 +161,7 @@ def rollout(world: WorldMap, robot: RobotConfig, start: Sequence[float],
     live = np.ones(m, dtype=bool)
     current = np.full(m, h0)
     for k in range(t):
-        alpha = np.array([math.remainder(a, _TWO_PI)
-                          for a in (headings[:, k] - current).tolist()])  # fmt: skip
+        alpha = np.array([math.remainder(a, _TWO_PI) for a in (headings[:, k] - current).tolist()])
         r = batch.step(alpha, rngs)
         current = r.true_pose[:, 2]
         total += np.where(live, r.reward, 0.0)
@@ -167,8 +178,9 @@ def rollout(world: WorldMap, robot: RobotConfig, start: Sequence[float],
     return Totals(total, steps, f1s, f2s, collisions, near)
 
 
-def replay(world: WorldMap, robot: RobotConfig, start: Sequence[float],
-           actions: Sequence[float]) -> dict[str, Any]:  # fmt: skip
+def replay(
+    world: WorldMap, robot: RobotConfig, start: Sequence[float], actions: Sequence[float]
+) -> dict[str, Any]:
     """The actions in the Gymnasium env (noise off): total, per-step f1 and f2, true path."""
     from symrl.world.env import Hailu2001Env
 
@@ -186,12 +198,24 @@ def replay(world: WorldMap, robot: RobotConfig, start: Sequence[float],
             break
     path = [[float(x), float(y)] for x, y in env.path]
     env.close()
-    return {"total": total, "actions": len(f1), "reached_goal": reached,
-            "collisions": collisions, "f1": f1, "f2": f2, "path": path}  # fmt: skip
+    return {
+        "total": total,
+        "actions": len(f1),
+        "reached_goal": reached,
+        "collisions": collisions,
+        "f1": f1,
+        "f2": f2,
+        "path": path,
+    }
 
 
-def open_loop_with_noise(world: WorldMap, robot: RobotConfig, start: Sequence[float],
-                         actions: Sequence[float], seeds: int = 100) -> dict[str, Any]:  # fmt: skip
+def open_loop_with_noise(
+    world: WorldMap,
+    robot: RobotConfig,
+    start: Sequence[float],
+    actions: Sequence[float],
+    seeds: int = 100,
+) -> dict[str, Any]:
     """The same actions with the env's noise on, blind (seeds 0 .. seeds-1): how many trials
     still reach the goal by the last action, and what those earn. f2 is measured on the
     odometry, which moves as commanded, so it barely changes; f1 and the goal see the true
@@ -215,9 +239,14 @@ def open_loop_with_noise(world: WorldMap, robot: RobotConfig, start: Sequence[fl
     env.close()
     ok = np.array([g[1:3] for g in got if g[0]]).reshape(-1, 2)
     f1, f2 = (float(v) for v in (ok.mean(axis=0) if len(ok) else (np.nan, np.nan)))
-    return {"seeds": [0, seeds - 1], "reached_goal": len(ok), "total_when_reached": f1 + f2,
-            "f1_when_reached": f1, "f2_when_reached": f2,
-            "collisions": sum(g[3] for g in got)}  # fmt: skip
+    return {
+        "seeds": [0, seeds - 1],
+        "reached_goal": len(ok),
+        "total_when_reached": f1 + f2,
+        "f1_when_reached": f1,
+        "f2_when_reached": f2,
+        "collisions": sum(g[3] for g in got),
+    }
 
 
 # --- stage 1: the value table ---------------------------------------------------------------
@@ -227,8 +256,14 @@ class _ValueTable:
     """What is left to earn from a position, by value iteration on a grid (a guess: the grid
     and the heading set are coarse; only used to rank the beam)."""
 
-    def __init__(self, world: WorldMap, robot: RobotConfig, spacing: float, n_headings: int,
-                 bar: tqdm | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        world: WorldMap,
+        robot: RobotConfig,
+        spacing: float,
+        n_headings: int,
+        bar: tqdm | None = None,
+    ) -> None:
         xmin, xmax, ymin, ymax = world.bounds
         self.x0, self.y0, self.s = xmin, ymin, spacing
         xs = np.arange(xmin, xmax + spacing / 2, spacing)
@@ -274,8 +309,10 @@ class _ValueTable:
     def _corners(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         nx, ny = self.shape
         fx, fy = (x - self.x0) / self.s, (y - self.y0) / self.s
-        i, j = np.clip(np.floor(fx).astype(int), 0, nx - 2), np.clip(np.floor(fy).astype(int),
-                                                                     0, ny - 2)  # fmt: skip
+        i, j = (
+            np.clip(np.floor(fx).astype(int), 0, nx - 2),
+            np.clip(np.floor(fy).astype(int), 0, ny - 2),
+        )
         tx, ty = np.clip(fx - i, 0, 1), np.clip(fy - j, 0, 1)
         corners = np.stack([i * ny + j, (i + 1) * ny + j, i * ny + j + 1, (i + 1) * ny + j + 1])
         weights = np.stack([(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty])
@@ -298,10 +335,18 @@ class _ValueTable:
         g = grid.reshape(self.shape)
         for _ in range(2):
             padded = np.pad(g, 1, constant_values=np.nan)
-            stack = np.stack([padded[1 + dx : 1 + dx + g.shape[0], 1 + dy : 1 + dy + g.shape[1]]
-                              for dx in (-1, 0, 1) for dy in (-1, 0, 1)])  # fmt: skip
-            best = np.where(np.all(np.isnan(stack), axis=0), np.nan,
-                            np.nanmax(np.where(np.isnan(stack), -np.inf, stack), axis=0))
+            stack = np.stack(
+                [
+                    padded[1 + dx : 1 + dx + g.shape[0], 1 + dy : 1 + dy + g.shape[1]]
+                    for dx in (-1, 0, 1)
+                    for dy in (-1, 0, 1)
+                ]
+            )
+            best = np.where(
+                np.all(np.isnan(stack), axis=0),
+                np.nan,
+                np.nanmax(np.where(np.isnan(stack), -np.inf, stack), axis=0),
+            )
             g = np.where(np.isnan(g), best, g)
         return g.ravel()
 
@@ -313,9 +358,16 @@ class _ValueTable:
 # --- stage 2: the beam ----------------------------------------------------------------------
 
 
-def _beam(world: WorldMap, robot: RobotConfig, start: Sequence[float], settings: SearchSettings,
-          value: _ValueTable, max_actions: int, offset: float,
-          bar: tqdm | None) -> list[tuple[float, np.ndarray]]:  # fmt: skip
+def _beam(
+    world: WorldMap,
+    robot: RobotConfig,
+    start: Sequence[float],
+    settings: SearchSettings,
+    value: _ValueTable,
+    max_actions: int,
+    offset: float,
+    bar: tqdm | None,
+) -> list[tuple[float, np.ndarray]]:
     """The ``endings`` best totals the beam finds, with their headings (best first; none if
     nothing reaches the goal); the heading grid turned by ``offset`` of its spacing."""
     best_total = -np.inf  # the worst of the endings kept, once there are enough
@@ -334,8 +386,7 @@ def _beam(world: WorldMap, robot: RobotConfig, start: Sequence[float], settings:
         batch = _batch(world, robot, np.repeat(x, k), np.repeat(y, k), np.repeat(h, k))
         aim = np.arctan2(gy - y, gx - x)
         want = np.column_stack([np.tile(angles, (n, 1)), aim]).ravel()
-        alpha = np.array([math.remainder(a, _TWO_PI)
-                          for a in (want - np.repeat(h, k)).tolist()])  # fmt: skip
+        alpha = np.array([math.remainder(a, _TWO_PI) for a in (want - np.repeat(h, k)).tolist()])
         r = batch.step(alpha, _no_rngs(n * k))
         parent = np.repeat(np.arange(n), k)
         gain = np.repeat(g, k) + r.reward
@@ -402,8 +453,14 @@ def _nudges(t: int) -> np.ndarray:
     return np.vstack([one, -one])
 
 
-def _refine(world: WorldMap, robot: RobotConfig, start: Sequence[float], headings: np.ndarray,
-            settings: SearchSettings, bar: tqdm | None) -> tuple[float, np.ndarray]:  # fmt: skip
+def _refine(
+    world: WorldMap,
+    robot: RobotConfig,
+    start: Sequence[float],
+    headings: np.ndarray,
+    settings: SearchSettings,
+    bar: tqdm | None,
+) -> tuple[float, np.ndarray]:
     """Nudge the headings by +-step (:func:`_nudges`), and all of them at once by random steps
     (``random`` sequences, drawn from a fixed seed), in one batch; take the best change; halve
     the step when none improves. A sequence that stops reaching the goal scores -inf."""
@@ -429,10 +486,15 @@ def _refine(world: WorldMap, robot: RobotConfig, start: Sequence[float], heading
     return total, best
 
 
-def search_best_total(world: WorldMap, start: Sequence[float] | None = None,
-                      seeds: Sequence[np.ndarray] = (), settings: SearchSettings | None = None,
-                      robot: RobotConfig | None = None, max_actions: int = 200,
-                      progress: bool = False) -> Best:  # fmt: skip
+def search_best_total(
+    world: WorldMap,
+    start: Sequence[float] | None = None,
+    seeds: Sequence[np.ndarray] = (),
+    settings: SearchSettings | None = None,
+    robot: RobotConfig | None = None,
+    max_actions: int = 200,
+    progress: bool = False,
+) -> Best:
     """The best total reinforcement of a noise-free trial from ``start`` (default the map's)
     that the search finds, never worse than any of ``seeds`` (sequences of absolute headings,
     e.g. the shortest path's walk, scored as they are)."""
@@ -452,11 +514,11 @@ def search_best_total(world: WorldMap, start: Sequence[float] | None = None,
                 best_total, best = float(got.total[0]), s[: int(got.steps[0])]
         history.append(("seeds", best_total))
         value = _ValueTable(world, robot, settings.dp_spacing, settings.dp_headings, bar)
-        history.append(("value table", float(value(np.array([start[0]]),
-                                                   np.array([start[1]]))[0])))  # fmt: skip
+        history.append(("value table", float(value(np.array([start[0]]), np.array([start[1]]))[0])))
         for i in range(settings.grids):
-            endings = _beam(world, robot, start, settings, value, max_actions,
-                            i / settings.grids, bar)  # fmt: skip
+            endings = _beam(
+                world, robot, start, settings, value, max_actions, i / settings.grids, bar
+            )
             for j, (total, found) in enumerate(endings):
                 history.append((f"beam {i + 1}, ending {j + 1}", total))
                 total, found = _refine(world, robot, start, found, settings, bar)
@@ -476,9 +538,15 @@ def walk_headings(walk: np.ndarray) -> np.ndarray:
     return np.arctan2(d[:, 1], d[:, 0])
 
 
-def write_result(out: Path, world: WorldMap, start: Sequence[float], best: Best,
-                 shortest: dict[str, Any] | None, settings: SearchSettings,
-                 wall: float) -> dict[str, Any]:  # fmt: skip
+def write_result(
+    out: Path,
+    world: WorldMap,
+    start: Sequence[float],
+    best: Best,
+    shortest: dict[str, Any] | None,
+    settings: SearchSettings,
+    wall: float,
+) -> dict[str, Any]:
     """``reward_optimum.json`` and ``reward_optimum.png`` in ``out``; returns the JSON's data."""
     import json
 
@@ -503,8 +571,11 @@ def write_result(out: Path, world: WorldMap, start: Sequence[float], best: Best,
         "path": run["path"],
         "shortest_path": shortest,
         "noise_on_open_loop": open_loop_with_noise(world, robot, start, best.actions.tolist()),
-        "paper_table1_last_trial": {"total_reinforcement": -6.24, "actions": 27.7,
-                                    "noise": "a real robot"},  # fmt: skip
+        "paper_table1_last_trial": {
+            "total_reinforcement": -6.24,
+            "actions": 27.7,
+            "noise": "a real robot",
+        },
         "search": {**settings.__dict__, "stages": best.history},
         "rule": "the sum of f1 + f2 over a noise-free trial's actions (the learner's trial "
         "total), found by search: a reachable total, not a proof that none is better",
@@ -525,9 +596,13 @@ def reward_command(args: Any, world: WorldMap, start: Sequence[float], walk: np.
     robot = RobotConfig()
     seed = walk_headings(walk)
     short = replay(world, robot, start, headings_to_actions(seed, float(start[2])).tolist())
-    shortest = {"actions": short["actions"], "total_reinforcement": short["total"],
-                "f1_walls": float(np.sum(short["f1"])), "f2_heading": float(np.sum(short["f2"])),
-                "path": short["path"]}  # fmt: skip
+    shortest = {
+        "actions": short["actions"],
+        "total_reinforcement": short["total"],
+        "f1_walls": float(np.sum(short["f1"])),
+        "f2_heading": float(np.sum(short["f2"])),
+        "path": short["path"],
+    }
     best = search_best_total(world, start, [seed], settings, robot, progress=True)
     out = Path(args.out)
     result = write_result(out, world, start, best, shortest, settings, time.perf_counter() - t0)
@@ -547,5 +622,7 @@ def reward_command(args: Any, world: WorldMap, start: Sequence[float], walk: np.
         f"reach the goal, those earn {blind['total_when_reached']:.4f} (f1 "
         f"{blind['f1_when_reached']:.4f}, f2 {blind['f2_when_reached']:.4f})"
     )
-    print(f"wrote {out / 'reward_optimum.json'} and {out / 'reward_optimum.png'} in "
-          f"{result['wall_time_s']} s")
+    print(
+        f"wrote {out / 'reward_optimum.json'} and {out / 'reward_optimum.png'} in "
+        f"{result['wall_time_s']} s"
+    )

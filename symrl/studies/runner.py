@@ -99,8 +99,12 @@ def evaluation_batch(
 
     told = Knowledge.told(world, config.knowledge)
     policy = MixtureOfExpertsPolicy.from_robot_states(config, told, list(states), list(seeds))
-    env = make_env(config, list(seeds), world=world if env_world is None else env_world,
-                   starts=np.asarray(starts, dtype=np.float64))  # fmt: skip
+    env = make_env(
+        config,
+        list(seeds),
+        world=world if env_world is None else env_world,
+        starts=np.asarray(starts, dtype=np.float64),
+    )
     return policy, env
 
 
@@ -159,35 +163,51 @@ def _run_batch(
 
     torch.set_num_threads(1)
     config = config_from_dict(config_data)
-    keeper = (BatchKeeper(kept_in, config_data, indices, starts) if kept_in is not None
-              else None)  # fmt: skip
+    keeper = BatchKeeper(kept_in, config_data, indices, starts) if kept_in is not None else None
     results = train_batch(
-        config, seeds, progress=progress, on_trial=on_trial,
+        config,
+        seeds,
+        progress=progress,
+        on_trial=on_trial,
         on_boundary=keeper.on_boundary if keeper is not None else None,
         resume_batch=keeper.saved() if keeper is not None else None,
-    )  # fmt: skip
+    )
     out = []
     for index, res in zip(indices, results, strict=True):
         rows, paths, ghosts = [], {}, {}
         first_success = next((t["trial"] for t in res.trials if t["reached_goal"]), None)
         keep = {res.trials[0]["trial"], res.trials[-1]["trial"], first_success}
         for t in res.trials:
-            rows.append({"set": index, "seed": res.seed,
-                         **{k: v for k, v in t.items() if k not in _SKIP}})  # fmt: skip
+            rows.append(
+                {"set": index, "seed": res.seed, **{k: v for k, v in t.items() if k not in _SKIP}}
+            )
             if t["trial"] in keep:
                 paths[int(t["trial"])] = _xy(t["path"])
                 ghosts[int(t["trial"])] = _xy(t["ghosts"])
-        out.append(SetResult(index, res.seed, rows, paths, ghosts,
-                             controller=res.policy.state_dict(), timings=res.timings))  # fmt: skip
+        out.append(
+            SetResult(
+                index,
+                res.seed,
+                rows,
+                paths,
+                ghosts,
+                controller=res.policy.state_dict(),
+                timings=res.timings,
+            )
+        )
     if starts:
         world = results[0].world
         pairs = [(s, k) for s in out for k in range(len(starts))]
         evs = evaluate_states(
-            config, world, [s.controller for s, _ in pairs], [starts[k] for _, k in pairs],
+            config,
+            world,
+            [s.controller for s, _ in pairs],
+            [starts[k] for _, k in pairs],
             [s.seed + 1000 * (k + 1) for s, k in pairs],
             progress=f"{config.recipe}: {len(pairs)} greedy trials from other starts"
-            if progress else None,
-        )  # fmt: skip
+            if progress
+            else None,
+        )
         for (s, _), ev in zip(pairs, evs, strict=True):
             s.evaluations.append(ev)
     if keeper is not None:  # each set kept as set-K.pt, then the batch's state is not needed
@@ -272,8 +292,11 @@ def run_sets(
                         r.controller = {k: torch.from_numpy(v) for k, v in r.controller.items()}
                     finished(batch)
                 if ended and waiting:
-                    _while_saying("the table's yardstick (the map's optimum)", waiting.pop(),
-                                  progress and bool(pending))  # fmt: skip
+                    _while_saying(
+                        "the table's yardstick (the map's optimum)",
+                        waiting.pop(),
+                        progress and bool(pending),
+                    )
                 while trials_done is not None:
                     try:
                         bar.update(trials_done.get_nowait())
@@ -328,16 +351,16 @@ def _run_batch_in_worker(
     while the tensor lives, and an ablation of 40 sets x 20 variants holds ~20,000 of them
     (beyond the usual limit on open files). Each finished trial is counted on the pool's
     progress queue, if it has one."""
-    batch = _run_batch(config_data, indices, seeds, starts, False, on_trial=_count_trial,
-                       kept_in=keep)  # fmt: skip
+    batch = _run_batch(
+        config_data, indices, seeds, starts, False, on_trial=_count_trial, kept_in=keep
+    )
     for r in batch:
         r.controller = {k: v.numpy() for k, v in r.controller.items()}
     return batch
 
 
 def _set_settings(data: dict[str, Any], index: int, starts: Sequence[Any]) -> dict[str, Any]:
-    return {"config": data, "set": int(index),
-            "starts": [[float(v) for v in s] for s in starts]}  # fmt: skip
+    return {"config": data, "set": int(index), "starts": [[float(v) for v in s] for s in starts]}
 
 
 def _save_set(folder: str | os.PathLike, s: SetResult, data: dict[str, Any], starts) -> None:
@@ -429,12 +452,14 @@ def worker_pool(workers: int, trials_done: Any = None) -> Any:
     on which the workers of :func:`run_sets` count their finished trials (the progress bar)."""
     from concurrent.futures import ProcessPoolExecutor
 
-    return ProcessPoolExecutor(workers, mp_context=_fork_context(), initializer=_init_worker,
-                               initargs=(trials_done,))  # fmt: skip
+    return ProcessPoolExecutor(
+        workers, mp_context=_fork_context(), initializer=_init_worker, initargs=(trials_done,)
+    )
 
 
-def run_jobs(fn: Any, jobs: Sequence[dict[str, Any]], workers: int | None = 1,
-             desc: str = "jobs") -> list[Any]:
+def run_jobs(
+    fn: Any, jobs: Sequence[dict[str, Any]], workers: int | None = 1, desc: str = "jobs"
+) -> list[Any]:
     """``fn(**job)`` for every job, in ``workers`` processes (1: here; see ``worker_pool``),
     in job order (for runs that are not batches of robots, e.g. the PPO baseline)."""
     from concurrent.futures import as_completed
@@ -474,8 +499,13 @@ def last_trial_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
 def table1(
     rows: Sequence[dict[str, Any]],
     keys: Sequence[str] = (
-        "neurons", "steps", "total_reinforcement", "collisions", "reached_goal", "path_length",
-    ),  # fmt: skip
+        "neurons",
+        "steps",
+        "total_reinforcement",
+        "collisions",
+        "reached_goal",
+        "path_length",
+    ),
 ) -> dict[str, Any]:
     """Mean, sample variance (ddof 1), min and max over sets of each key at the last trial."""
     if not rows:
@@ -583,7 +613,6 @@ def start_summary(results: Sequence[SetResult]) -> list[dict[str, Any]]:
             }
         )
     return out
-
 
 
 @functools.lru_cache(maxsize=8)

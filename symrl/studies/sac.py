@@ -19,8 +19,14 @@ from symrl.studies.actor import make_actor
 
 __all__ = ["SACConfig", "SACAgent"]
 
-_KEYS = ("observation", "control", ("next", "observation"), ("next", "reward"),
-         ("next", "done"), ("next", "terminated"))  # fmt: skip
+_KEYS = (
+    "observation",
+    "control",
+    ("next", "observation"),
+    ("next", "reward"),
+    ("next", "done"),
+    ("next", "terminated"),
+)
 
 
 @dataclass
@@ -66,14 +72,23 @@ class SACAgent:
         self.actor_spec: dict[str, Any] = {"cells": list(cells), "activation": "relu"}
         self.actor = make_actor(n_obs, cells, "relu")
         qvalue = ValueOperator(
-            MLP(in_features=n_obs + 1, out_features=1, num_cells=list(cells),
-                activation_class=nn.ReLU),
-            in_keys=["observation", "control"], out_keys=["state_action_value"],
-        )  # fmt: skip
+            MLP(
+                in_features=n_obs + 1,
+                out_features=1,
+                num_cells=list(cells),
+                activation_class=nn.ReLU,
+            ),
+            in_keys=["observation", "control"],
+            out_keys=["state_action_value"],
+        )
         self.loss = SACLoss(
-            self.actor, qvalue, num_qvalue_nets=2, loss_function="l2",
-            alpha_init=cfg.alpha_init, action_spec=Bounded(-1.0, 1.0, (1,)),
-        )  # fmt: skip
+            self.actor,
+            qvalue,
+            num_qvalue_nets=2,
+            loss_function="l2",
+            alpha_init=cfg.alpha_init,
+            action_spec=Bounded(-1.0, 1.0, (1,)),
+        )
         self.loss.set_keys(action="control")
         self.loss.make_value_estimator(gamma=cfg.gamma)
         self.target = SoftUpdate(self.loss, tau=cfg.tau)

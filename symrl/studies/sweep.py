@@ -67,8 +67,10 @@ def parse_seeds(text: str) -> list[int]:
         if hi >= 2**63:
             raise ValueError(f"--seeds {text!r}: seeds must be below 2**63")
         if hi - lo + 1 + len(seeds) > MAX_RUNS:  # counted before the range is spelled out
-            raise ValueError(f"--seeds {text!r}: more than {MAX_RUNS} seeds; a sweep runs at "
-                             f"most {MAX_RUNS} runs")  # fmt: skip
+            raise ValueError(
+                f"--seeds {text!r}: more than {MAX_RUNS} seeds; a sweep runs at "
+                f"most {MAX_RUNS} runs"
+            )
         seeds.update(range(lo, hi + 1))
     return sorted(seeds)
 
@@ -104,24 +106,31 @@ def plan_sweep(
         raise ValueError("empty grid: give at least one recipe, one seed and one map")
     runs = len(recipes) * len(seeds) * len(maps)
     if runs > MAX_RUNS:
-        raise ValueError(f"the grid has {runs} runs ({len(recipes)} recipes x {len(seeds)} seeds "
-                         f"x {len(maps)} maps), more than the {MAX_RUNS} a sweep runs")  # fmt: skip
+        raise ValueError(
+            f"the grid has {runs} runs ({len(recipes)} recipes x {len(seeds)} seeds "
+            f"x {len(maps)} maps), more than the {MAX_RUNS} a sweep runs"
+        )
     for name in maps:
         load_map(name)
     grid = []
     for recipe in recipes:
         for name in maps:
             for seed in seeds:
-                config = load_config(recipe, [*overrides, f"run.trials={trials}",
-                                              f"run.seed={seed}", f"env.map={name}"])  # fmt: skip
+                config = load_config(
+                    recipe,
+                    [*overrides, f"run.trials={trials}", f"run.seed={seed}", f"env.map={name}"],
+                )
                 folder = Path(out) / "runs" / f"{config.recipe}__{_map_label(name)}__s{seed}"
-                grid.append(SweepRun(config.recipe, name, int(seed), config_to_dict(config),
-                                     str(folder)))  # fmt: skip
+                grid.append(
+                    SweepRun(config.recipe, name, int(seed), config_to_dict(config), str(folder))
+                )
     folders = [r.logdir for r in grid]
     if len(set(folders)) < len(folders):
         same = next(f for f in folders if folders.count(f) > 1)
-        raise ValueError(f"two runs of the grid would share the folder {same!r} "
-                         "(recipes or maps with the same name)")  # fmt: skip
+        raise ValueError(
+            f"two runs of the grid would share the folder {same!r} "
+            "(recipes or maps with the same name)"
+        )
     return grid
 
 
@@ -189,12 +198,22 @@ def _run_ray(jobs: list[dict[str, Any]], workers: int | None) -> list[Any]:
     started = not ray.is_initialized()
     if started:
         path = os.pathsep.join(p for p in (os.getcwd(), os.environ.get("PYTHONPATH")) if p)
-        ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
-                 runtime_env={"env_vars": {"PYTHONPATH": path}})  # fmt: skip
+        ray.init(
+            num_cpus=workers,
+            include_dashboard=False,
+            log_to_driver=False,
+            runtime_env={"env_vars": {"PYTHONPATH": path}},
+        )
     try:
         task = ray.remote(num_cpus=1)(train_run)
-        return list(ray.get([task.remote(job["config"], job["logdir"], job.get("resume", False))
-                             for job in jobs]))  # fmt: skip
+        return list(
+            ray.get(
+                [
+                    task.remote(job["config"], job["logdir"], job.get("resume", False))
+                    for job in jobs
+                ]
+            )
+        )
     finally:
         if started:
             ray.shutdown()
@@ -216,8 +235,10 @@ def run_sweep(
     if workers is not None and workers < 1:
         raise ValueError(f"--workers {workers}: must be >= 1")
     todo = [r for r in grid if not _is_done(r)]
-    jobs = [{"config": r.config, "logdir": r.logdir, **({"resume": True} if resume else {})}
-            for r in todo]  # fmt: skip
+    jobs = [
+        {"config": r.config, "logdir": r.logdir, **({"resume": True} if resume else {})}
+        for r in todo
+    ]
     if backend == "ray":
         results = _run_ray(jobs, workers) if jobs else []
     else:
@@ -248,8 +269,9 @@ def summary_tables(
     figure: dict[str, dict[str, dict[str, np.ndarray]]] = {}
     for (recipe, name), runs in cells.items():
         merged = [{**row, "set": r.seed, "seed": r.seed} for r in runs for row in rows[r.logdir]]
-        results.append({"recipe": recipe, "map": name, "seeds": [r.seed for r in runs],
-                        **summarise(merged)})  # fmt: skip
+        results.append(
+            {"recipe": recipe, "map": name, "seeds": [r.seed for r in runs], **summarise(merged)}
+        )
         figure.setdefault(name, {})[recipe] = {q: curves(merged, q) for q in QUANTITIES}
     lines = [
         f"| recipe | map | seeds | trials | last-{LAST} actions | last-{LAST} total "
@@ -290,10 +312,13 @@ def write_summary(
         + ". Statistics over seeds (one run per seed); runs in `runs/`.\n\n"
         + table
     )
-    data = {"settings": settings,
-            "runs": [{"recipe": r.recipe, "map": r.map, "seed": r.seed, "logdir": r.logdir}
-                     for r in grid],
-            "results": results}  # fmt: skip
+    data = {
+        "settings": settings,
+        "runs": [
+            {"recipe": r.recipe, "map": r.map, "seed": r.seed, "logdir": r.logdir} for r in grid
+        ],
+        "results": results,
+    }
     (out / "summary.json").write_text(json.dumps(data, indent=2, allow_nan=True) + "\n")
     plot_map_comparison(figure, out / "comparison.png", QUANTITIES)
     return table
@@ -322,14 +347,27 @@ def sweep_command(args: argparse.Namespace) -> int:
     from symrl.studies import checkpointing
 
     resume = bool(getattr(args, "resume", False))
-    marked = {"recipes": recipes, "maps": maps, "seeds": seeds, "trials": args.trials,
-              "overrides": overrides}  # fmt: skip
+    marked = {
+        "recipes": recipes,
+        "maps": maps,
+        "seeds": seeds,
+        "trials": args.trials,
+        "overrides": overrides,
+    }
     with checkpointing.running(out, "sweep", marked, resume):
         done = run_sweep(grid, workers=args.workers, backend=args.backend, resume=resume)
-    settings = {"recipes": recipes, "maps": maps, "seeds": seeds, "trials": args.trials,
-                "overrides": overrides, "backend": args.backend}  # fmt: skip
+    settings = {
+        "recipes": recipes,
+        "maps": maps,
+        "seeds": seeds,
+        "trials": args.trials,
+        "overrides": overrides,
+        "backend": args.backend,
+    }
     table = write_summary(out, grid, done["rows"], settings)
     print(table, end="")
-    print(f"{len(grid)} runs ({done['ran']} trained, {done['kept']} already finished); "
-          f"wrote {out}/ (summary.md, summary.json, comparison.png, runs/)")  # fmt: skip
+    print(
+        f"{len(grid)} runs ({done['ran']} trained, {done['kept']} already finished); "
+        f"wrote {out}/ (summary.md, summary.json, comparison.png, runs/)"
+    )
     return 0

@@ -278,8 +278,9 @@ def _corner_cuts(
     short = np.where(sharp, config.sharp_cut, config.max_cut) + config.tie + 0.01
     near_wall = np.zeros(len(concave), dtype=bool)
     for group in (sharp, ~sharp):
-        near_wall[group] = _short_chord(walls, tree, concave[group], float(short[group].max(
-            initial=0.0)))
+        near_wall[group] = _short_chord(
+            walls, tree, concave[group], float(short[group].max(initial=0.0))
+        )
     for p, close, reach_p in zip(concave, near_wall, short, strict=True):
         if not close and not _cut_within(p, cuts + found, float(reach_p)):
             continue

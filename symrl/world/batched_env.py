@@ -369,8 +369,13 @@ class BatchedTransformedEnv(TransformedEnv):
     ) -> tuple[TensorDictBase, TensorDictBase]:
         base, transform, batch, added = self._fast_path()
         root = tensordict_items(tensordict, batch)
-        if (not isinstance(base, BatchedWorldEnv) or root is None or "next" in root
-                or "_step" in root or added is None):  # fmt: skip
+        if (
+            not isinstance(base, BatchedWorldEnv)
+            or root is None
+            or "next" in root
+            or "_step" in root
+            or added is None
+        ):
             return super().step_and_maybe_reset(tensordict)
         tensordict, following = base.step_and_reset_entries(tensordict, root)
         nxt = transform_step(transform, tensordict, read(tensordict, "next"))
@@ -406,8 +411,11 @@ class BatchedTransformedEnv(TransformedEnv):
         known = self._shortcuts.get("added")
         if known is None:
             base_keys = set(self.base_env.observation_spec.keys())
-            added = [key for key in self.observation_spec.keys()  # noqa: SIM118 - a spec
-                     if key not in base_keys]  # fmt: skip
+            added = [
+                key
+                for key in self.observation_spec.keys()  # noqa: SIM118 - a spec
+                if key not in base_keys
+            ]
             known = (None if any(type(key) is not str for key in added) else added,)
             self._shortcuts["added"] = known
         return known[0]

@@ -272,9 +272,7 @@ class Hailu2001Env(gymnasium.Env):
 
     def _check_open(self, call: str) -> None:
         if self._closed:
-            raise gymnasium.error.ClosedEnvironmentError(
-                f"{call}() after close(); make a new env"
-            )
+            raise gymnasium.error.ClosedEnvironmentError(f"{call}() after close(); make a new env")
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
@@ -333,8 +331,13 @@ class Hailu2001Env(gymnasium.Env):
         return -_PI if alpha < -_PI else (_PI if alpha > _PI else alpha)
 
     def _observation(self, r: Readings) -> dict[str, np.ndarray]:
-        return {"sonar": r.sonar[0], "ir": r.ir[0], "bumper": r.bumper[0],
-                "odometry": r.odometry[0], "goal": r.goal[0]}  # fmt: skip
+        return {
+            "sonar": r.sonar[0],
+            "ir": r.ir[0],
+            "bumper": r.bumper[0],
+            "odometry": r.odometry[0],
+            "goal": r.goal[0],
+        }
 
     def _info(self, r: Readings, stepped: bool) -> dict[str, Any]:
         """The info dict; after a reset the flags are False and f1 = f2 = 0."""

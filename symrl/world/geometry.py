@@ -348,8 +348,9 @@ class Walls:
         """``(B, R + n_sectors + 1)``: the ray angles ``heading + ray_offsets``, then the sector
         edges ``(heading - width / 2) + width * k``, written into one new array (no
         concatenation; the edges' ``width * k`` kept per sector count)."""
-        steps = self._keep(("edges", n_sectors),
-                           lambda: (_TWO_PI / n_sectors) * np.arange(n_sectors + 1))  # fmt: skip
+        steps = self._keep(
+            ("edges", n_sectors), lambda: (_TWO_PI / n_sectors) * np.arange(n_sectors + 1)
+        )
         nr = len(ray_offsets)
         angles = np.empty((len(heading), nr + n_sectors + 1))
         np.add(heading[:, None], ray_offsets, out=angles[:, :nr])
@@ -375,9 +376,15 @@ class Walls:
         if len(x) == 1:  # the scalar method (same numbers) has less overhead
             one = None if closest is None else (closest[0][0], closest[1][0], float(closest[2][0]))
             rays, sec, c = self.scan(
-                float(x[0]), float(y[0]), float(heading[0]), ray_offsets, n_sectors, ray_range,
-                sector_range, one,
-            )  # fmt: skip
+                float(x[0]),
+                float(y[0]),
+                float(heading[0]),
+                ray_offsets,
+                n_sectors,
+                ray_range,
+                sector_range,
+                one,
+            )
             return rays[None], None if sec is None else sec[None], np.array([c])
         ex, ey, clear = self.closest_many(x, y) if closest is None else closest
         far = ~(clear < sector_range)
@@ -407,9 +414,14 @@ class Walls:
         """:meth:`swept_disc_contact` for B motions with known end clearances: ``(B,)`` bool."""
         if len(x0) == 1:  # the scalar method (same answer) has less overhead
             hit = self.swept_disc_contact(
-                float(x0[0]), float(y0[0]), float(x1[0]), float(y1[0]), radius,
-                float(clear0[0]), float(clear1[0]),
-            )  # fmt: skip
+                float(x0[0]),
+                float(y0[0]),
+                float(x1[0]),
+                float(y1[0]),
+                radius,
+                float(clear0[0]),
+                float(clear1[0]),
+            )
             return np.array([hit])
         mx, my = x1 - x0, y1 - y0
         mlen2 = mx * mx + my * my

@@ -105,8 +105,9 @@ def read_occupancy(path: str | Path) -> OccupancyMap:
         raise OccupancyError(f"{where}: a map_server YAML must be a mapping, got {doc!r}")
     unknown = set(doc) - _KEYS
     if unknown:
-        raise OccupancyError(f"{where}: unknown field(s) {sorted(unknown)}; allowed: "
-                             f"{sorted(_KEYS)}")  # fmt: skip
+        raise OccupancyError(
+            f"{where}: unknown field(s) {sorted(unknown)}; allowed: {sorted(_KEYS)}"
+        )
     image = doc.get("image")
     if not isinstance(image, str) or not image:
         raise OccupancyError(f"{where}: field 'image' must be a file name, got {image!r}")
@@ -114,9 +115,14 @@ def read_occupancy(path: str | Path) -> OccupancyMap:
     if resolution <= 0:
         raise OccupancyError(f"{where}: field 'resolution' must be positive, got {resolution!r}")
     origin = doc.get("origin")
-    if (not isinstance(origin, list) or len(origin) not in (2, 3)
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                       and math.isfinite(v) for v in origin)):  # fmt: skip
+    if (
+        not isinstance(origin, list)
+        or len(origin) not in (2, 3)
+        or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            for v in origin
+        )
+    ):
         raise OccupancyError(f"{where}: field 'origin' must be [x, y, yaw], got {origin!r}")
     negate = doc.get("negate", 0)
     if negate not in (0, 1) or isinstance(negate, float):
@@ -139,8 +145,9 @@ def read_occupancy(path: str | Path) -> OccupancyMap:
             pixels, alpha = _pixels(img)
     except (UnidentifiedImageError, OSError, ValueError) as err:
         reason = " ".join(str(err).split())
-        raise OccupancyError(f"{where}: field 'image': cannot read {str(image_path)!r}: "
-                             f"{reason}") from None  # fmt: skip
+        raise OccupancyError(
+            f"{where}: field 'image': cannot read {str(image_path)!r}: {reason}"
+        ) from None
     cells = free_cells(pixels, mode, bool(negate), occupied, free, alpha)
     o = [float(v) for v in origin] + [0.0] * (3 - len(origin))
     return OccupancyMap(cells, resolution, (o[0], o[1], o[2]), image_path)
@@ -252,8 +259,9 @@ def trace_world(
     part = affinity.translate(part, ox, oy)
     part = shapely.set_precision(part, 1e-6)  # micrometres: tidy numbers in the map file
     if not isinstance(part, Polygon) or part.is_empty:
-        raise OccupancyError(f"{where}: the free space around the start in "
-                             f"{str(occ.image)!r} is too small to trace")  # fmt: skip
+        raise OccupancyError(
+            f"{where}: the free space around the start in {str(occ.image)!r} is too small to trace"
+        )
     holes = [_ring(h) for h in part.interiors if Polygon(h).area > 0.0]
     return _ring(part.exterior), holes
 

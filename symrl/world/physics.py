@@ -153,8 +153,9 @@ class RobotBatch:
         self.noise = bool(noise)
         self.max_actions = max_actions
         # many walls: queried through a spatial index (the sonar's reach; the disc's sweep)
-        self.walls = walls_for(world, robot.radius + robot.sonar_range,
-                               robot.radius + 3.0 * robot.step + 0.1)  # fmt: skip
+        self.walls = walls_for(
+            world, robot.radius + robot.sonar_range, robot.radius + 3.0 * robot.step + 0.1
+        )
         self._valid_poses: set[bytes] = set()  # float64 (x, y, heading) rows that passed
         self._rest_senses: dict[bytes, np.ndarray] = {}  # per reset pose: _sense_at's row
 
@@ -191,8 +192,19 @@ class RobotBatch:
         # closest wall points (relative) and clearance of each true pose: reused by the next step
         self._ex, self._ey, self._clear = self.walls.closest_many(self._x, self._y)
 
-    _STATE = ("_x", "_y", "_h", "_xo", "_yo", "_ho", "actions_taken", "sonar", "_ex", "_ey",
-              "_clear")  # fmt: skip
+    _STATE = (
+        "_x",
+        "_y",
+        "_h",
+        "_xo",
+        "_yo",
+        "_ho",
+        "actions_taken",
+        "sonar",
+        "_ex",
+        "_ey",
+        "_clear",
+    )
 
     def state(self) -> dict[str, np.ndarray]:
         """Every robot's physics state between two steps (copies; a run snapshot)."""
@@ -314,10 +326,18 @@ class RobotBatch:
 
         # copy-on-write: arrays handed out before stay as they were
         for name, value in (
-            ("_x", x), ("_y", y), ("_h", h), ("_xo", x), ("_yo", y), ("_ho", h),
-            ("sonar", sonar), ("actions_taken", 0),
-            ("_ex", near[0]), ("_ey", near[1]), ("_clear", clear),
-        ):  # fmt: skip
+            ("_x", x),
+            ("_y", y),
+            ("_h", h),
+            ("_xo", x),
+            ("_yo", y),
+            ("_ho", h),
+            ("sonar", sonar),
+            ("actions_taken", 0),
+            ("_ex", near[0]),
+            ("_ey", near[1]),
+            ("_clear", clear),
+        ):
             state = getattr(self, name).copy()
             state[rows] = value
             setattr(self, name, state)
@@ -418,9 +438,23 @@ class RobotBatch:
         reached = _math_map(math.hypot, x1 - gx, y1 - gy) <= gr
         truncated = ~reached & (self.actions_taken >= self.max_actions)
         return self._readings(
-            sonar, refl, xo, yo, ho, x1, y1, h1, f1, f2, collision, real, virtual, reached,
-            truncated, goal,
-        )  # fmt: skip
+            sonar,
+            refl,
+            xo,
+            yo,
+            ho,
+            x1,
+            y1,
+            h1,
+            f1,
+            f2,
+            collision,
+            real,
+            virtual,
+            reached,
+            truncated,
+            goal,
+        )
 
     def _step_one(self, alpha: float, rng: np.random.Generator) -> Readings:
         """:meth:`step` for a batch of one, on Python floats: the same operations in the same
@@ -530,8 +564,12 @@ class RobotBatch:
         n, m = self._ex.shape[1], self.n_sensors  # the closest points' width per robot
         if all(row is not None for row in rows):
             block = np.stack(rows)  # type: ignore[arg-type]
-            return ((block[:, :n], block[:, n : 2 * n], block[:, -1]), block[:, 2 * n : 2 * n + m],
-                    block[:, 2 * n + m : -1], block[:, -1])  # fmt: skip
+            return (
+                (block[:, :n], block[:, n : 2 * n], block[:, -1]),
+                block[:, 2 * n : 2 * n + m],
+                block[:, 2 * n + m : -1],
+                block[:, -1],
+            )
         near = self.walls.closest_many(x, y)
         rim, refl, clear = self._sense(x, y, h, near)
         if len(self._rest_senses) < 1024:

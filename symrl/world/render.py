@@ -99,9 +99,17 @@ def draw_regions(ax: Any, world: WorldMap, color: str = "tab:blue", names: bool 
     if names:
         for region, (x, y) in region_label_points(world).items():
             # above the paths, on a light box: a path through a label never hides it
-            ax.text(x, y, region, color=color, fontsize=8, ha="center", va="center", zorder=6,
-                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
-                          "alpha": 0.7})  # fmt: skip
+            ax.text(
+                x,
+                y,
+                region,
+                color=color,
+                fontsize=8,
+                ha="center",
+                va="center",
+                zorder=6,
+                bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.7},
+            )
 
 
 def region_label_points(world: WorldMap, grid: int = 40) -> dict[str, tuple[float, float]]:

@@ -98,8 +98,10 @@ class CellWalls:
     # --- the cells ---------------------------------------------------------------------
 
     def _key(self, x: float, y: float) -> tuple[int, int]:
-        return (math.floor((x - self._origin[0]) / self.cell),
-                math.floor((y - self._origin[1]) / self.cell))  # fmt: skip
+        return (
+            math.floor((x - self._origin[0]) / self.cell),
+            math.floor((y - self._origin[1]) / self.cell),
+        )
 
     def _sets(self, x: float, y: float) -> tuple[Walls, Walls]:
         """(seen, near) wall sets of the cell holding (x, y), built on first use."""
@@ -117,8 +119,9 @@ class CellWalls:
         x0 = self._origin[0] + key[0] * self.cell
         y0 = self._origin[1] + key[1] * self.cell
         square = shapely.box(x0, y0, x0 + self.cell, y0 + self.cell)
-        corners = np.array([[x0, y0], [x0 + self.cell, y0], [x0 + self.cell, y0 + self.cell],
-                            [x0, y0 + self.cell]])  # fmt: skip
+        corners = np.array(
+            [[x0, y0], [x0 + self.cell, y0], [x0 + self.cell, y0 + self.cell], [x0, y0 + self.cell]]
+        )
         within = np.sort(self._tree.query(square, predicate="dwithin", distance=self.reach))
         nearby = np.sort(self._tree.query(square, predicate="dwithin", distance=self.near))
         seg = self.segments
@@ -127,7 +130,8 @@ class CellWalls:
             dx, dy = s[:, 2] - s[:, 0], s[:, 3] - s[:, 1]
             # which side of each wall's line the corners are on: + left, - right
             left = dx[:, None] * (corners[None, :, 1] - s[:, 1, None]) - dy[:, None] * (
-                corners[None, :, 0] - s[:, 0, None])  # fmt: skip
+                corners[None, :, 0] - s[:, 0, None]
+            )
             tol = 1e-9 * np.hypot(dx, dy)[:, None]
             side = self.sides[within][:, None]
             behind = np.all(np.where(side > 0, left < -tol, left > tol), axis=1) & (side[:, 0] != 0)
@@ -242,14 +246,16 @@ class CellWalls:
         closest: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         if max(ray_range, sector_range) > self.reach:
-            return self.all.scan_many(x, y, heading, ray_offsets, n_sectors, ray_range,
-                                      sector_range)  # fmt: skip
+            return self.all.scan_many(
+                x, y, heading, ray_offsets, n_sectors, ray_range, sector_range
+            )
         rays = np.empty((len(x), len(ray_offsets)))
         clear = np.empty(len(x))
         sectors: np.ndarray | None = None
         for idx, (seen, _) in self._groups(x, y):
-            r, s, c = seen.scan_many(x[idx], y[idx], heading[idx], ray_offsets, n_sectors,
-                                     ray_range, sector_range)  # fmt: skip
+            r, s, c = seen.scan_many(
+                x[idx], y[idx], heading[idx], ray_offsets, n_sectors, ray_range, sector_range
+            )
             rays[idx], clear[idx] = r, c
             if s is not None:
                 if sectors is None:
@@ -271,6 +277,7 @@ class CellWalls:
         far = np.hypot(x1 - x0, y1 - y0) + radius >= self.near
         for idx, (_, near) in self._groups(x0, y0):
             walls = self.all if far[idx].any() else near
-            hit[idx] = walls.swept_disc_contact_many(x0[idx], y0[idx], x1[idx], y1[idx], radius,
-                                                     clear0[idx], clear1[idx])  # fmt: skip
+            hit[idx] = walls.swept_disc_contact_many(
+                x0[idx], y0[idx], x1[idx], y1[idx], radius, clear0[idx], clear1[idx]
+            )
         return hit

@@ -53,6 +53,7 @@ YAML_LOADER: type = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 """PyYAML's safe loader, on libyaml where PyYAML was built with it (the wheels are): the
 pure-Python parser took most of a map's load, about 8 ms of a study worker's start."""
 
+
 class _UniqueKeyLoader(YAML_LOADER):  # type: ignore[misc,valid-type]
     """The safe loader, refusing a key given twice in one mapping (PyYAML keeps the last)."""
 
@@ -69,9 +70,7 @@ def _no_duplicate_keys(loader: Any, node: yaml.MappingNode, deep: bool = False) 
     return loader.construct_mapping(node, deep)
 
 
-_UniqueKeyLoader.add_constructor(
-    yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _no_duplicate_keys
-)
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _no_duplicate_keys)
 
 MAX_PLAN_CORNERS = 1000
 """Most wall corners (polygon vertices, two per thin wall) a map the planner and the sub-goal
@@ -84,8 +83,17 @@ MAX_PLAN_AREA = 250_000.0
 point per 0.2 m) grows with the area (a 400 m square: 1 s and 0.5 GB; 2 km: 32 s and 3.5 GB)."""
 
 _COND = re.compile(r"^\s*([xy])\s*([<>])\s*([A-Za-z_][A-Za-z0-9_]*)\s*$")
-_TOP_KEYS = {"name", "boundary", "obstacles", "segments", "start", "goal", "regions", "starts",
-             "occupancy"}
+_TOP_KEYS = {
+    "name",
+    "boundary",
+    "obstacles",
+    "segments",
+    "start",
+    "goal",
+    "regions",
+    "starts",
+    "occupancy",
+}
 _DRAWN_KEYS = ("boundary", "obstacles", "segments")
 _SHAPELY_FROM = 200
 """Polygon corners from which :meth:`WorldMap.in_free_area` asks GEOS (the even-odd loop below
@@ -293,7 +301,8 @@ def load_map(source: str | Path | dict[str, Any] = "hailu2001") -> WorldMap:
             raise MapError(
                 f"map {text_source!r}: not a file and not a built-in map "
                 f"(built-in: {', '.join(builtin_maps())}; suites: "
-                + ", ".join(f"{s}/NAME" for s in SUITES) + ")"
+                + ", ".join(f"{s}/NAME" for s in SUITES)
+                + ")"
             )
         path = Path(str(resources.files("symrl.world") / "maps" / f"{text_source}.yaml"))
     if not path.exists():
@@ -369,12 +378,14 @@ def _with_traced_walls(data: dict[str, Any], source: str) -> dict[str, Any]:
     replaced by the walls traced from it (:mod:`symrl.world.occupancy`)."""
     drawn = [k for k in _DRAWN_KEYS if k in data]
     if drawn:
-        raise MapError(f"{source}: field 'occupancy' takes the place of {drawn}; give one or "
-                       "the other")  # fmt: skip
+        raise MapError(
+            f"{source}: field 'occupancy' takes the place of {drawn}; give one or the other"
+        )
     ref = data["occupancy"]
     if not isinstance(ref, str) or not ref:
-        raise MapError(f"{source}: field 'occupancy' must be a path to a map_server YAML, "
-                       f"got {ref!r}")  # fmt: skip
+        raise MapError(
+            f"{source}: field 'occupancy' must be a path to a map_server YAML, got {ref!r}"
+        )
     path = Path(ref)
     if not path.is_absolute() and source != "<dict>":
         path = Path(source).parent / path
@@ -383,8 +394,9 @@ def _with_traced_walls(data: dict[str, Any], source: str) -> dict[str, Any]:
             raise MapError(f"{source}: missing required field {key!r}")
     start, goal = _pose(data["start"]), _goal(data["goal"])
     try:
-        boundary, holes = trace_world(read_occupancy(path), (start.x, start.y),
-                                      (goal.x, goal.y), source)  # fmt: skip
+        boundary, holes = trace_world(
+            read_occupancy(path), (start.x, start.y), (goal.x, goal.y), source
+        )
     except OccupancyError as err:
         raise MapError(str(err)) from None
     rest = {k: v for k, v in data.items() if k != "occupancy"}
@@ -411,8 +423,9 @@ def _check_room(boundary: np.ndarray) -> None:
         )
 
 
-def _check_auto_size(boundary: np.ndarray, obstacles: tuple[np.ndarray, ...],
-                     segments: np.ndarray) -> None:
+def _check_auto_size(
+    boundary: np.ndarray, obstacles: tuple[np.ndarray, ...], segments: np.ndarray
+) -> None:
     """Refuse, before the search starts, a map too large to find its regions in."""
     pieces = len(obstacles) + len(segments)
     corners = len(boundary) + sum(len(p) for p in obstacles)
@@ -540,8 +553,9 @@ def _starts(value: Any) -> tuple[Pose, ...]:
         y = _number(item[1], f"starts[{i}].y")
         deg = _number(item[2], f"starts[{i}].heading_deg") if len(item) == 3 else 0.0
         if abs(deg) > 360:
-            raise MapError(f"field 'starts[{i}].heading_deg': {item[2]!r} is outside +-360 "
-                           "(degrees)")  # fmt: skip
+            raise MapError(
+                f"field 'starts[{i}].heading_deg': {item[2]!r} is outside +-360 (degrees)"
+            )
         out.append(Pose(x, y, math.radians(deg)))
     return tuple(out)
 

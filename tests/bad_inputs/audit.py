@@ -29,8 +29,10 @@ def main() -> None:
             if kind != "one-line":
                 bad.append((case["id"], kind, case, outcome.text))
     for section, c in counts.items():
-        print(f"{section:12s} {sum(c.values()):4d} inputs: " + ", ".join(
-            f"{n} {k}" for k, n in sorted(c.items())))
+        print(
+            f"{section:12s} {sum(c.values()):4d} inputs: "
+            + ", ".join(f"{n} {k}" for k, n in sorted(c.items()))
+        )
     if "-v" in sys.argv:
         for cid, kind, case, text in bad:
             shown = {k: v for k, v in case.items() if k not in ("section", "id")}

@@ -99,12 +99,20 @@ def make_fixtures(root: Path) -> dict[str, str]:
     for name in ("stopped_study", "stopped_ablate", "stopped_sweep"):  # a stopped run's folder,
         (root / name).mkdir(exist_ok=True)  # of settings no case gives
         (root / name / "stopped.json").write_text('{"recipe": "other", "sets": 99}\n')
-    return {"FILE": str(root / "afile"), "DIR": str(root / "adir"), "CKPT": str(ckpt),
-            "RUN": str(run), "MIXED": str(mixed), "ROOT": str(root),
-            "PLANOUT": str(root / "plan_out"), "DRIVEOUT": str(root / "drive_out"),
-            "STUDYOUT": str(root / "study_out"), "STOPPEDSTUDY": str(root / "stopped_study"),
-            "STOPPEDABLATE": str(root / "stopped_ablate"),
-            "STOPPEDSWEEP": str(root / "stopped_sweep")}  # fmt: skip
+    return {
+        "FILE": str(root / "afile"),
+        "DIR": str(root / "adir"),
+        "CKPT": str(ckpt),
+        "RUN": str(run),
+        "MIXED": str(mixed),
+        "ROOT": str(root),
+        "PLANOUT": str(root / "plan_out"),
+        "DRIVEOUT": str(root / "drive_out"),
+        "STUDYOUT": str(root / "study_out"),
+        "STOPPEDSTUDY": str(root / "stopped_study"),
+        "STOPPEDABLATE": str(root / "stopped_ablate"),
+        "STOPPEDSWEEP": str(root / "stopped_sweep"),
+    }
 
 
 def _fill(text: str, places: dict[str, str]) -> str:
@@ -144,8 +152,7 @@ def _cli(argv: list[str], locked: str | None = None) -> Outcome:
 def _api_error(err: BaseException) -> Outcome:
     import gymnasium
 
-    if isinstance(err, (ValueError, gymnasium.error.Error,
-                        gymnasium.error.ClosedEnvironmentError)):
+    if isinstance(err, (ValueError, gymnasium.error.Error, gymnasium.error.ClosedEnvironmentError)):
         text = str(err)
         return Outcome("one-line" if "\n" not in text.strip() else "multi-line", text)
     return Outcome("traceback", f"{type(err).__name__}: {err}")
@@ -156,46 +163,66 @@ def _map_text(case: dict[str, Any]) -> str:
         return case["text"]
     from importlib import resources
 
-    base = yaml.safe_load(
-        (resources.files("symrl.world") / "maps" / "hailu2001.yaml").read_text()
-    )
+    base = yaml.safe_load((resources.files("symrl.world") / "maps" / "hailu2001.yaml").read_text())
     if "ring" in case:  # a round room of n corners, two regions
         n = int(case["ring"])
         a = np.linspace(0, 2 * math.pi, n, endpoint=False)
-        base = {"name": "ring", "boundary": [[round(5 * math.cos(t), 6), round(5 * math.sin(t), 6)]
-                                             for t in a],
-                "start": {"x": -2.5, "y": 0.0}, "goal": {"x": 2.5, "y": 0.0, "radius": 0.4},
-                "regions": {"names": ["west", "east"], "lines": {"l": {"x": 0.0}},
-                            "rules": [{"region": "west", "when": ["x < l"]},
-                                      {"region": "east"}]}}  # fmt: skip
+        base = {
+            "name": "ring",
+            "boundary": [[round(5 * math.cos(t), 6), round(5 * math.sin(t), 6)] for t in a],
+            "start": {"x": -2.5, "y": 0.0},
+            "goal": {"x": 2.5, "y": 0.0, "radius": 0.4},
+            "regions": {
+                "names": ["west", "east"],
+                "lines": {"l": {"x": 0.0}},
+                "rules": [{"region": "west", "when": ["x < l"]}, {"region": "east"}],
+            },
+        }
     if "regions" in case:  # a 100 m x 10 m hall cut into n regions by n - 1 lines
         n = int(case["regions"])
-        base = {"name": "hall", "boundary": [[-50, -5], [50, -5], [50, 5], [-50, 5]],
-                "start": {"x": -45.0, "y": 0.0}, "goal": {"x": -40.0, "y": 0.0, "radius": 0.4},
-                "regions": {"names": [f"r{i}" for i in range(n)],
-                            "lines": {f"l{i}": {"x": -50 + (i + 1) * 100 / n}
-                                      for i in range(n - 1)},
-                            "rules": [*({"region": f"r{i}", "when": [f"x < l{i}"]}
-                                        for i in range(n - 1)), {"region": f"r{n - 1}"}]}}
+        base = {
+            "name": "hall",
+            "boundary": [[-50, -5], [50, -5], [50, 5], [-50, 5]],
+            "start": {"x": -45.0, "y": 0.0},
+            "goal": {"x": -40.0, "y": 0.0, "radius": 0.4},
+            "regions": {
+                "names": [f"r{i}" for i in range(n)],
+                "lines": {f"l{i}": {"x": -50 + (i + 1) * 100 / n} for i in range(n - 1)},
+                "rules": [
+                    *({"region": f"r{i}", "when": [f"x < l{i}"]} for i in range(n - 1)),
+                    {"region": f"r{n - 1}"},
+                ],
+            },
+        }
     if "obstacles" in case or "segments" in case:  # a 40 m room of n pillars or n thin walls,
         k = int(case.get("obstacles", case.get("segments", 0)))  # its regions found (auto)
         side = int(math.ceil(math.sqrt(k)))
         cells = [(-18 + 36 * (i % side) / side, -18 + 36 * (i // side) / side) for i in range(k)]
-        base = {"name": "pillars", "boundary": [[-20, -20], [20, -20], [20, 20], [-20, 20]],
-                "start": {"x": -19.5, "y": -19.5}, "goal": {"x": 19.5, "y": 19.5, "radius": 0.4}}
+        base = {
+            "name": "pillars",
+            "boundary": [[-20, -20], [20, -20], [20, 20], [-20, 20]],
+            "start": {"x": -19.5, "y": -19.5},
+            "goal": {"x": 19.5, "y": 19.5, "radius": 0.4},
+        }
         if "obstacles" in case:
-            base["obstacles"] = [[[x, y], [x + 0.1, y], [x + 0.1, y + 0.1], [x, y + 0.1]]
-                                 for x, y in cells]
+            base["obstacles"] = [
+                [[x, y], [x + 0.1, y], [x + 0.1, y + 0.1], [x, y + 0.1]] for x, y in cells
+            ]
         else:
             base["segments"] = [[[x, y], [x + 0.1, y]] for x, y in cells]
     if "square" in case:  # a square room of half-side L
         size = float(case["square"])
-        base = {"name": "square", "boundary": [[-size, -size], [size, -size], [size, size],
-                                               [-size, size]],
-                "start": {"x": -1.0, "y": 0.0}, "goal": {"x": 1.0, "y": 0.0, "radius": 0.4},
-                "regions": {"names": ["west", "east"], "lines": {"l": {"x": 0.0}},
-                            "rules": [{"region": "west", "when": ["x < l"]},
-                                      {"region": "east"}]}}  # fmt: skip
+        base = {
+            "name": "square",
+            "boundary": [[-size, -size], [size, -size], [size, size], [-size, size]],
+            "start": {"x": -1.0, "y": 0.0},
+            "goal": {"x": 1.0, "y": 0.0, "radius": 0.4},
+            "regions": {
+                "names": ["west", "east"],
+                "lines": {"l": {"x": 0.0}},
+                "rules": [{"region": "west", "when": ["x < l"]}, {"region": "east"}],
+            },
+        }
     for path, value in (case.get("set") or {}).items():
         node = base
         parts = path.split(".")
@@ -225,11 +252,14 @@ _CHECKPOINT_CHANGES: dict[str, Any] = {
     "count_1000": lambda d: d["policy"]["experts.count"].fill_(1000),
     "count_minus_5": lambda d: d["policy"]["experts.count"].fill_(-5),
     "means_as_int": lambda d: d["policy"].__setitem__(
-        "experts.means", d["policy"]["experts.means"].long()),
+        "experts.means", d["policy"]["experts.means"].long()
+    ),
     "centres_as_double": lambda d: d["policy"].__setitem__(
-        "experts.centres", d["policy"]["experts.centres"].double()),
+        "experts.centres", d["policy"]["experts.centres"].double()
+    ),
     "used_as_int": lambda d: d["policy"].__setitem__(
-        "experts.used", d["policy"]["experts.used"].long()),
+        "experts.used", d["policy"]["experts.used"].long()
+    ),
     "choice_99": lambda d: d["policy"]["options.choice"].fill_(99),
     "choice_minus_7": lambda d: d["policy"]["options.choice"].fill_(-7),
     "visit_99": lambda d: d["policy"]["options.visit"].fill_(99),
@@ -249,17 +279,21 @@ _CHECKPOINT_CHANGES: dict[str, Any] = {
     "extra_entry": lambda d: d["policy"].__setitem__("bogus", torch.zeros(1)),
     "entry_not_tensor": lambda d: d["policy"].__setitem__("progress.temperature", [0.1]),
     "centres_wrong_shape": lambda d: d["policy"].__setitem__(
-        "experts.centres", torch.zeros(1, 4, 3, 99)),
+        "experts.centres", torch.zeros(1, 4, 3, 99)
+    ),
     "q_wrong_shape": lambda d: d["policy"].__setitem__(
-        "options.critic.q", torch.zeros(1, 9, 2, dtype=torch.float64)),
+        "options.critic.q", torch.zeros(1, 9, 2, dtype=torch.float64)
+    ),
     "best_total_nan": lambda d: d["policy"]["progress.best_total"].fill_(math.nan),
     "policy_a_list": lambda d: d.__setitem__("policy", [1, 2]),
     "config_dropped": lambda d: d.pop("config"),
     "config_a_list": lambda d: d.__setitem__("config", [1]),
     "config_bad_gamma": lambda d: d["config"]["update"].__setitem__("gamma", 2.0),
     "config_unknown_key": lambda d: d["config"]["update"].__setitem__("gama", 0.9),
-    "config_bad_map": lambda d: (d.__setitem__("map", None),
-                                 d["config"]["env"].__setitem__("map", "nosuchmap")),
+    "config_bad_map": lambda d: (
+        d.__setitem__("map", None),
+        d["config"]["env"].__setitem__("map", "nosuchmap"),
+    ),
     "map_content_broken": lambda d: d.__setitem__("map", {"boundary": 1}),
     "seed_a_string": lambda d: d.__setitem__("seed", "0"),
     "seed_a_bool": lambda d: d.__setitem__("seed", True),
@@ -268,13 +302,16 @@ _CHECKPOINT_CHANGES: dict[str, Any] = {
     "config_gamma_bool": lambda d: d["config"]["update"].__setitem__("gamma", True),
     "config_gamma_string": lambda d: d["config"]["update"].__setitem__("gamma", "0.9"),
     "config_noise_1e308": lambda d: d["config"]["env"]["robot"].__setitem__(
-        "sonar_noise_std", 1e308),
+        "sonar_noise_std", 1e308
+    ),
     "config_rate_1e308": lambda d: d["config"]["trial_gradient"].__setitem__("rate", 1e308),
     "config_peaks_short": lambda d: d["config"]["reflex"].__setitem__("peaks", [1.0]),
     "map_heading_degrees": lambda d: d.__setitem__("map", _paper_map_with("start.heading", 270)),
     "map_goal_tiny": lambda d: d.__setitem__("map", _paper_map_with("goal.radius", 1e-9)),
-    "map_room_tiny": lambda d: d.__setitem__("map", _paper_map_with(
-        "boundary", [[-1e-6, -1e-6], [1e-6, -1e-6], [1e-6, 1e-6], [-1e-6, 1e-6]])),
+    "map_room_tiny": lambda d: d.__setitem__(
+        "map",
+        _paper_map_with("boundary", [[-1e-6, -1e-6], [1e-6, -1e-6], [1e-6, 1e-6], [-1e-6, 1e-6]]),
+    ),
 }
 
 
@@ -312,8 +349,11 @@ def _env(case: dict[str, Any]) -> Outcome:
         env.reset(seed=0, options={"pose": (4.1, -1.5, -math.pi / 2)})
         env.step(np.array([0.0], np.float32))
     try:
-        eval(case["call"], {"np": np, "math": math, "torch": torch, "Hailu2001Env": Hailu2001Env},
-             {"env": env})  # fmt: skip
+        eval(
+            case["call"],
+            {"np": np, "math": math, "torch": torch, "Hailu2001Env": Hailu2001Env},
+            {"env": env},
+        )
     except Exception as err:  # noqa: BLE001 - sorted by kind
         return _api_error(err)
     return Outcome("accepted", case["call"])
@@ -331,8 +371,9 @@ def run_case(case: dict[str, Any], places: dict[str, str], tmp: Path) -> Outcome
                 locked = _fill(case["locked"], fill) if "locked" in case else None
                 return _cli([_fill(a, fill) for a in case["argv"]], locked)
             if section == "overrides":
-                return _cli(["train", case.get("recipe", "paper"), "--logdir", out,
-                             *case["overrides"]])  # fmt: skip
+                return _cli(
+                    ["train", case.get("recipe", "paper"), "--logdir", out, *case["overrides"]]
+                )
             if section == "recipes":
                 path = tmp / "recipe.yaml"
                 if "keys" in case:  # a recipe of n keys (no aliases)

@@ -20,7 +20,13 @@ def places(tmp_path_factory):
 def test_the_corpus_is_broad():
     sections = {c["section"] for c in CASES}
     assert len(CASES) >= 300 and sections == {
-        "cli", "overrides", "recipes", "maps", "checkpoints", "env"}  # fmt: skip
+        "cli",
+        "overrides",
+        "recipes",
+        "maps",
+        "checkpoints",
+        "env",
+    }
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c["id"] for c in CASES])

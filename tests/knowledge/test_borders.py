@@ -70,12 +70,19 @@ def test_every_point_lies_in_the_neighbour_it_leads_to(split, goal_y):
     """Two regions split by one line x = split: the west region's option past the border lies
     in the east region, whatever the goal's height, and the east region (the goal's) offers
     only the goal."""
-    world = parse_map({
-        "name": "split", "boundary": [[-2, -2], [2, -2], [2, 2], [-2, 2]],
-        "start": {"x": -1.5, "y": 0.0}, "goal": {"x": 1.8, "y": goal_y, "radius": 0.1},
-        "regions": {"names": ["west", "east"], "lines": {"m": {"x": split}},
-                    "rules": [{"region": "west", "when": ["x < m"]}, {"region": "east"}]},
-    })  # fmt: skip
+    world = parse_map(
+        {
+            "name": "split",
+            "boundary": [[-2, -2], [2, -2], [2, 2], [-2, 2]],
+            "start": {"x": -1.5, "y": 0.0},
+            "goal": {"x": 1.8, "y": goal_y, "radius": 0.1},
+            "regions": {
+                "names": ["west", "east"],
+                "lines": {"m": {"x": split}},
+                "rules": [{"region": "west", "when": ["x < m"]}, {"region": "east"}],
+            },
+        }
+    )
     table = border_subgoals(world.regions, world.goal)
     assert table.labels == [["goal", "m>east"], ["goal"]]
     x, y = table.point(0, 1)
@@ -117,8 +124,9 @@ def test_below_the_map_nothing_builds_the_route():
     world = load_map("hailu2001")
     for rung, source in (("regions", "rules"), ("passages", "passages")):
         told = Knowledge.told(world, rung)
-        config = load_config("paper", [f"options.source={source}", f"knowledge={rung}",
-                                       "crossings.enabled=false"])  # fmt: skip
+        config = load_config(
+            "paper", [f"options.source={source}", f"knowledge={rung}", "crossings.enabled=false"]
+        )
         opt = SubgoalOptions(told, 1, config.options, [0])
         assert opt.route is None and all(ROUTE not in row for row in opt.labels)
         refused = f"route option needs knowledge=map .* knowledge={rung}$"

@@ -25,8 +25,9 @@ OFFSETS = np.arange(N) * (2 * math.pi / N)
 
 def scan(walls: Walls, pose: np.ndarray) -> np.ndarray:
     """The noise-free normalised sonar readings at poses (B, 3), as the physics computes them."""
-    rays = walls.cast_many(pose[:, 0], pose[:, 1], pose[:, 2:3] + OFFSETS,
-                           ROBOT.radius + ROBOT.sonar_range)  # fmt: skip
+    rays = walls.cast_many(
+        pose[:, 0], pose[:, 1], pose[:, 2:3] + OFFSETS, ROBOT.radius + ROBOT.sonar_range
+    )
     rim = np.clip(rays - ROBOT.radius, 0.0, ROBOT.sonar_range)
     return rim / ROBOT.sonar_range
 
@@ -76,9 +77,13 @@ def test_range_derivative_matches_central_differences():
 
 @settings(max_examples=30, deadline=None)
 @given(
-    x=st.floats(0.2, 3.5), y=st.floats(-1.5, 1.2), h=st.floats(-math.pi, math.pi),
-    ex=st.floats(-0.25, 0.25), ey=st.floats(-0.25, 0.25), eh=st.floats(-0.08, 0.08),
-)  # fmt: skip
+    x=st.floats(0.2, 3.5),
+    y=st.floats(-1.5, 1.2),
+    h=st.floats(-math.pi, math.pi),
+    ex=st.floats(-0.25, 0.25),
+    ey=st.floats(-0.25, 0.25),
+    eh=st.floats(-0.08, 0.08),
+)
 def test_a_drifted_odometry_is_corrected_to_the_pose_of_the_scan(x, y, h, ex, ey, eh):
     """In the paper's room (0.2-3.5 m, away from the walls), with exact readings and an odometry
     off by up to 0.35 m and 4.6 degrees, the estimate is within 2 cm and 0.6 degrees of the true
@@ -155,8 +160,7 @@ def test_one_step_moves_the_pose_at_most_max_move_toward_the_scans_pose():
     true = np.array([[1.5, -0.8, 1.0]])
     readings = scan(WALLS, true)
     odometry = true + np.array([[0.4, -0.2, 0.05]])
-    free = MapLocalizer(WALLS, ROBOT, iterations=1, prior_xy=5.0, max_move=None)(odometry,
-                                                                                 readings)
+    free = MapLocalizer(WALLS, ROBOT, iterations=1, prior_xy=5.0, max_move=None)(odometry, readings)
     bounded = MapLocalizer(WALLS, ROBOT, iterations=1, prior_xy=5.0)(odometry, readings)
     assert math.dist(free[0, :2], odometry[0, :2]) > 0.2
     step, full = bounded[0] - odometry[0], free[0] - odometry[0]

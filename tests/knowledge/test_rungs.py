@@ -35,8 +35,10 @@ def test_below_map_the_knowledge_holds_no_geometry():
     assert Knowledge.told(world, "regions").regions == world.regions
     assert Knowledge.told(world, "regions").passages is None
     # the passages rung: the door's stretch of l2 and l3 and the room | concave line, no walls
-    doors = {(b.line, round(b.lo, 6), round(b.hi, 6))
-             for b in Knowledge.told(world, "passages").passages or ()}
+    doors = {
+        (b.line, round(b.lo, 6), round(b.hi, 6))
+        for b in Knowledge.told(world, "passages").passages or ()
+    }
     assert doors == {("l1", -1.5, 3.5), ("l2", -1.0, 0.0), ("l3", -1.0, 0.0)}
     assert Knowledge.told(world, "sensors").regions.names == ("all",)
     assert Knowledge.told(world, "map").geometry("options") is world
@@ -71,8 +73,9 @@ def test_every_recipe_declares_a_rung_its_settings_fit():
     assert load_config("paper_literal").knowledge == "regions"
     assert load_config("paper_map").knowledge == "map"
     assert load_config("paper_passages").knowledge == "passages"
-    with pytest.raises(ConfigError,
-                       match=r"options.source=passages \(with .*\) needs knowledge=passages"):
+    with pytest.raises(
+        ConfigError, match=r"options.source=passages \(with .*\) needs knowledge=passages"
+    ):
         load_config("paper", ["options.source=passages"])
 
 

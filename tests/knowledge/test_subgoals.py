@@ -13,6 +13,7 @@ from symrl.world.worldmap import load_map
 def world():
     return load_map("hailu2001")
 
+
 def test_passages_of_the_paper_map_are_the_door_and_the_open_floor(world):
     by_line = {p.line: p for p in find_passages(world)}
     assert set(by_line) == {"l1", "l2", "l3"}
@@ -25,6 +26,7 @@ def test_passages_of_the_paper_map_are_the_door_and_the_open_floor(world):
     assert door_out.width == pytest.approx(1.0, abs=0.03)
     assert floor.width == pytest.approx(5.0, abs=0.03)  # room/concave: open floor
     assert (floor.before, floor.after) == ("concave", "room")
+
 
 def test_custom_map_with_two_doors():
     """A room split by a thick wall with one wide opening: a passage on each face of the wall,
@@ -44,7 +46,7 @@ def test_custom_map_with_two_doors():
             [4, 3.8],
             [4, 4],
             [0, 4],
-        ],  # fmt: skip
+        ],
         "start": {"x": 1, "y": 2},
         "goal": {"x": 7, "y": 2, "radius": 0.4},
         "regions": {
@@ -66,6 +68,7 @@ def test_custom_map_with_two_doors():
     }
     a = next(p for p in passages if p.line == "a")
     assert (a.lo, a.hi) == (pytest.approx(1.0, abs=0.02), pytest.approx(3.8, abs=0.02))
+
 
 def test_a_door_closed_by_a_thin_wall_is_no_passage():
     doc = {

@@ -21,8 +21,11 @@ def _points(world: str, seed: int, n: int = 400) -> np.ndarray:
 
 
 @settings(max_examples=15, deadline=None)
-@given(world=st.sampled_from(sorted(WALLS)), seed=st.integers(0, 2**32 - 1),
-       r=st.sampled_from([0.1, 0.316, 0.45]))  # fmt: skip
+@given(
+    world=st.sampled_from(sorted(WALLS)),
+    seed=st.integers(0, 2**32 - 1),
+    r=st.sampled_from([0.1, 0.316, 0.45]),
+)
 def test_clearances_near_the_walls_are_the_full_sets_and_far_ones_stay_far(world, seed, r):
     walls, pts = WALLS[world], _points(world, seed)
     index = WallIndex(walls, r)

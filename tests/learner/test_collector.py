@@ -21,8 +21,9 @@ def _collector(total_frames: int = -1, max_actions: int = 200) -> StepCollector:
     env = make_env(config, SEEDS)
     policy = MixtureOfExpertsPolicy(config, env.world, SEEDS)
     env = env.append_transform(policy.perception_transform())
-    return StepCollector(env, policy, total_frames=total_frames,
-                         exploration_type=ExplorationType.RANDOM)  # fmt: skip
+    return StepCollector(
+        env, policy, total_frames=total_frames, exploration_type=ExplorationType.RANDOM
+    )
 
 
 def _actions(collector: StepCollector, batches: int) -> list[torch.Tensor]:

@@ -40,11 +40,19 @@ def test_paper_literal_is_the_defaults():
     assert config_to_dict(literal) == config_to_dict(RunConfig())
     u, x = literal.update, literal.experts
     assert (x.width, x.novelty_radius, u.gamma, u.eta, u.beta, u.kappa) == (
-        0.1, 0.1, 0.95, 0.3, 0.2, 0.1,
-    )  # fmt: skip
+        0.1,
+        0.1,
+        0.95,
+        0.3,
+        0.2,
+        0.1,
+    )
     assert (u.error_threshold, u.temperature0, u.cooling, u.temperature_min) == (
-        2.0, 0.3, 0.85, 0.05,
-    )  # fmt: skip
+        2.0,
+        0.3,
+        0.85,
+        0.05,
+    )
     assert not literal.options.enabled and not literal.shield.enabled
     assert not literal.experts.residual and literal.reflex == ReflexConfig()
 
@@ -89,9 +97,15 @@ def test_ablation_switches():
 def test_overrides_are_typed_and_merge():
     c = load_config(
         "paper_literal",
-        ["update.gamma=0.9", "env.noise=false", "update.eta=1e-3", "run.trials=3",
-         "option_critic.critic=best", "env.robot.radius=0.3"],
-    )  # fmt: skip
+        [
+            "update.gamma=0.9",
+            "env.noise=false",
+            "update.eta=1e-3",
+            "run.trials=3",
+            "option_critic.critic=best",
+            "env.robot.radius=0.3",
+        ],
+    )
     assert c.update.gamma == 0.9 and c.env.noise is False and c.update.eta == 1e-3
     assert c.run.trials == 3 and c.option_critic.critic == "best"
     assert isinstance(c.env.robot, RobotConfig) and c.env.robot.radius == 0.3
@@ -245,9 +259,18 @@ def test_config_from_dict_rejects_a_non_mapping():
 
 def test_describe_keys_lists_every_section():
     text = describe_keys()
-    for key in ("update.gamma = 0.95", "experts.novelty_radius", "env.robot.radius",
-                "option_critic.critic", "options.ahead", "shield.margin", "reflex.d_a", "run.seed",
-                "localize.enabled", "localize.prior_xy"):  # fmt: skip
+    for key in (
+        "update.gamma = 0.95",
+        "experts.novelty_radius",
+        "env.robot.radius",
+        "option_critic.critic",
+        "options.ahead",
+        "shield.margin",
+        "reflex.d_a",
+        "run.seed",
+        "localize.enabled",
+        "localize.prior_xy",
+    ):
         assert key in text, key
     assert "Discount of the TD error" in text  # each key's docstring
 
@@ -322,8 +345,14 @@ def test_a_key_given_twice_and_the_recipe_name_are_refused():
     assert (c.option_critic.epsilon, c.option_critic.epsilon_decay) == (0.5, 0.5)
 
 
-_DISTINCT = ["update.gamma=0.9", "reflex.near.FL=[0.1, 0.3]", "reflex.near.F=[0.2, 0.6]",
-             "env.robot.radius=0.3", "options.region_limit=null", "run.seed=5"]  # fmt: skip
+_DISTINCT = [
+    "update.gamma=0.9",
+    "reflex.near.FL=[0.1, 0.3]",
+    "reflex.near.F=[0.2, 0.6]",
+    "env.robot.radius=0.3",
+    "options.region_limit=null",
+    "run.seed=5",
+]
 
 
 @settings(max_examples=15, deadline=None)
@@ -358,13 +387,17 @@ def test_help_keys_show_the_recipes_values_and_every_keys_meaning():
     keys = [re.match(r"  (\S+) = ", row) for row in rows]
     shown = [key.group(1) for key in keys if key]
     mappings = ("reflex.near.", "reflex.sectors.")  # shown whole
-    expected = {k.rsplit(".", 1)[0] if k.startswith(mappings) else k
-                for k in _leaves(config_to_dict(RunConfig())) if k != "recipe"}  # fmt: skip
+    expected = {
+        k.rsplit(".", 1)[0] if k.startswith(mappings) else k
+        for k in _leaves(config_to_dict(RunConfig()))
+        if k != "recipe"
+    }
     assert sorted(shown) == sorted(expected)  # every key once
     undocumented = [
-        key.group(1) for key, after in zip(keys, [*rows[1:], ""], strict=True)
+        key.group(1)
+        for key, after in zip(keys, [*rows[1:], ""], strict=True)
         if key and not after.startswith("      ")
-    ]  # fmt: skip
+    ]
     assert not undocumented, undocumented  # every key says what it means
 
 

@@ -29,10 +29,16 @@ UNKNOWN, OPEN, BLOCKED = 0, 1, 2
 
 def _map(borders, batch: int = 1, origin=(2.0, 4.5)) -> CrossingMap:
     return CrossingMap(
-        borders, batch, radius=ROBOT.radius, close_distance=ROBOT.close_distance,
-        sonar_range=ROBOT.sonar_range, n_sensors=ROBOT.n_sensors, origin=origin, reach=20.0,
+        borders,
+        batch,
+        radius=ROBOT.radius,
+        close_distance=ROBOT.close_distance,
+        sonar_range=ROBOT.sonar_range,
+        n_sensors=ROBOT.n_sensors,
+        origin=origin,
+        reach=20.0,
         resolution=0.1,
-    )  # fmt: skip
+    )
 
 
 def _office_door() -> tuple[int, Border]:
@@ -146,8 +152,9 @@ def _office_options(**cfg) -> SubgoalOptions:
     told = Knowledge.told(OFFICE, "regions")
     config = OptionsConfig(enabled=True, source="rules")
     explore = OptionCriticConfig(epsilon=0.0, try_untried=False)
-    return SubgoalOptions(told, 1, config, [0], None, explore, CrossingsConfig(enabled=True, **cfg),
-                          ROBOT, 200)  # fmt: skip
+    return SubgoalOptions(
+        told, 1, config, [0], None, explore, CrossingsConfig(enabled=True, **cfg), ROBOT, 200
+    )
 
 
 def _labels(opts: SubgoalOptions, region: str) -> list[str]:
@@ -162,8 +169,11 @@ def test_a_border_found_blocked_is_routed_around():
     Once the robot finds the wc border blocked, the region graph goes round by the door."""
     opts = _office_options()
     assert _labels(opts, "west_office") == ["goal", "wc>middle_office"]
-    j = next(i for i, b in enumerate(opts.crossings.borders)
-             if {b.low, b.high} == {"west_office", "middle_office"})  # fmt: skip
+    j = next(
+        i
+        for i, b in enumerate(opts.crossings.borders)
+        if {b.low, b.high} == {"west_office", "middle_office"}
+    )
     opts.crossings.arrays["blocked"][0, j, :] = 5.0
     opts.begin_trial(torch.tensor([0]))
     assert _labels(opts, "west_office") == ["goal", "offices>west_door"]
@@ -171,10 +181,15 @@ def test_a_border_found_blocked_is_routed_around():
 
 def test_a_robot_aims_at_the_door_it_saw_not_at_the_wall():
     opts = _office_options()
-    _look(opts.crossings, [(2.0, 3.0, -math.pi / 2), (1.0, 3.2, -math.pi / 2),
-                           (3.2, 3.0, -math.pi / 2)])  # fmt: skip
-    j = next(i for i, b in enumerate(opts.crossings.borders)
-             if {b.low, b.high} == {"west_office", "middle_office"})  # fmt: skip
+    _look(
+        opts.crossings,
+        [(2.0, 3.0, -math.pi / 2), (1.0, 3.2, -math.pi / 2), (3.2, 3.0, -math.pi / 2)],
+    )
+    j = next(
+        i
+        for i, b in enumerate(opts.crossings.borders)
+        if {b.low, b.high} == {"west_office", "middle_office"}
+    )
     opts.crossings.arrays["blocked"][0, j, :] = 5.0
     opts.begin_trial(torch.tensor([0]))
     r = opts.region_names.index("west_office")
@@ -222,13 +237,25 @@ def test_every_choice_is_credited_with_the_return_to_go_from_it():
     first, second = 0, policy.options.labels[r].index("wc>middle_office")
     pose, sonar = torch.tensor([[2.0, 4.5, 0.0]]), torch.ones(1, ROBOT.n_sensors)
     for step in range(6):
-        td = TensorDict({
-            "option_entry": torch.tensor([step in (0, 4)]), "region": torch.tensor([r]),
-            "option": torch.tensor([first if step < 4 else second]), "pose": pose,
-            "sonar": sonar,
-            "next": TensorDict({"reward": torch.tensor([[-1.0]]), "pose": pose, "sonar": sonar,
-                                "region": torch.tensor([r])}, [1]),
-        }, [1])  # fmt: skip
+        td = TensorDict(
+            {
+                "option_entry": torch.tensor([step in (0, 4)]),
+                "region": torch.tensor([r]),
+                "option": torch.tensor([first if step < 4 else second]),
+                "pose": pose,
+                "sonar": sonar,
+                "next": TensorDict(
+                    {
+                        "reward": torch.tensor([[-1.0]]),
+                        "pose": pose,
+                        "sonar": sonar,
+                        "region": torch.tensor([r]),
+                    },
+                    [1],
+                ),
+            },
+            [1],
+        )
         loss(td)
     loss.end_trial(torch.tensor([0]), torch.tensor([-6.0]), torch.tensor([True]))
     q, count = policy.options.critic.q[0, r], policy.options.critic.n[0, r]

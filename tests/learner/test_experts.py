@@ -18,9 +18,12 @@ D = 4
 
 def _add(bank: ExpertBank, row: int, expert: int, centre, action=0.0, utility=0.0) -> int:
     index = bank.add(
-        torch.tensor([row]), torch.tensor([expert]), torch.tensor([centre], dtype=torch.float32),
-        torch.tensor([action]), torch.tensor([utility]),
-    )  # fmt: skip
+        torch.tensor([row]),
+        torch.tensor([expert]),
+        torch.tensor([centre], dtype=torch.float32),
+        torch.tensor([action]),
+        torch.tensor([utility]),
+    )
     return int(index[0])
 
 
@@ -50,17 +53,25 @@ def test_add_returns_indices_and_writes_fresh_rows():
     bank = ExpertBank(batch=3, experts=2, dim=D, capacity=8)
     _add(bank, 2, 1, [1.0] * D)
     index = bank.add(
-        torch.tensor([0, 2]), torch.tensor([1, 1]), torch.tensor([[0.5] * D, [0.25] * D]),
-        torch.tensor([0.3, -0.3]), torch.tensor([-1.0, -2.0]),
-    )  # fmt: skip
+        torch.tensor([0, 2]),
+        torch.tensor([1, 1]),
+        torch.tensor([[0.5] * D, [0.25] * D]),
+        torch.tensor([0.3, -0.3]),
+        torch.tensor([-1.0, -2.0]),
+    )
     assert index.tolist() == [0, 1]
     assert bank.neurons().tolist() == [[0, 1], [0, 0], [0, 2]]
     assert bank.actions[2, 1, 1] == pytest.approx(-0.3) and bank.utilities[0, 1, 0] == -1.0
     assert torch.equal(bank.centres[2, 1, 1], torch.full((D,), 0.25))
     assert bank.means[2, 1, 1] == 0.0 and not bool(bank.used[2, 1, 1])
     assert bank.actions.dtype == bank.utilities.dtype == torch.float64
-    empty = bank.add(torch.tensor([], dtype=torch.long), torch.tensor([], dtype=torch.long),
-                     torch.zeros(0, D), torch.zeros(0), torch.zeros(0))  # fmt: skip
+    empty = bank.add(
+        torch.tensor([], dtype=torch.long),
+        torch.tensor([], dtype=torch.long),
+        torch.zeros(0, D),
+        torch.zeros(0),
+        torch.zeros(0),
+    )
     assert empty.numel() == 0 and bank.neurons().sum() == 3
 
 
@@ -135,8 +146,9 @@ def test_bad_sizes_are_refused():
 
 _centres = st.lists(
     st.lists(st.floats(-2, 2, allow_nan=False, width=32), min_size=D, max_size=D),
-    min_size=0, max_size=12,
-)  # fmt: skip
+    min_size=0,
+    max_size=12,
+)
 
 
 @settings(max_examples=25, deadline=None)

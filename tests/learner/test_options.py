@@ -179,8 +179,7 @@ def test_goal_lead_is_mirror_symmetric():
     assert stages[0] == stages[1] == [0, 0, 1]
 
 
-@pytest.mark.parametrize("lead, expected", [(0.0, (3.5, -0.5)), (15.0, (3.5, -0.5)),
-                                            (20.0, GOAL)])  # fmt: skip
+@pytest.mark.parametrize("lead, expected", [(0.0, (3.5, -0.5)), (15.0, (3.5, -0.5)), (20.0, GOAL)])
 def test_goal_lead_angle_decides_the_first_step(lead, expected):
     opt = _options(epsilon=0.0, goal_lead_deg=lead)
     opt.critic.n[0, 0] = 1
@@ -212,15 +211,19 @@ def test_epsilon_decays_and_greedy_after_stops_exploring():
 def test_epsilon_explores_and_follows_the_robots_seed():
     def run(seed: int, batch_seeds=None) -> list[int]:
         seeds = batch_seeds or [seed]
-        opt = _options(len(seeds), seeds, epsilon=1.0, epsilon_decay=1.0, greedy_after=0,
-                       try_untried=False)  # fmt: skip
+        opt = _options(
+            len(seeds), seeds, epsilon=1.0, epsilon_decay=1.0, greedy_after=0, try_untried=False
+        )
         row = seeds.index(seed)
         out = []
         for _ in range(30):
             rows = torch.arange(len(seeds))
             opt.begin_trial(rows)
-            _, option, _, _, _ = opt.steer(torch.zeros(len(seeds), dtype=torch.long),
-                                     _odometry(*[(0.0, 0.0, 0.0)] * len(seeds)), False)  # fmt: skip
+            _, option, _, _, _ = opt.steer(
+                torch.zeros(len(seeds), dtype=torch.long),
+                _odometry(*[(0.0, 0.0, 0.0)] * len(seeds)),
+                False,
+            )
             out.append(int(option[row]))
         return out
 
@@ -255,21 +258,29 @@ def test_learn_only_touches_the_rows_and_regions_chosen():
 # -- the route option (knowledge: map) ---------------------------------------------------------
 # a 4 m box split by a thin wall from the floor up to y = 1: the way from the west to the goal in
 # the east goes over the wall's end
-WALL = parse_map({
-    "name": "wall_end", "boundary": [[-2, -2], [2, -2], [2, 2], [-2, 2]],
-    "segments": [[[0.0, -2.0], [0.0, 1.0]]],
-    "start": {"x": -1.5, "y": -1.5}, "goal": {"x": 1.5, "y": -1.5, "radius": 0.2},
-    "regions": {"names": ["west", "east"], "lines": {"m": {"x": 0.0}},
-                "rules": [{"region": "west", "when": ["x < m"]}, {"region": "east"}]},
-})  # fmt: skip
+WALL = parse_map(
+    {
+        "name": "wall_end",
+        "boundary": [[-2, -2], [2, -2], [2, 2], [-2, 2]],
+        "segments": [[[0.0, -2.0], [0.0, 1.0]]],
+        "start": {"x": -1.5, "y": -1.5},
+        "goal": {"x": 1.5, "y": -1.5, "radius": 0.2},
+        "regions": {
+            "names": ["west", "east"],
+            "lines": {"m": {"x": 0.0}},
+            "rules": [{"region": "west", "when": ["x < m"]}, {"region": "east"}],
+        },
+    }
+)
 WEST, EAST = 0, 1
 
 
 def _route_options(**cfg) -> SubgoalOptions:
     """Greedy options on WALL whose critic prefers the route everywhere (tried, best)."""
     config = OptionsConfig(enabled=True, **cfg)
-    opt = SubgoalOptions(Knowledge.told(WALL, "map"), 1, config, [0],
-                         explore=OptionCriticConfig(epsilon=0.0))  # fmt: skip
+    opt = SubgoalOptions(
+        Knowledge.told(WALL, "map"), 1, config, [0], explore=OptionCriticConfig(epsilon=0.0)
+    )
     opt.critic.n[0] = 1
     opt.critic.q[0] = -5.0
     opt.critic.q[0, :, 0] = -1.0

@@ -230,8 +230,12 @@ def test_options_choose_at_the_first_entry_of_a_region_per_trial():
 
 def test_options_steer_the_reflex_at_the_chosen_subgoal():
     # (no goal lead: the sub-goal from the region's first step)
-    p = policy("paper_map", "shield.enabled=false", "option_critic.try_untried=false",
-               "options.goal_lead_deg=0")  # fmt: skip
+    p = policy(
+        "paper_map",
+        "shield.enabled=false",
+        "option_critic.try_untried=false",
+        "options.goal_lead_deg=0",
+    )
     r = p.region_names.index("room")
     labels = p.options.labels[r]
     k = next(i for i, name in enumerate(labels) if name not in ("goal", "route"))

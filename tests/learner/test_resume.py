@@ -78,8 +78,17 @@ def test_a_signal_stops_the_run_with_its_finished_trials_saved(runs, tmp_path, c
     runs_module.RunWriter.trial = trial_then_signal
     try:
         # every 3 trials: no checkpoint on disk at trial 2 until the stop writes it
-        code = _train("paper_map", "--trials", "4", "--seed", str(SEED), "--logdir", str(run),
-                      "--checkpoint-every", "3")  # fmt: skip
+        code = _train(
+            "paper_map",
+            "--trials",
+            "4",
+            "--seed",
+            str(SEED),
+            "--logdir",
+            str(run),
+            "--checkpoint-every",
+            "3",
+        )
     finally:
         runs_module.RunWriter.trial = real
     assert code == 128 + signal.SIGTERM

@@ -99,8 +99,9 @@ def test_a_short_run_learns():
 
 
 def test_reflex_only_grows_nothing():
-    result = train(load_config("reflex_only", ["run.trials=1", "env.max_actions=60"]),
-                   progress=False)  # fmt: skip
+    result = train(
+        load_config("reflex_only", ["run.trials=1", "env.max_actions=60"]), progress=False
+    )
     assert result.trials[0]["neurons"] == 0 and result.trials[0]["replaced"] == 0
 
 
@@ -219,8 +220,11 @@ def test_checkpoint_with_non_finite_weights(checkpoint, tmp_path):
     def nan_best(data):
         data["policy"]["progress.best_total"][0] = math.nan
 
-    for change, key in ((nan, "experts.utilities"), (inf, "experts.centres"),
-                        (nan_best, "best_total")):  # fmt: skip
+    for change, key in (
+        (nan, "experts.utilities"),
+        (inf, "experts.centres"),
+        (nan_best, "best_total"),
+    ):
         path = _rewritten(checkpoint, tmp_path, f"{change.__name__}.pt", change)
         _assert_one_line_error(path, "non-finite", key)
 
@@ -264,9 +268,19 @@ def test_train_command_writes_the_run_folder(tmp_path, capsys):
     with open(out / "trials.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert [r["trial"] for r in rows] == ["1", "2"]
-    assert {"steps", "total_reinforcement", "collisions", "shielded", "reached_goal", "neurons",
-            "temperature", "replaced", "path_length", "neurons_room",
-            "option_room"} <= set(rows[0])  # fmt: skip
+    assert {
+        "steps",
+        "total_reinforcement",
+        "collisions",
+        "shielded",
+        "reached_goal",
+        "neurons",
+        "temperature",
+        "replaced",
+        "path_length",
+        "neurons_room",
+        "option_room",
+    } <= set(rows[0])
     assert "paper_map (seed 1)" in capsys.readouterr().out
     policy, config = load_checkpoint(out / "checkpoint.pt")
     assert config.run.seed == 1 and config.run.trials == 2

@@ -60,8 +60,9 @@ def _replayed_reward(delta, pose, sonar, after, aim, moved, extra, step_cost, re
         u = np.stack((np.cos(pose[t, 2] + rays), np.sin(pose[t, 2] + rays)), axis=1)
         seen = np.where(sonar[t] < 1.0, sonar[t] - (u @ shift) / RANGE, sonar[t])
         beta = _wrap(math.atan2(aim[t, 1] - y, aim[t, 0] - x) - th)
-        r = float(REFLEX(torch.from_numpy(seen[None]),
-                         torch.tensor([beta], dtype=torch.float64))[0])  # fmt: skip
+        r = float(
+            REFLEX(torch.from_numpy(seen[None]), torch.tensor([beta], dtype=torch.float64))[0]
+        )
         if not reactive:
             r = pose[t + 1, 2] - pose[t, 2] - extra[t]  # the action the trial took
         th = th + r + extra[t] + delta[t]
@@ -95,8 +96,9 @@ def test_the_replayed_model_is_the_recorded_trial(trial):
     x, y, th = pose[0]
     for t in range(len(aim)):
         beta = _wrap(math.atan2(aim[t, 1] - y, aim[t, 0] - x) - th)
-        r = float(REFLEX(torch.from_numpy(sonar[t][None]),
-                         torch.tensor([beta], dtype=torch.float64))[0])  # fmt: skip
+        r = float(
+            REFLEX(torch.from_numpy(sonar[t][None]), torch.tensor([beta], dtype=torch.float64))[0]
+        )
         th += r + extra[t]
         if moved[t]:
             x, y = x + STEP * math.cos(th), y + STEP * math.sin(th)
@@ -107,20 +109,25 @@ def test_the_replayed_model_is_the_recorded_trial(trial):
 def test_the_gradient_is_that_of_the_replayed_model(trial, step_cost):
     pose, sonar, after, aim, moved, extra = trial
     held = np.zeros(len(aim), dtype=bool)
-    grad = trial_gradient(REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE,
-                          CLOSE, step_cost)  # fmt: skip
+    grad = trial_gradient(
+        REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE, CLOSE, step_cost
+    )
     h = 1e-6
     for t in (0, 4, 11, 17, len(aim) - 3, len(aim) - 1):
         d = np.zeros(len(aim))
         d[t] = h
-        fd = (_replayed_reward(d, *trial[:5], extra, step_cost)
-              - _replayed_reward(-d, *trial[:5], extra, step_cost)) / (2 * h)  # fmt: skip
+        fd = (
+            _replayed_reward(d, *trial[:5], extra, step_cost)
+            - _replayed_reward(-d, *trial[:5], extra, step_cost)
+        ) / (2 * h)
         assert grad[t] == pytest.approx(fd, rel=1e-4, abs=1e-6), t
     # a persistent correction over the first 8 steps: the sum of the step gradients
     d = np.zeros(len(aim))
     d[:8] = h
-    fd = (_replayed_reward(d, *trial[:5], extra, step_cost)
-          - _replayed_reward(-d, *trial[:5], extra, step_cost)) / (2 * h)  # fmt: skip
+    fd = (
+        _replayed_reward(d, *trial[:5], extra, step_cost)
+        - _replayed_reward(-d, *trial[:5], extra, step_cost)
+    ) / (2 * h)
     assert grad[:8].sum() == pytest.approx(fd, rel=1e-4)
 
 
@@ -131,12 +138,21 @@ def test_a_mirrored_trial_has_the_negated_gradient(trial):
     n = sonar.shape[1]
     mirror = (-np.arange(n)) % n  # ray k points at heading + k * 15 deg; its mirror at -k
     flip = np.array((1.0, -1.0, -1.0))
-    grad = trial_gradient(REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE,
-                          CLOSE, 0.5)  # fmt: skip
+    grad = trial_gradient(
+        REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE, CLOSE, 0.5
+    )
     mirrored = trial_gradient(
-        REFLEX, pose * flip, _readings(sonar, after)[:, mirror], aim * flip[:2], held,
-        (GOAL[0], -GOAL[1]), STEP, RANGE, CLOSE, 0.5,
-    )  # fmt: skip
+        REFLEX,
+        pose * flip,
+        _readings(sonar, after)[:, mirror],
+        aim * flip[:2],
+        held,
+        (GOAL[0], -GOAL[1]),
+        STEP,
+        RANGE,
+        CLOSE,
+        0.5,
+    )
     assert np.allclose(mirrored, -grad, atol=1e-9)
     assert (grad[held] == 0).all() and np.abs(grad).max() > 0.1
 
@@ -145,12 +161,15 @@ def test_heading_left_of_the_goal_in_free_space_the_gradient_turns_right():
     # 10 straight steps 0.3 rad left of the goal's bearing, nothing in sonar range
     n, off = 10, 0.3
     heading = math.atan2(GOAL[1], GOAL[0]) + off
-    pose = np.array([(k * STEP * math.cos(heading), k * STEP * math.sin(heading), heading)
-                     for k in range(n + 1)])  # fmt: skip
+    pose = np.array(
+        [
+            (k * STEP * math.cos(heading), k * STEP * math.sin(heading), heading)
+            for k in range(n + 1)
+        ]
+    )
     free = np.ones((n + 1, 24))
     aim = np.tile(GOAL, (n, 1))
-    grad = trial_gradient(REFLEX, pose, free, aim, np.zeros(n, bool),
-                          GOAL, STEP, RANGE, CLOSE)  # fmt: skip
+    grad = trial_gradient(REFLEX, pose, free, aim, np.zeros(n, bool), GOAL, STEP, RANGE, CLOSE)
     assert (grad < 0).all()  # turning right (negative) lowers every later heading error
     assert grad[0] < grad[-1]  # and the earlier the turn, the more steps it helps
 
@@ -173,8 +192,10 @@ def _partials_of_every_row(reflex, sonar, beta, eps=1e-7, jump=1e-4):
     """reflex_partials written plainly: the reflex on every perturbed row in one call."""
     t, n = sonar.shape
     steps = np.arange(t)
-    nearest = [np.asarray(rays)[np.argmin(sonar[:, list(rays)], axis=1)]
-               for rays in reflex.config.sectors.values()]  # fmt: skip
+    nearest = [
+        np.asarray(rays)[np.argmin(sonar[:, list(rays)], axis=1)]
+        for rays in reflex.config.sectors.values()
+    ]
     k = 1 + len(nearest)
     s = np.broadcast_to(sonar, (2 * k + 1, t, n)).copy()
     b = np.broadcast_to(beta, (2 * k + 1, t)).copy()
@@ -220,12 +241,18 @@ def test_reflex_partials_keep_the_bits_of_every_rows_wrapped_angle():
 
 def test_the_rule_moves_each_neuron_by_at_most_max_step_per_trial():
     # REINFORCE off, so the means move by the trial gradient alone
-    base = ["run.trials=2", "update.beta=0", "trial_gradient.max_step=0.01",
-            "trial_gradient.limit=0.015"]  # fmt: skip
-    (off,) = train_batch(load_config("paper_map", [*base, "trial_gradient.rate=0"]), [3],
-                         progress=False)  # fmt: skip
-    (on,) = train_batch(load_config("paper_map", [*base, "trial_gradient.rate=1"]), [3],
-                        progress=False)  # fmt: skip
+    base = [
+        "run.trials=2",
+        "update.beta=0",
+        "trial_gradient.max_step=0.01",
+        "trial_gradient.limit=0.015",
+    ]
+    (off,) = train_batch(
+        load_config("paper_map", [*base, "trial_gradient.rate=0"]), [3], progress=False
+    )
+    (on,) = train_batch(
+        load_config("paper_map", [*base, "trial_gradient.rate=1"]), [3], progress=False
+    )
     assert off.policy.experts.means.abs().max() == 0
     means = on.policy.experts.means
     used = on.policy.experts.count
@@ -241,15 +268,29 @@ def test_the_rule_moves_each_neuron_by_at_most_max_step_per_trial():
 def test_absolute_actions_get_the_open_loop_gradient(trial):
     pose, sonar, after, aim, moved, extra = trial
     held = np.zeros(len(aim), dtype=bool)
-    grad = trial_gradient(REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE,
-                          CLOSE, 0.5, reactive=False)  # fmt: skip
-    closed = trial_gradient(REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE,
-                            CLOSE, 0.5)  # fmt: skip
+    grad = trial_gradient(
+        REFLEX,
+        pose,
+        _readings(sonar, after),
+        aim,
+        held,
+        GOAL,
+        STEP,
+        RANGE,
+        CLOSE,
+        0.5,
+        reactive=False,
+    )
+    closed = trial_gradient(
+        REFLEX, pose, _readings(sonar, after), aim, held, GOAL, STEP, RANGE, CLOSE, 0.5
+    )
     assert not np.allclose(grad, closed)  # the reflex's feedback changes the answer
     h = 1e-6
     for t in (0, 9, len(aim) - 2):
         d = np.zeros(len(aim))
         d[t] = h
-        fd = (_replayed_reward(d, *trial[:5], extra, 0.5, reactive=False)
-              - _replayed_reward(-d, *trial[:5], extra, 0.5, reactive=False)) / (2 * h)  # fmt: skip
+        fd = (
+            _replayed_reward(d, *trial[:5], extra, 0.5, reactive=False)
+            - _replayed_reward(-d, *trial[:5], extra, 0.5, reactive=False)
+        ) / (2 * h)
         assert grad[t] == pytest.approx(fd, rel=1e-4, abs=1e-6), t

@@ -325,8 +325,12 @@ def test_end_trial_touches_only_the_robots_given():
 
 
 def test_cooling_down_to_the_floor():
-    p = policy("paper_literal", "update.temperature0=0.3", "update.cooling=0.5",
-               "update.temperature_min=0.05")  # fmt: skip
+    p = policy(
+        "paper_literal",
+        "update.temperature0=0.3",
+        "update.cooling=0.5",
+        "update.temperature_min=0.05",
+    )
     update = TeseoUpdate(p)
     temps = []
     for k in range(6):  # failed and successful trials cool alike
@@ -356,8 +360,9 @@ def _act(p, update, obs, nxt, reward):
     return td
 
 
-@pytest.mark.parametrize("critic, expected", [("mean", [-3.0, -2.0, -3.0]),
-                                              ("best", [-3.0, -1.0, -1.0])])  # fmt: skip
+@pytest.mark.parametrize(
+    "critic, expected", [("mean", [-3.0, -2.0, -3.0]), ("best", [-3.0, -1.0, -1.0])]
+)
 def test_option_critic_steps_toward_the_return_to_go(critic, expected):
     p = _option_policy(f"option_critic.critic={critic}")
     update = TeseoUpdate(p)

@@ -38,7 +38,9 @@ def test_each_changed_setting_is_put_back_alone(recipe):
     assert names[-1] == "mine-experts-off"
     # run.trials is the budget, not a change; reflex.near is one setting
     assert set(names[1:-1]) == {
-        "mine-without-reflex.d_a", "mine-without-reflex.peaks", "mine-without-reflex.near",
+        "mine-without-reflex.d_a",
+        "mine-without-reflex.peaks",
+        "mine-without-reflex.near",
         "mine-without-shield.enabled",
     }
     literal, mine = _leaves(load_config("paper_literal")), _leaves(load_config(str(recipe)))
@@ -57,17 +59,26 @@ def test_each_changed_setting_is_put_back_alone(recipe):
 
 def test_the_base_recipe_has_no_changes_of_its_own():
     assert [v.name for v in changes_of("paper_literal")] == [
-        "paper_literal", "paper_literal-experts-off"
+        "paper_literal",
+        "paper_literal-experts-off",
     ]
     assert [v.name for v in changes_of("reflex_only", base="reflex_only")] == ["reflex_only"]
 
 
 def _rows(totals_by_set, steps=27):
     return [
-        {"set": s, "trial": t, "total_reinforcement": total, "steps": steps, "collisions": 0,
-         "neurons": 10, "reached_goal": True}
-        for s, totals in totals_by_set.items() for t, total in enumerate(totals, 1)
-    ]  # fmt: skip
+        {
+            "set": s,
+            "trial": t,
+            "total_reinforcement": total,
+            "steps": steps,
+            "collisions": 0,
+            "neurons": 10,
+            "reached_goal": True,
+        }
+        for s, totals in totals_by_set.items()
+        for t, total in enumerate(totals, 1)
+    ]
 
 
 def test_changes_table_gives_the_paired_difference_per_setting():
@@ -82,13 +93,28 @@ def test_changes_table_gives_the_paired_difference_per_setting():
     # last trial: the setting is worth +1 and +4 on the two sets, +2.50 ± 1.50 (standard
     # error); over both trials +0.5 and +2, +1.25 ± 0.75
     assert lines[3].startswith(
-        "| r-without-x | x: 0 -> 1 | -9.50 | +2.50 ± 1.50 | -10.25 | +1.25 ± 0.75 | 27.0 |")
+        "| r-without-x | x: 0 -> 1 | -9.50 | +2.50 ± 1.50 | -10.25 | +1.25 ± 0.75 | 27.0 |"
+    )
 
 
 def test_ablate_changes_of_writes_one_run_per_setting(recipe, tmp_path, capsys):
     out = tmp_path / "abl"
-    assert main(["ablate", "--changes-of", str(recipe), "--sets", "2", "--trials", "2",
-                 "--out", str(out)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "ablate",
+                "--changes-of",
+                str(recipe),
+                "--sets",
+                "2",
+                "--trials",
+                "2",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     summary = json.loads((out / "summary.json").read_text())
     names = [v.name for v in changes_of(str(recipe))]
     assert [k for k in summary if not k.startswith("_")] == names
@@ -98,7 +124,8 @@ def test_ablate_changes_of_writes_one_run_per_setting(recipe, tmp_path, capsys):
     assert table.count("\n") == len(names) + 2  # header, rule, one row per variant
     assert "| mine-without-shield.enabled | shield.enabled: true -> false |" in table
     assert json.loads((out / "mine-without-reflex.d_a" / "table1.json").read_text())[
-        "overrides"] == ["reflex.d_a=0.7"]
+        "overrides"
+    ] == ["reflex.d_a=0.7"]
     assert "Δ last 5 (paired)" in capsys.readouterr().out
 
 
@@ -112,15 +139,35 @@ def test_a_setting_that_cannot_be_put_back_alone_has_no_row():
 
 def test_the_ladder_runs_each_rungs_recipe_on_the_same_seeds(tmp_path, capsys):
     out = tmp_path / "ladder"
-    argv = ["ablate", "--ladder", "--sets", "1", "--trials", "1", "--workers", "1",
-            "--out", str(out)]  # fmt: skip
+    argv = [
+        "ablate",
+        "--ladder",
+        "--sets",
+        "1",
+        "--trials",
+        "1",
+        "--workers",
+        "1",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0
     table = (out / "ladder.md").read_text()
     rows = [line for line in table.splitlines() if line.startswith("| ") and "`" in line]
-    assert [r.split("|")[1].strip() for r in rows] == ["sensors", "regions", "regions",
-                                                       "passages", "map"]
-    assert [r.split("`")[1] for r in rows] == ["reflex_only", "paper_literal", "paper",
-                                               "paper_passages", "paper_map"]
+    assert [r.split("|")[1].strip() for r in rows] == [
+        "sensors",
+        "regions",
+        "regions",
+        "passages",
+        "map",
+    ]
+    assert [r.split("`")[1] for r in rows] == [
+        "reflex_only",
+        "paper_literal",
+        "paper",
+        "paper_passages",
+        "paper_map",
+    ]
     assert "real robot" in table and table in capsys.readouterr().out
     assert main(["ablate", "--ladder", "--recipes", "paper", "--out", str(out)]) != 0
     assert "--ladder runs its own recipes" in capsys.readouterr().err

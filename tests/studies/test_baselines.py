@@ -48,8 +48,9 @@ def test_residual_action_is_reflex_plus_correction(config):
     act = PriorAction(Priors(residual=True, correction=0.25), config)
     control, reflex = [-1.0, -0.5, 0.0, 0.3, 1.0], [0.4, -1.2, 0.0, 1.0, -0.2]
     td = act(_td(control, reflex))  # no wall within IR range: the shield keeps every action
-    want = torch.tensor([r + 0.25 * math.pi * u for u, r in zip(control, reflex, strict=True)],
-                        dtype=torch.float64)
+    want = torch.tensor(
+        [r + 0.25 * math.pi * u for u, r in zip(control, reflex, strict=True)], dtype=torch.float64
+    )
     torch.testing.assert_close(td["action"].squeeze(-1).double(), want, atol=1e-6, rtol=0)
     assert not td["shielded"].any()
 
@@ -88,8 +89,9 @@ def test_region_one_hot_names_the_odometry_region(config):
     world = load_map("hailu2001")
     transform = PriorObservation(Priors(regions=True), config, world)
     poses = torch.tensor([[0.0, 0.0, 0.0], [2.0, -0.35, 0.0], [4.5, 2.0, 0.0], [5.0, -3.5, 0.0]])
-    td = TensorDict({"sonar": torch.rand(4, 24), "goal": torch.tensor([[2.5, 0.5]] * 4),
-                     "odometry": poses}, [4])  # fmt: skip
+    td = TensorDict(
+        {"sonar": torch.rand(4, 24), "goal": torch.tensor([[2.5, 0.5]] * 4), "odometry": poses}, [4]
+    )
     obs = transform(td)["observation"]
     r = len(world.regions.names)
     assert obs.shape == (4, observation_size(Priors(regions=True), 24, r)) == (4, 26 + r)
@@ -105,8 +107,14 @@ def test_residual_observation_carries_the_reflex_action(config):
     from symrl.knowledge.reflex import FuzzyReflex
 
     world = load_map("hailu2001")
-    td = TensorDict({"sonar": torch.rand(3, 24), "goal": torch.tensor([[2.0, 1.0]] * 3),
-                     "odometry": torch.zeros(3, 3)}, [3])  # fmt: skip
+    td = TensorDict(
+        {
+            "sonar": torch.rand(3, 24),
+            "goal": torch.tensor([[2.0, 1.0]] * 3),
+            "odometry": torch.zeros(3, 3),
+        },
+        [3],
+    )
     out = PriorObservation(Priors(residual=True), config, world)(td)
     want = FuzzyReflex(config.reflex)(td["sonar"].double(), torch.ones(3, dtype=torch.float64))
     want = want.float().double()
@@ -154,8 +162,9 @@ def test_parse_seeds():
 def test_a_tiny_baseline_writes_a_symrl_run_folder(algorithm, tmp_path, capsys):
     priors = Priors(residual=True, regions=True)
     run = tmp_path / "run"
-    result = train_baseline(algorithm, seed=3, episodes=2, priors=priors, logdir=run,
-                            progress=False, **TINY[algorithm])  # fmt: skip
+    result = train_baseline(
+        algorithm, seed=3, episodes=2, priors=priors, logdir=run, progress=False, **TINY[algorithm]
+    )
     assert {"config.yaml", "trials.csv", "tb", "checkpoint.pt"} <= {p.name for p in run.iterdir()}
     rows = read_trials_csv(run / "trials.csv")
     assert len(rows) == 2 and "neurons" not in rows[0]  # the paper learner's columns stay empty
@@ -177,21 +186,38 @@ def test_a_tiny_baseline_writes_a_symrl_run_folder(algorithm, tmp_path, capsys):
 def test_tensorboard_gets_the_trial_scalars(tmp_path):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    train_baseline("ppo", seed=1, episodes=2, priors=Priors(residual=True), logdir=tmp_path,
-                   progress=False, **TINY["ppo"])  # fmt: skip
+    train_baseline(
+        "ppo",
+        seed=1,
+        episodes=2,
+        priors=Priors(residual=True),
+        logdir=tmp_path,
+        progress=False,
+        **TINY["ppo"],
+    )
     events = EventAccumulator(str(tmp_path / "tb"))
     events.Reload()
     tags = set(events.Tags()["scalars"])
-    assert {"trial/steps", "trial/total_reinforcement", "trial/reached_goal",
-            "trial/collisions"} <= tags  # fmt: skip
+    assert {
+        "trial/steps",
+        "trial/total_reinforcement",
+        "trial/reached_goal",
+        "trial/collisions",
+    } <= tags
     assert not any(t.startswith("network/") for t in tags)
 
 
 @pytest.mark.parametrize("algorithm", ["sac", "ppo"])
 def test_a_run_is_deterministic_and_a_prefix_of_a_longer_one(algorithm):
     def rows(n):
-        out = train_baseline(algorithm, seed=5, episodes=n, priors=Priors(residual=True),
-                             progress=False, **TINY[algorithm])  # fmt: skip
+        out = train_baseline(
+            algorithm,
+            seed=5,
+            episodes=n,
+            priors=Priors(residual=True),
+            progress=False,
+            **TINY[algorithm],
+        )
         return [(r["steps"], r["total_reinforcement"], r["collisions"]) for r in out["rows"]]
 
     assert rows(3)[:2] == rows(2)  # same seed, same trials; the budget changes nothing before
@@ -232,8 +258,17 @@ def test_an_unknown_algorithm_is_a_usage_error(capsys):
 
 
 def test_a_run_folder_is_never_overwritten_silently(tmp_path, capsys):
-    argv = ["baseline", "ppo", "--episodes", "1", "--seeds", "0", "--residual",
-            "--out", str(tmp_path)]  # fmt: skip
+    argv = [
+        "baseline",
+        "ppo",
+        "--episodes",
+        "1",
+        "--seeds",
+        "0",
+        "--residual",
+        "--out",
+        str(tmp_path),
+    ]
     assert main(argv) == 0
     capsys.readouterr()
     assert main(argv) == 2
@@ -243,8 +278,15 @@ def test_a_run_folder_is_never_overwritten_silently(tmp_path, capsys):
 def test_the_report_compares_every_learner_it_finds(tmp_path):
     from symrl.studies.report import baseline_table
 
-    train_baseline("ppo", seed=2, episodes=3, priors=Priors(residual=True), progress=False,
-                   logdir=tmp_path / "ppo-residual" / "seed-2", **TINY["ppo"])  # fmt: skip
+    train_baseline(
+        "ppo",
+        seed=2,
+        episodes=3,
+        priors=Priors(residual=True),
+        progress=False,
+        logdir=tmp_path / "ppo-residual" / "seed-2",
+        **TINY["ppo"],
+    )
     table, curves = baseline_table(tmp_path)
     row = next(line for line in table.splitlines() if line.startswith("| PPO residual |"))
     assert "| 3 | 1 |" in row  # 3 trials, 1 seed
@@ -258,12 +300,18 @@ def test_a_resumed_run_is_the_uninterrupted_run(algorithm, tmp_path):
     train_baseline(algorithm, episodes=4, logdir=tmp_path / "whole", **kwargs)
     # stopped from outside in the middle of a trial (and, for PPO, of a batch), then resumed
     calls = iter(range(10_000))
-    stopped = train_baseline(algorithm, episodes=4, logdir=tmp_path / "parts",
-                             stop=lambda: next(calls) >= 37, **kwargs)  # fmt: skip
+    stopped = train_baseline(
+        algorithm, episodes=4, logdir=tmp_path / "parts", stop=lambda: next(calls) >= 37, **kwargs
+    )
     assert stopped["stopped"] and len(stopped["rows"]) < 4
     # a finished run extended to a larger budget is also the same run
-    train_baseline(algorithm, episodes=len(stopped["rows"]) + 1, logdir=tmp_path / "parts",
-                   resume=True, **kwargs)  # fmt: skip
+    train_baseline(
+        algorithm,
+        episodes=len(stopped["rows"]) + 1,
+        logdir=tmp_path / "parts",
+        resume=True,
+        **kwargs,
+    )
     train_baseline(algorithm, episodes=4, logdir=tmp_path / "parts", resume=True, **kwargs)
     whole = (tmp_path / "whole" / "trials.csv").read_text()
     assert (tmp_path / "parts" / "trials.csv").read_text() == whole
@@ -273,8 +321,16 @@ def test_a_resumed_run_is_the_uninterrupted_run(algorithm, tmp_path):
 def test_periodic_checkpoints_hold_the_run_state(tmp_path):
     from symrl.studies.baseline import load_run_state
 
-    train_baseline("ppo", seed=6, episodes=3, priors=Priors(residual=True), progress=False,
-                   logdir=tmp_path, checkpoint_every=1, **TINY["ppo"])  # fmt: skip
+    train_baseline(
+        "ppo",
+        seed=6,
+        episodes=3,
+        priors=Priors(residual=True),
+        progress=False,
+        logdir=tmp_path,
+        checkpoint_every=1,
+        **TINY["ppo"],
+    )
     state = torch.load(tmp_path / "checkpoint.pt", weights_only=True)["resume"]
     assert load_run_state(tmp_path, state["settings"], 3)["rows"] == state["rows"]
     other = {**state["settings"], "ppo": {**state["settings"]["ppo"], "hidden": 64}}
@@ -316,8 +372,15 @@ def test_resume_from_the_command_line(tmp_path, capsys):
 
 
 def test_the_sac_checkpoint_holds_only_the_transitions_collected(tmp_path):
-    train_baseline("sac", seed=2, episodes=1, priors=Priors(residual=True), progress=False,
-                   logdir=tmp_path, **TINY["sac"])  # fmt: skip
+    train_baseline(
+        "sac",
+        seed=2,
+        episodes=1,
+        priors=Priors(residual=True),
+        progress=False,
+        logdir=tmp_path,
+        **TINY["sac"],
+    )
     state = torch.load(tmp_path / "checkpoint.pt", weights_only=True)["resume"]
     buffer = state["agent"]["buffer"]
     assert buffer["observation"].shape[0] == state["frames"] == state["rows"][0]["steps"]
@@ -329,9 +392,16 @@ def test_the_report_shows_a_long_run_in_blocks(tmp_path):
     from symrl.studies.report import baseline_blocks
 
     for seed, late in ((0, 30), (1, 34)):
-        rows = [{"trial": t + 1, "steps": 50 if t < 100 else late, "reached_goal": True,
-                 "total_reinforcement": -20.0 if t < 100 else -10.0, "collisions": 0}
-                for t in range(200 + 100 * seed)]  # fmt: skip
+        rows = [
+            {
+                "trial": t + 1,
+                "steps": 50 if t < 100 else late,
+                "reached_goal": True,
+                "total_reinforcement": -20.0 if t < 100 else -10.0,
+                "collisions": 0,
+            }
+            for t in range(200 + 100 * seed)
+        ]
         (tmp_path / "sac-residual" / f"seed-{seed}").mkdir(parents=True)
         write_trials_csv(tmp_path / "sac-residual" / f"seed-{seed}" / "trials.csv", rows)
     lines = baseline_blocks(tmp_path).splitlines()

@@ -39,11 +39,17 @@ def test_start_poses_are_free_and_the_obstacle_blocks_the_straight_route():
 
 
 def test_rate_counts_successes_and_averages_steps_of_successes_only():
-    evs = [{"reached_goal": True, "steps": 30, "collisions": 0},
-           {"reached_goal": False, "steps": 200, "collisions": 4},
-           {"reached_goal": True, "steps": 34, "collisions": 2}]
-    assert _rate(evs) == {"reached": 2, "runs": 3, "mean_steps_when_reached": 32.0,
-                          "mean_collisions": 2.0}
+    evs = [
+        {"reached_goal": True, "steps": 30, "collisions": 0},
+        {"reached_goal": False, "steps": 200, "collisions": 4},
+        {"reached_goal": True, "steps": 34, "collisions": 2},
+    ]
+    assert _rate(evs) == {
+        "reached": 2,
+        "runs": 3,
+        "mean_steps_when_reached": 32.0,
+        "mean_collisions": 2.0,
+    }
 
 
 def test_markdown_tables():
@@ -51,15 +57,33 @@ def test_markdown_tables():
     none = {"reached": 0, "runs": 2, "mean_steps_when_reached": None, "mean_collisions": 3.0}
     stat = {"mean": 30.0, "std": 1.0}
     report = {
-        "recipe": "paper", "sets": 2, "trials": 20, "seeds": [100, 101],
+        "recipe": "paper",
+        "sets": 2,
+        "trials": 20,
+        "seeds": [100, 101],
         "provenance": {"revision": "abc1234", "dirty": True},
-        "home_learned": r, "home_reflex_only": r, "obstacle_learned": none,
+        "home_learned": r,
+        "home_reflex_only": r,
+        "obstacle_learned": none,
         "obstacle_reflex_only": r,
-        "starts": [{"start": [1.0, -1.8, 0.0], "near_learned_route": True, "learned": none,
-                    "reflex_only": r}],
-        "noise": [{"level": "sonar 0.05 m", "first_success": {"mean": 2.0, "std": 0.0, "never": 0},
-                   "success_last5": 0.9, "steps_last5": stat, "total_reinforcement_last5": stat,
-                   "collisions_all_trials": stat}],
+        "starts": [
+            {
+                "start": [1.0, -1.8, 0.0],
+                "near_learned_route": True,
+                "learned": none,
+                "reflex_only": r,
+            }
+        ],
+        "noise": [
+            {
+                "level": "sonar 0.05 m",
+                "first_success": {"mean": 2.0, "std": 0.0, "never": 0},
+                "success_last5": 0.9,
+                "steps_last5": stat,
+                "total_reinforcement_last5": stat,
+                "collisions_all_trials": stat,
+            }
+        ],
     }
     md = markdown(report)
     assert "seeds 100-101, code `abc1234+dirty`" in md
@@ -86,8 +110,9 @@ def test_the_new_obstacle_is_in_the_env_and_not_in_what_the_agent_knows():
         assert len(shortest_path(world).points) != len(shortest_path(blocked).points)
         assert policy.options.table.labels == trained.labels
         torch.testing.assert_close(policy.options.table.points, trained.points)
-        np.testing.assert_array_equal(policy.perception.tracker.localizer.walls.segments,
-                                      Walls(world.segments).segments)
+        np.testing.assert_array_equal(
+            policy.perception.tracker.localizer.walls.segments, Walls(world.segments).segments
+        )
         assert len(blocked.segments) == len(world.segments) + 4
     finally:
         env.close()
@@ -103,8 +128,10 @@ def test_generalise_runs_from_its_defaults(tmp_path, capsys):
     """The command's own noise levels and recipes, at a tiny budget, end to end."""
     assert all(key.startswith("env.robot.") for _, keys in NOISE_LEVELS for key in keys)
     out = tmp_path / "gen"
-    assert main(["generalise", "--sets", "1", "--trials", "1", "--workers", "1",
-                 "--out", str(out)]) == 0
+    assert (
+        main(["generalise", "--sets", "1", "--trials", "1", "--workers", "1", "--out", str(out)])
+        == 0
+    )
     report = json.loads((out / "generalise.json").read_text())
     assert report["recipe"] == "paper" and report["map"] == "hailu2001"
     assert [n["level"] for n in report["noise"]] == [label for label, _ in NOISE_LEVELS]

@@ -20,8 +20,15 @@ def _rows(steps_per_set, reached=None):
     for s, steps in enumerate(steps_per_set):
         for t, n in enumerate(steps):
             ok = True if reached is None else reached[s][t]
-            out.append({"set": s, "trial": t + 1, "steps": n, "total_reinforcement": -n / 4,
-                        "reached_goal": ok})  # fmt: skip
+            out.append(
+                {
+                    "set": s,
+                    "trial": t + 1,
+                    "steps": n,
+                    "total_reinforcement": -n / 4,
+                    "reached_goal": ok,
+                }
+            )
     return out
 
 
@@ -60,13 +67,29 @@ def test_the_ladder_runs_on_each_world_into_one_table(tmp_path, capsys, monkeypa
 
     monkeypatch.setattr(ablation, "LADDER", ("reflex_only", "paper_map"))  # two rungs: fast
     out = tmp_path / "worlds"
-    argv = ["ablate", "--ladder", "--maps", "hailu2001,check/box_room", "--sets", "1",
-            "--trials", "2", "--workers", "1", "--out", str(out)]  # fmt: skip
+    argv = [
+        "ablate",
+        "--ladder",
+        "--maps",
+        "hailu2001,check/box_room",
+        "--sets",
+        "1",
+        "--trials",
+        "2",
+        "--workers",
+        "1",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0
     table = (out / "ladder-worlds.md").read_text()
     cells = [line.split("`")[1::2] for line in table.splitlines() if line.startswith("| `")]
-    assert cells == [["hailu2001", "reflex_only"], ["hailu2001", "paper_map"],
-                     ["box_room", "reflex_only"], ["box_room", "paper_map"]]  # fmt: skip
+    assert cells == [
+        ["hailu2001", "reflex_only"],
+        ["hailu2001", "paper_map"],
+        ["box_room", "reflex_only"],
+        ["box_room", "paper_map"],
+    ]
     assert (out / "ladder-worlds.png").is_file()
     for world in ("hailu2001", "box_room"):  # each world as `ablate --ladder --map` writes it
         assert (out / world / "ladder.md").is_file()

@@ -25,7 +25,13 @@ from symrl.world import load_map
 from symrl.world.worldmap import BODY_RADIUS, MapError, reaches_goal
 
 GALLERY = (
-    "two_doors", "two_door_room", "office", "l_corridor", "maze", "dead_end", "hailu2001_mirror",
+    "two_doors",
+    "two_door_room",
+    "office",
+    "l_corridor",
+    "maze",
+    "dead_end",
+    "hailu2001_mirror",
 )
 FIGURES = "l_corridor"  # the one map whose study also draws its figures (the rest: tables only)
 SHORT = "env.max_actions=60"  # trials cut at 60 actions: the reflex is stuck for 200 on some maps
@@ -35,18 +41,55 @@ SHORT = "env.max_actions=60"  # trials cut at 60 actions: the reflex is stuck fo
 def test_drive_train_and_study_run_on_the_map(name, tmp_path):
     assert main(["drive", "--map", name, "--no-noise", "--out", str(tmp_path / "drive")]) == 0
     assert (tmp_path / "drive").is_dir() and any((tmp_path / "drive").glob("*.png"))
-    assert main(["train", "paper_map", "--trials", "2", "--map", name,
-                 "--logdir", str(tmp_path / "train"), SHORT]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "train",
+                "paper_map",
+                "--trials",
+                "2",
+                "--map",
+                name,
+                "--logdir",
+                str(tmp_path / "train"),
+                SHORT,
+            ]
+        )
+        == 0
+    )
     assert (tmp_path / "train" / "trials.csv").is_file()
     out = tmp_path / "study"
     if name == FIGURES:
-        assert main(["study", "paper_map", "--sets", "2", "--trials", "2", "--map", name,
-                     "--out", str(out), SHORT]) == 0  # fmt: skip
+        assert (
+            main(
+                [
+                    "study",
+                    "paper_map",
+                    "--sets",
+                    "2",
+                    "--trials",
+                    "2",
+                    "--map",
+                    name,
+                    "--out",
+                    str(out),
+                    SHORT,
+                ]
+            )
+            == 0
+        )
         for png in ("curves.png", "trajectories.png", "ghosts.png"):
             assert (out / png).stat().st_size > 0, png
     else:
-        study = run_study("paper_map", sets=2, trials=2, overrides=[f"env.map={name}", SHORT],
-                          out=out, figures=False, progress=False)  # fmt: skip
+        study = run_study(
+            "paper_map",
+            sets=2,
+            trials=2,
+            overrides=[f"env.map={name}", SHORT],
+            out=out,
+            figures=False,
+            progress=False,
+        )
         assert study.world.name == name
     table = json.loads((out / "table1.json").read_text())
     assert table["optimum"]["steps"] == optimum(name)["steps"]
@@ -81,14 +124,21 @@ def test_the_paper_world_keeps_its_hand_picked_poses_and_box():
 
 
 def test_starts_listed_in_the_map_are_used_and_checked():
-    doc = {"boundary": [[0, 0], [6, 0], [6, 3], [0, 3]], "start": {"x": 0.5, "y": 0.5},
-           "goal": {"x": 5.5, "y": 2.5, "radius": 0.3},
-           "starts": [[1.0, 2.0, 90], [3.0, 1.5]]}  # fmt: skip
+    doc = {
+        "boundary": [[0, 0], [6, 0], [6, 3], [0, 3]],
+        "start": {"x": 0.5, "y": 0.5},
+        "goal": {"x": 5.5, "y": 2.5, "radius": 0.3},
+        "starts": [[1.0, 2.0, 90], [3.0, 1.5]],
+    }
     world = load_map(doc)
     assert map_starts(world) == ((1.0, 2.0, math.pi / 2), (3.0, 1.5, 0.0))
-    for bad, match in (([[0.1, 1.0, 0]], "starts\\[0\\].*body radius"),
-                       ([[1.0, "a", 0]], "starts\\[0\\].y"), ([[9.0, 1.0]], "starts\\[0\\]"),
-                       ([[1.0]], "starts\\[0\\]"), ("x", "starts")):  # fmt: skip
+    for bad, match in (
+        ([[0.1, 1.0, 0]], "starts\\[0\\].*body radius"),
+        ([[1.0, "a", 0]], "starts\\[0\\].y"),
+        ([[9.0, 1.0]], "starts\\[0\\]"),
+        ([[1.0]], "starts\\[0\\]"),
+        ("x", "starts"),
+    ):
         with pytest.raises(MapError, match=match):
             load_map(doc | {"starts": bad})
 
@@ -109,8 +159,24 @@ def test_derived_obstacle_is_on_free_ground_and_keeps_the_goal_reachable(name):
 
 def test_ablate_takes_a_map(tmp_path):
     out = tmp_path / "abl"
-    assert main(["ablate", "--recipes", "reflex_only", "--sets", "1", "--trials", "1",
-                 "--map", "hailu2001_mirror", "--out", str(out)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "ablate",
+                "--recipes",
+                "reflex_only",
+                "--sets",
+                "1",
+                "--trials",
+                "1",
+                "--map",
+                "hailu2001_mirror",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     summary = json.loads((out / "summary.json").read_text())
     assert summary["_map"] == "hailu2001_mirror"
     assert summary["_optimum"]["steps"] == optimum("hailu2001_mirror")["steps"]
@@ -123,8 +189,9 @@ def test_ablate_takes_a_map(tmp_path):
 
 def test_generalise_takes_a_map(tmp_path):
     mirror = load_map("hailu2001_mirror")
-    report = run_generalisation("paper_map", sets=1, trials=1, out=tmp_path / "gen",
-                                noise_levels=(), map="hailu2001_mirror")  # fmt: skip
+    report = run_generalisation(
+        "paper_map", sets=1, trials=1, out=tmp_path / "gen", noise_levels=(), map="hailu2001_mirror"
+    )
     assert report["map"] == "hailu2001_mirror" and len(report["starts"]) == 8
     assert [s["near_learned_route"] for s in report["starts"]] == [True] * 4 + [False] * 4
     assert report["obstacle"] == derived_obstacle(mirror) != OBSTACLE

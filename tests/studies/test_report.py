@@ -23,9 +23,16 @@ def _stats(mean: float, variance: float) -> dict:
 
 def _study(folder, recipe: str, steps: float, total: float, neurons: float) -> None:
     (folder / recipe).mkdir(parents=True)
-    table = {"recipe": recipe, "sets": 10, "trial": 20, "seeds": [100, 109],
-             "steps": _stats(steps, 0.25), "total_reinforcement": _stats(total, 0.5),
-             "neurons": _stats(neurons, 4.0), "provenance": PROVENANCE}  # fmt: skip
+    table = {
+        "recipe": recipe,
+        "sets": 10,
+        "trial": 20,
+        "seeds": [100, 109],
+        "steps": _stats(steps, 0.25),
+        "total_reinforcement": _stats(total, 0.5),
+        "neurons": _stats(neurons, 4.0),
+        "provenance": PROVENANCE,
+    }
     (folder / recipe / "table1.json").write_text(json.dumps(table))
 
 
@@ -34,19 +41,32 @@ def test_table1_compares_the_last_trial_and_neurons_only_where_the_inputs_match(
     _study(ablate, "paper_literal", 42.0, -23.5, 611.0)
     _study(ablate, "paper_map", 27.2, -6.65, 30.1)
     _study(ablate, "reflex_only", 47.0, -27.0, 0.0)
-    summary = {r: {"steps_last5": {"mean": m, "std": 0.3},
-                   "total_reinforcement_last5": {"mean": t, "std": 0.1}}
-               for r, m, t in (("paper_map", 27.2, -6.80), ("paper_literal", 42.9, -23.82),
-                               ("reflex_only", 47.2, -27.75))}  # fmt: skip
+    summary = {
+        r: {
+            "steps_last5": {"mean": m, "std": 0.3},
+            "total_reinforcement_last5": {"mean": t, "std": 0.1},
+        }
+        for r, m, t in (
+            ("paper_map", 27.2, -6.80),
+            ("paper_literal", 42.9, -23.82),
+            ("reflex_only", 47.2, -27.75),
+        )
+    }
     (ablate / "summary.json").write_text(json.dumps(summary))
     rows = table1_comparison(tmp_path).splitlines()
-    assert rows[2] == ("| *the paper's robot (Table 1)* | regions | sensors | 27.7 (1.9) | - "
-                       "| -6.24 (0.8752) | - | 82.5 (4.7286) |")  # fmt: skip
+    assert rows[2] == (
+        "| *the paper's robot (Table 1)* | regions | sensors | 27.7 (1.9) | - "
+        "| -6.24 (0.8752) | - | 82.5 (4.7286) |"
+    )
     # headline learners first; the paper's inputs (sonars and goal codes) only in paper_literal
-    assert rows[3] == ("| `paper_map` | map | pose | 27.2 (0.25) | 27.2 ± 0.3 | -6.65 (0.500) "
-                       "| -6.80 ± 0.10 | not comparable (pose) |")  # fmt: skip
-    assert rows[4] == ("| `paper_literal` | regions | sensors | 42.0 (0.25) | 42.9 ± 0.3 "
-                       "| -23.50 (0.500) | -23.82 ± 0.10 | 611.0 (4.00) |")  # fmt: skip
+    assert rows[3] == (
+        "| `paper_map` | map | pose | 27.2 (0.25) | 27.2 ± 0.3 | -6.65 (0.500) "
+        "| -6.80 ± 0.10 | not comparable (pose) |"
+    )
+    assert rows[4] == (
+        "| `paper_literal` | regions | sensors | 42.0 (0.25) | 42.9 ± 0.3 "
+        "| -23.50 (0.500) | -23.82 ± 0.10 | 611.0 (4.00) |"
+    )
     assert rows[5].endswith("| not comparable (no experts) |")
 
 

@@ -24,8 +24,15 @@ from symrl.studies.reward_optimum import (
 from symrl.world import load_map
 from symrl.world.robot import RobotConfig
 
-SMALL = SearchSettings(beam=20, headings=36, dp_spacing=0.2, dp_headings=24, refine_start_deg=1.0,
-                       refine_stop_deg=0.5, random=8)  # fmt: skip
+SMALL = SearchSettings(
+    beam=20,
+    headings=36,
+    dp_spacing=0.2,
+    dp_headings=24,
+    refine_start_deg=1.0,
+    refine_stop_deg=0.5,
+    random=8,
+)
 
 # a corridor 1.1 m wide: on its centre line the sonars at +-90 degrees read 0.55 - 0.26 =
 # 0.29 m, below d_c = 0.30 m, so every action there pays f1 = -1 + 0.29 / 0.30
@@ -41,8 +48,12 @@ CORRIDOR = {
 def test_in_a_corridor_the_best_is_straight_down_the_middle_at_the_hand_computed_total():
     world = load_map(CORRIDOR)
     best = search_best_total(world, settings=replace(SMALL, endings=2))
-    assert [stage for stage, _ in best.history[2:]] == ["beam 1, ending 1", "refined",
-                                                        "beam 1, ending 2", "refined"]
+    assert [stage for stage, _ in best.history[2:]] == [
+        "beam 1, ending 1",
+        "refined",
+        "beam 1, ending 2",
+        "refined",
+    ]
     # 3.15 m to the goal's centre, 2.75 m to its rim: 14 moves of 0.20 m, each paying only f1
     assert len(best.actions) == 14
     assert best.total == pytest.approx(14 * (-1.0 + 0.29 / 0.30), abs=1e-9)
@@ -51,9 +62,12 @@ def test_in_a_corridor_the_best_is_straight_down_the_middle_at_the_hand_computed
 
 
 def test_in_an_open_room_the_best_is_straight_at_the_goal_and_pays_nothing():
-    room = {**CORRIDOR, "boundary": [[-3.0, -3.0], [8.0, -3.0], [8.0, 4.0], [-3.0, 4.0]],
-            "start": {"x": 0.0, "y": 0.0, "heading": 0.0}, "goal": {"x": 3.0, "y": 1.0,
-                                                                     "radius": 0.4}}  # fmt: skip
+    room = {
+        **CORRIDOR,
+        "boundary": [[-3.0, -3.0], [8.0, -3.0], [8.0, 4.0], [-3.0, 4.0]],
+        "start": {"x": 0.0, "y": 0.0, "heading": 0.0},
+        "goal": {"x": 3.0, "y": 1.0, "radius": 0.4},
+    }
     best = search_best_total(load_map(room), settings=SMALL)
     assert best.total == pytest.approx(0.0, abs=1e-12)  # atan2's last bit
     np.testing.assert_allclose(best.headings, np.arctan2(1.0, 3.0), atol=1e-12)
@@ -96,8 +110,18 @@ def test_plan_reward_writes_the_result_and_the_figure(tmp_path, capsys):
     path = tmp_path / "corridor.yaml"
     path.write_text(yaml.safe_dump(CORRIDOR))
     out = tmp_path / "plan"
-    argv = ["plan", "--map", str(path), "--reward", "--beam", "10", "--headings", "24",
-            "--out", str(out)]  # fmt: skip
+    argv = [
+        "plan",
+        "--map",
+        str(path),
+        "--reward",
+        "--beam",
+        "10",
+        "--headings",
+        "24",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0
     result = json.loads((out / "reward_optimum.json").read_text())
     assert result["actions"] == 14 and result["collisions"] == 0

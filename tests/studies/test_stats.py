@@ -13,8 +13,16 @@ from symrl.studies.runner import table1
 
 
 def _row(s, t, steps, total, neurons, reached=True, collisions=0):
-    return {"set": s, "seed": 100 + s, "trial": t, "steps": steps, "total_reinforcement": total,
-            "neurons": neurons, "collisions": collisions, "reached_goal": reached}
+    return {
+        "set": s,
+        "seed": 100 + s,
+        "trial": t,
+        "steps": steps,
+        "total_reinforcement": total,
+        "neurons": neurons,
+        "collisions": collisions,
+        "reached_goal": reached,
+    }
 
 
 def test_table1_is_mean_and_sample_variance_at_the_last_trial():
@@ -36,8 +44,10 @@ def test_table1_rejects_an_empty_table():
 
 def test_summary_on_a_hand_made_table():
     steps0 = [200, 200, 30, 30, 28, 28]
-    rows = [_row(0, t + 1, s, -s / 3, 10 * (t + 1), reached=t >= 2, collisions=1)
-            for t, s in enumerate(steps0)]
+    rows = [
+        _row(0, t + 1, s, -s / 3, 10 * (t + 1), reached=t >= 2, collisions=1)
+        for t, s in enumerate(steps0)
+    ]
     rows += [_row(1, t + 1, 200, -90.0, 50, reached=False, collisions=2) for t in range(6)]
     s = summarise(rows)
     assert s["first_success"] == {"mean": 3.0, "std": 0.0, "ci95": [3.0, 3.0], "never": 1}
@@ -59,5 +69,3 @@ def test_trials_csv_round_trip(tmp_path):
     back = read_trials_csv(tmp_path / "t.csv")
     assert back[1]["reached_goal"] is False and back[0]["total_reinforcement"] == -9.5
     assert table1(back)["steps"]["mean"] == 28.0
-
-

@@ -25,15 +25,26 @@ from symrl.cli import main
 from symrl.runs import finished_trials
 
 COMMANDS = {
-    "study": (["study", "paper_map", "--sets", "3", "--trials", "5"], "sets/batch-*.pt",
-              ["trials.csv"]),
-    "ablate": (["ablate", "--recipes", "reflex_only,paper_map", "--sets", "2", "--trials", "4"],
-               "paper_map/sets/batch-*.pt", ["reflex_only/trials.csv", "paper_map/trials.csv"]),
-    "sweep": (["sweep", "--recipes", "paper,paper_map", "--seeds", "1", "--trials", "4"],
-              "runs/paper_map__hailu2001__s1/checkpoint.pt",
-              ["runs/paper__hailu2001__s1/trials.csv", "runs/paper_map__hailu2001__s1/trials.csv",
-               "summary.md"]),
-}  # fmt: skip
+    "study": (
+        ["study", "paper_map", "--sets", "3", "--trials", "5"],
+        "sets/batch-*.pt",
+        ["trials.csv"],
+    ),
+    "ablate": (
+        ["ablate", "--recipes", "reflex_only,paper_map", "--sets", "2", "--trials", "4"],
+        "paper_map/sets/batch-*.pt",
+        ["reflex_only/trials.csv", "paper_map/trials.csv"],
+    ),
+    "sweep": (
+        ["sweep", "--recipes", "paper,paper_map", "--seeds", "1", "--trials", "4"],
+        "runs/paper_map__hailu2001__s1/checkpoint.pt",
+        [
+            "runs/paper__hailu2001__s1/trials.csv",
+            "runs/paper_map__hailu2001__s1/trials.csv",
+            "summary.md",
+        ],
+    ),
+}
 
 
 def _quiet(argv: list[str]) -> tuple[int, str]:
@@ -81,16 +92,19 @@ def _stopped(argv: list[str], out: Path, saved: str, sig: int, delay: float) -> 
     return process.exitcode, err_file.read_text() if err_file.exists() else ""
 
 
-@pytest.mark.parametrize(("command", "sig", "workers", "delay"), [
-    ("study", signal.SIGINT, 1, 0.0),
-    ("study", signal.SIGTERM, 2, 0.3),
-    ("study", signal.SIGHUP, 1, 0.5),
-    ("study", signal.SIGKILL, 2, 0.2),
-    ("ablate", signal.SIGTERM, 1, 0.0),
-    ("ablate", signal.SIGKILL, 2, 0.3),
-    ("sweep", signal.SIGINT, 1, 0.0),
-    ("sweep", signal.SIGKILL, 2, 0.2),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("command", "sig", "workers", "delay"),
+    [
+        ("study", signal.SIGINT, 1, 0.0),
+        ("study", signal.SIGTERM, 2, 0.3),
+        ("study", signal.SIGHUP, 1, 0.5),
+        ("study", signal.SIGKILL, 2, 0.2),
+        ("ablate", signal.SIGTERM, 1, 0.0),
+        ("ablate", signal.SIGKILL, 2, 0.3),
+        ("sweep", signal.SIGINT, 1, 0.0),
+        ("sweep", signal.SIGKILL, 2, 0.2),
+    ],
+)
 def test_a_stopped_command_resumes_to_the_uninterrupted_tables(
     command, sig, workers, delay, uninterrupted, tmp_path, monkeypatch
 ):
@@ -112,8 +126,14 @@ def test_a_stopped_command_resumes_to_the_uninterrupted_tables(
         assert refused == 2 and "holds a stopped" in message and "--resume" in message
     resumed: list[str] = []
     real = sweep._stopped_state
-    stopped_runs = [run for run in (out / "runs").glob("*") if command == "sweep" and code
-                    and (run / "checkpoint.pt").is_file() and finished_trials(run) < 4]  # fmt: skip
+    stopped_runs = [
+        run
+        for run in (out / "runs").glob("*")
+        if command == "sweep"
+        and code
+        and (run / "checkpoint.pt").is_file()
+        and finished_trials(run) < 4
+    ]
 
     def spy(config, logdir):
         state = real(config, logdir)
@@ -149,5 +169,4 @@ def test_resume_needs_a_stopped_run_of_the_same_settings(uninterrupted, tmp_path
     code, err = _quiet([*argv, "--out", str(out), "--resume", "--overwrite"])
     assert code == 2 and "give one" in err
     assert _quiet([*argv, "--out", str(out), "--overwrite"])[0] == 0  # afresh
-    assert (out / "trials.csv").read_bytes() == (
-        uninterrupted["study"] / "trials.csv").read_bytes()  # fmt: skip
+    assert (out / "trials.csv").read_bytes() == (uninterrupted["study"] / "trials.csv").read_bytes()

@@ -19,12 +19,21 @@ def _strip(rows):
 def test_study_writes_its_files_and_repeats_exactly(tmp_path):
     args = ["study", "reflex_only", "--sets", "2", "--trials", "2", "--workers", "1"]
     assert main([*args, "--out", str(tmp_path / "a")]) == 0
-    for name in ("trials.csv", "table1.md", "table1.json", "curves.png", "trajectories.png",
-                 "ghosts.png"):
+    for name in (
+        "trials.csv",
+        "table1.md",
+        "table1.json",
+        "curves.png",
+        "trajectories.png",
+        "ghosts.png",
+    ):
         assert (tmp_path / "a" / name).is_file(), name
     rows = read_trials_csv(tmp_path / "a" / "trials.csv")
     assert [(r["set"], r["trial"], r["seed"]) for r in rows] == [
-        (0, 1, 100), (0, 2, 100), (1, 1, 101), (1, 2, 101)
+        (0, 1, 100),
+        (0, 2, 100),
+        (1, 1, 101),
+        (1, 2, 101),
     ]
     table = json.loads((tmp_path / "a" / "table1.json").read_text())
     assert table["sets"] == 2 and table["optimum"]["steps"] == 25
@@ -38,8 +47,21 @@ def test_study_writes_its_files_and_repeats_exactly(tmp_path):
 
 def test_ablate_writes_summary_and_comparison(tmp_path, capsys):
     out = tmp_path / "abl"
-    code = main(["ablate", "--recipes", "reflex_only,paper_literal", "--sets", "1", "--trials",
-                 "2", "--workers", "1", "--out", str(out)])
+    code = main(
+        [
+            "ablate",
+            "--recipes",
+            "reflex_only,paper_literal",
+            "--sets",
+            "1",
+            "--trials",
+            "2",
+            "--workers",
+            "1",
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
     summary = json.loads((out / "summary.json").read_text())
     assert set(summary) >= {"reflex_only", "paper_literal", "_optimum"}
@@ -49,8 +71,24 @@ def test_ablate_writes_summary_and_comparison(tmp_path, capsys):
     assert (out / "paper_literal" / "table1.md").is_file()
     assert "| reflex_only | 1 × 2 |" in capsys.readouterr().out
     # re-running one recipe into the same folder keeps the others' rows
-    assert main(["ablate", "--recipes", "reflex_only", "--sets", "1", "--trials", "2",
-                 "--workers", "1", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "ablate",
+                "--recipes",
+                "reflex_only",
+                "--sets",
+                "1",
+                "--trials",
+                "2",
+                "--workers",
+                "1",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     again = json.loads((out / "summary.json").read_text())
     assert again["paper_literal"] == summary["paper_literal"]
     assert again["reflex_only"]["steps_last5"] == summary["reflex_only"]["steps_last5"]
@@ -108,7 +146,15 @@ def test_the_callers_work_runs_once_while_a_study_waits_on_its_workers(tmp_path,
 
     calls = []
     for _ in range(2):  # the second run finds every set kept in the folder
-        rows = run_sets("reflex_only", sets=3, trials=1, seed=40, workers=workers,
-                        progress=False, keep=tmp_path, while_waiting=lambda: calls.append(1))
+        rows = run_sets(
+            "reflex_only",
+            sets=3,
+            trials=1,
+            seed=40,
+            workers=workers,
+            progress=False,
+            keep=tmp_path,
+            while_waiting=lambda: calls.append(1),
+        )
         assert len(rows) == 3
     assert calls == [1, 1]

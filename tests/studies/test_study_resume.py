@@ -9,8 +9,16 @@ from symrl.studies.repeatability import run_study
 
 
 def _study(out, trials=1):
-    return run_study("paper_map", sets=2, trials=trials, seed=40, out=out, figures=False,
-                     starts=[(0.0, 0.5, 0.0)], progress=False)  # fmt: skip
+    return run_study(
+        "paper_map",
+        sets=2,
+        trials=trials,
+        seed=40,
+        out=out,
+        figures=False,
+        starts=[(0.0, 0.5, 0.0)],
+        progress=False,
+    )
 
 
 def test_finished_sets_are_kept_and_skipped(tmp_path, monkeypatch):

@@ -14,8 +14,12 @@ from symrl.cli import main
 from symrl.runs import read_trials_csv
 
 GRID = ["--recipes", "paper,reflex_only", "--seeds", "40-41", "--trials", "2"]
-RUNS = ["paper__hailu2001__s40", "paper__hailu2001__s41",
-        "reflex_only__hailu2001__s40", "reflex_only__hailu2001__s41"]  # fmt: skip
+RUNS = [
+    "paper__hailu2001__s40",
+    "paper__hailu2001__s41",
+    "reflex_only__hailu2001__s40",
+    "reflex_only__hailu2001__s41",
+]
 TWO_DOORS_FILE = str(Path(symrl.world.__file__).parent / "maps" / "two_doors.yaml")
 
 
@@ -39,11 +43,16 @@ def test_every_run_folder_and_the_merged_table(swept):
     assert "| reflex_only | hailu2001 | 2 | 2 |" in table
     data = json.loads((swept / "summary.json").read_text())
     assert [(r["recipe"], r["map"], r["seeds"]) for r in data["results"]] == [
-        ("paper", "hailu2001", [40, 41]), ("reflex_only", "hailu2001", [40, 41]),
-    ]  # fmt: skip
+        ("paper", "hailu2001", [40, 41]),
+        ("reflex_only", "hailu2001", [40, 41]),
+    ]
     for r in data["results"]:
-        assert {"steps_last5", "total_reinforcement_last5", "collisions_all_trials",
-                "success_last5"} <= set(r)  # fmt: skip
+        assert {
+            "steps_last5",
+            "total_reinforcement_last5",
+            "collisions_all_trials",
+            "success_last5",
+        } <= set(r)
         assert len(r["total_reinforcement_last5"]["ci95"]) == 2
 
 
@@ -90,8 +99,10 @@ def test_rerun_keeps_finished_runs(swept, monkeypatch, capsys):
         (["--recipes", "paper_map", "--seeds", "1", "--trials", "0"], "--trials 0"),
         (["--recipes", "paper_map", "--seeds", "1", "--workers", "0"], "--workers 0"),
         (["--recipes", "paper_map", "--seeds", "1", "update.nosuch=1"], "nosuch"),
-        (["--recipes", "paper_map", "--seeds", "1", "--maps", f"two_doors,{TWO_DOORS_FILE}"],
-         "share the folder"),
+        (
+            ["--recipes", "paper_map", "--seeds", "1", "--maps", f"two_doors,{TWO_DOORS_FILE}"],
+            "share the folder",
+        ),
     ],
 )
 def test_bad_inputs_are_one_line_errors(tmp_path, capsys, argv, message):
@@ -114,8 +125,17 @@ def test_ray_missing_is_one_line(tmp_path, capsys, monkeypatch):
         return real_import(name, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "__import__", no_ray)
-    argv = ["sweep", "--recipes", "paper_map", "--seeds", "1", "--backend", "ray",
-            "--out", str(tmp_path / "out")]  # fmt: skip
+    argv = [
+        "sweep",
+        "--recipes",
+        "paper_map",
+        "--seeds",
+        "1",
+        "--backend",
+        "ray",
+        "--out",
+        str(tmp_path / "out"),
+    ]
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err == 'symrl sweep: error: the ray backend needs Ray: pip install "symrl[ray]"'
@@ -129,8 +149,21 @@ def test_ray_backend_gives_the_local_tables(swept, tmp_path):
     "symrl[ray]"``)."""
     pytest.importorskip("ray")
     out = tmp_path / "ray"
-    argv = ["sweep", "--recipes", "reflex_only", "--seeds", "40-41", "--trials", "2",
-            "--backend", "ray", "--workers", "2", "--out", str(out)]  # fmt: skip
+    argv = [
+        "sweep",
+        "--recipes",
+        "reflex_only",
+        "--seeds",
+        "40-41",
+        "--trials",
+        "2",
+        "--backend",
+        "ray",
+        "--workers",
+        "2",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0
     for seed in (40, 41):
         name = f"reflex_only__hailu2001__s{seed}"

@@ -149,12 +149,23 @@ def test_a_pocket_with_wide_passages_is_cut_off_from_them():
     hall = np.array([[0, 0], [8, 0], [8, 6.3], [0, 6.3]], float)
     pocket = np.array([[3.0, 2.2, 5.5, 2.2], [3.0, 3.8, 5.5, 3.8], [5.5, 2.2, 5.5, 3.8]])
     found = auto_regions(hall, [], pocket)
-    world = load_map({"boundary": hall.tolist(), "segments": pocket.reshape(-1, 2, 2).tolist(),
-                      "start": {"x": 1.0, "y": 3.0}, "goal": {"x": 6.8, "y": 2.8, "radius": 0.4},
-                      "regions": found})  # fmt: skip
+    world = load_map(
+        {
+            "boundary": hall.tolist(),
+            "segments": pocket.reshape(-1, 2, 2).tolist(),
+            "start": {"x": 1.0, "y": 3.0},
+            "goal": {"x": 6.8, "y": 2.8, "radius": 0.4},
+            "regions": found,
+        }
+    )
     of = world.regions.region_of
-    west, inside, south, north, east = of(1.0, 3.0), of(4.2, 3.0), of(4.2, 1.0), of(4.2, 5.0), of(
-        6.8, 2.8)
+    west, inside, south, north, east = (
+        of(1.0, 3.0),
+        of(4.2, 3.0),
+        of(4.2, 1.0),
+        of(4.2, 5.0),
+        of(6.8, 2.8),
+    )
     assert len({west, inside, south, north, east}) == 5
     assert of(2.9, 0.3) == of(2.9, 6.0) == west  # the mouth's line x = 3 bounds the west room
     assert of(5.6, 0.3) == east  # and the back wall's x = 5.5 the east one, where the back
@@ -177,9 +188,15 @@ def test_a_pillar_is_cut_to_the_nearer_walls():
     pillar = np.array([[2.75, 1.75], [3.25, 1.75], [3.25, 2.25], [2.75, 2.25]])
     found = auto_regions(ROOM, [pillar], NO_WALLS)
     assert found == auto_regions(ROOM, [pillar], NO_WALLS)
-    world = load_map({"boundary": ROOM.tolist(), "obstacles": [pillar.tolist()],
-                      "start": {"x": 0.5, "y": 0.5}, "goal": {"x": 5.5, "y": 3.5, "radius": 0.3},
-                      "regions": found})  # fmt: skip
+    world = load_map(
+        {
+            "boundary": ROOM.tolist(),
+            "obstacles": [pillar.tolist()],
+            "start": {"x": 0.5, "y": 0.5},
+            "goal": {"x": 5.5, "y": 3.5, "radius": 0.3},
+            "regions": found,
+        }
+    )
     of = world.regions.region_of
     assert len({of(1.0, 2.0), of(5.0, 2.0), of(3.0, 0.5), of(3.0, 3.5)}) == 4
     # 4.25 m and 2.25 m from the walls (its corners are sharp: up to 5 m) it is still cut
@@ -233,8 +250,9 @@ def _random_map(seed: int) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
         shape = box(0, 0, _grid_value(rng, 2, 5), _grid_value(rng, 1.5, 3))
         for _ in range(rng.integers(1, 4)):
             x0, y0 = _grid_value(rng, 0, 6), _grid_value(rng, 0, 6)
-            part = box(x0, y0, round(x0 + _grid_value(rng, 1, 4), 1),
-                       round(y0 + _grid_value(rng, 1, 4), 1))  # fmt: skip
+            part = box(
+                x0, y0, round(x0 + _grid_value(rng, 1, 4), 1), round(y0 + _grid_value(rng, 1, 4), 1)
+            )
             if shape.intersection(part).area > 0.5:
                 shape = unary_union([shape, part])
         shape = shape.simplify(0)
@@ -244,8 +262,12 @@ def _random_map(seed: int) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
         inner = Polygon(boundary).buffer(-0.6)
         for _ in range(rng.integers(0, 3)):
             x0, y0 = _grid_value(rng, 0, 9), _grid_value(rng, 0, 9)
-            pillar = box(x0, y0, round(x0 + _grid_value(rng, 0.2, 1.0), 1),
-                         round(y0 + _grid_value(rng, 0.2, 1.0), 1))  # fmt: skip
+            pillar = box(
+                x0,
+                y0,
+                round(x0 + _grid_value(rng, 0.2, 1.0), 1),
+                round(y0 + _grid_value(rng, 0.2, 1.0), 1),
+            )
             if inner.contains(pillar) and not any(
                 Polygon(o).intersects(pillar.buffer(0.3)) for o in obstacles
             ):

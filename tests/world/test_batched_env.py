@@ -174,8 +174,7 @@ def test_step_and_maybe_reset_takes_torchrl_path_for_other_inputs():
     for extra in ({}, {"info": TensorDict({"a": torch.ones(3)}, batch_size=[3])}):
         a = TensorDict({**decisions, **extra}, batch_size=[3])
         b = TensorDict({k: v.clone() for k, v in {**decisions, **extra}.items()}, batch_size=[3])
-        for x, y in zip(ours.step_and_maybe_reset(a), generic.step_and_maybe_reset(b),
-                        strict=True):  # fmt: skip
+        for x, y in zip(ours.step_and_maybe_reset(a), generic.step_and_maybe_reset(b), strict=True):
             _assert_same(x, y)
 
 

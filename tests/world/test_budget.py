@@ -12,9 +12,12 @@ from symrl.world.worldmap import SUITES, builtin_maps, suite_maps
 
 
 def floor(width: float, height: float) -> dict:
-    return {"boundary": [[0, 0], [width, 0], [width, height], [0, height]],
-            "start": {"x": 1.0, "y": 1.0}, "goal": {"x": width - 1, "y": height - 1, "radius": 0.4},
-            "regions": {"names": ["all"], "lines": {}, "rules": [{"region": "all"}]}}  # fmt: skip
+    return {
+        "boundary": [[0, 0], [width, 0], [width, height], [0, height]],
+        "start": {"x": 1.0, "y": 1.0},
+        "goal": {"x": width - 1, "y": height - 1, "radius": 0.4},
+        "regions": {"names": ["all"], "lines": {}, "rules": [{"region": "all"}]},
+    }
 
 
 @pytest.mark.parametrize("name", builtin_maps() + [n for s in SUITES for n in suite_maps(s)])

@@ -44,11 +44,20 @@ def write_map(
     """The image, its map_server YAML and a symrl map naming it; returns the symrl map."""
     image = folder / f"room{suffix}"
     Image.fromarray(pixels).save(image)
-    doc = {"image": image.name, "resolution": RES, "origin": [0.0, 0.0, 0.0], "negate": 0,
-           "occupied_thresh": 0.65, "free_thresh": 0.196} | fields  # fmt: skip
+    doc = {
+        "image": image.name,
+        "resolution": RES,
+        "origin": [0.0, 0.0, 0.0],
+        "negate": 0,
+        "occupied_thresh": 0.65,
+        "free_thresh": 0.196,
+    } | fields
     (folder / "room_ros.yaml").write_text(yaml.safe_dump(doc))
-    world = {"occupancy": "room_ros.yaml", "start": {"x": start[0], "y": start[1]},
-             "goal": {"x": goal[0], "y": goal[1], "radius": 0.4}}  # fmt: skip
+    world = {
+        "occupancy": "room_ros.yaml",
+        "start": {"x": start[0], "y": start[1]},
+        "goal": {"x": goal[0], "y": goal[1], "radius": 0.4},
+    }
     path = folder / "world.yaml"
     path.write_text(yaml.safe_dump(world))
     return path
@@ -102,8 +111,11 @@ def test_raw_mode_reads_occupancy_values(tmp_path):
 
 def test_origin_and_yaw_place_the_walls(tmp_path):
     yaw = math.pi / 2  # the image's x axis points north
-    world = load_map(write_map(tmp_path, room_pixels(), origin=[10.0, -1.0, yaw],
-                               start=(8.0, 0.0), goal=(8.0, 4.0)))  # fmt: skip
+    world = load_map(
+        write_map(
+            tmp_path, room_pixels(), origin=[10.0, -1.0, yaw], start=(8.0, 0.0), goal=(8.0, 4.0)
+        )
+    )
     assert world.bounds == pytest.approx((10.0 - 3.6, 10.0 - 0.4, -0.6, 4.6), abs=1e-3)
 
 
@@ -169,12 +181,17 @@ def test_traced_walls_lie_within_one_cell_of_the_image(tmp_path_factory, w, h, p
     folder = tmp_path_factory.mktemp("room")
     write_map(folder, img, resolution=res)
     occ = read_occupancy(folder / "room_ros.yaml")
-    boundary, holes = trace_world(occ, (2.5 * res, 2.5 * res),
-                                  ((w + 1.5) * res, (h + 1.5) * res), "t")  # fmt: skip
+    boundary, holes = trace_world(
+        occ, (2.5 * res, 2.5 * res), ((w + 1.5) * res, (h + 1.5) * res), "t"
+    )
     traced = Polygon(boundary, [hole.tolist() for hole in holes])
     rows = img.shape[0]
-    truth = unary_union([box(c * res, (rows - 1 - r) * res, (c + 1) * res, (rows - r) * res)
-                         for r, c in zip(*np.nonzero(img == 254), strict=True)])  # fmt: skip
+    truth = unary_union(
+        [
+            box(c * res, (rows - 1 - r) * res, (c + 1) * res, (rows - r) * res)
+            for r, c in zip(*np.nonzero(img == 254), strict=True)
+        ]
+    )
     assert traced.hausdorff_distance(truth) <= res * 1.001
     assert abs(traced.area - truth.area) <= res * traced.length
 
@@ -194,9 +211,11 @@ def test_round_trip_keeps_the_optimum(tmp_path, name):
     """Every shipped world drawn at 5 cm and read back: the same optimum within one action."""
     world = load_map(name)
     save_occupancy(world, tmp_path / "ros.yaml", 0.05)
-    doc = {"occupancy": "ros.yaml",
-           "start": {"x": world.start.x, "y": world.start.y, "heading": world.start.heading},
-           "goal": {"x": world.goal.x, "y": world.goal.y, "radius": world.goal.radius}}  # fmt: skip
+    doc = {
+        "occupancy": "ros.yaml",
+        "start": {"x": world.start.x, "y": world.start.y, "heading": world.start.heading},
+        "goal": {"x": world.goal.x, "y": world.goal.y, "radius": world.goal.radius},
+    }
     (tmp_path / "world.yaml").write_text(yaml.safe_dump(doc))
     back = load_map(tmp_path / "world.yaml")
     assert abs(shortest_path(back).actions - shortest_path(world).actions) <= 1

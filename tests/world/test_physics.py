@@ -43,25 +43,49 @@ def gym_scenario(seed, pose=None, steps=300, **kwargs):
 SCALAR_MODEL = [
     (
         (0, None, {}),
-        (-820.2789809729668, 93192.33592744582, 242, 18, 0,
-         (3.136423151682569, -1.886543388127524, -0.9501890163110644)),
+        (
+            -820.2789809729668,
+            93192.33592744582,
+            242,
+            18,
+            0,
+            (3.136423151682569, -1.886543388127524, -0.9501890163110644),
+        ),
     ),
     (
         (1, NEAR_GOAL, {}),
-        (-198.4740116211003, 25270.308278638506, 18, 19, 16,
-         (3.8991512749684007, -0.7015978089291971, -1.6508103963664136)),
+        (
+            -198.4740116211003,
+            25270.308278638506,
+            18,
+            19,
+            16,
+            (3.8991512749684007, -0.7015978089291971, -1.6508103963664136),
+        ),
     ),
     (
         (2, NEAR_GOAL, {"robot": {"sonar_cone_deg": 25.0}}),
-        (-222.26159715691352, 23268.129041579497, 21, 25, 16,
-         (4.671729873332915, -0.11375271969438533, -1.6408055726675965)),
+        (
+            -222.26159715691352,
+            23268.129041579497,
+            21,
+            25,
+            16,
+            (4.671729873332915, -0.11375271969438533, -1.6408055726675965),
+        ),
     ),
     (
         (3, None, {"noise": False}),
-        (-823.1986771720264, 95043.24665533206, 243, 18, 0,
-         (3.1637665626869405, -1.4908634979311448, -0.4404662810266018)),
+        (
+            -823.1986771720264,
+            95043.24665533206,
+            243,
+            18,
+            0,
+            (3.1637665626869405, -1.4908634979311448, -0.4404662810266018),
+        ),
     ),
-]  # fmt: skip
+]
 
 
 @pytest.mark.parametrize(("args", "expected"), SCALAR_MODEL)
@@ -118,9 +142,11 @@ def test_a_robot_is_bitwise_the_same_alone_or_at_position_3_of_7(robot):
         RobotBatch(WORLD, robot, 7, max_actions=60), seeds, starts, actions
     )
     one, one_rows = drive_rows(
-        RobotBatch(WORLD, robot, 1, max_actions=60), seeds[b : b + 1], starts[b : b + 1],
+        RobotBatch(WORLD, robot, 1, max_actions=60),
+        seeds[b : b + 1],
+        starts[b : b + 1],
         actions[:, b : b + 1],
-    )  # fmt: skip
+    )
     alone = row(one, 0, one_rows)
     in_batch = row(many, b, many_rows)
     assert alone == in_batch
@@ -148,9 +174,11 @@ def test_b_invariance_for_any_batch_size_and_position(size, data, seed, noise):
         RobotBatch(WORLD, RobotConfig(), size, noise, 15), seeds, starts, actions
     )
     one, one_rows = drive_rows(
-        RobotBatch(WORLD, RobotConfig(), 1, noise, 15), [seeds[b]], starts[b : b + 1],
+        RobotBatch(WORLD, RobotConfig(), 1, noise, 15),
+        [seeds[b]],
+        starts[b : b + 1],
         actions[:, b : b + 1],
-    )  # fmt: skip
+    )
     assert row(one, 0, one_rows) == row(many, b, many_rows)
 
 

@@ -19,8 +19,11 @@ from symrl.world.spatial import CellWalls, free_sides, walls_for
 
 def hall(k: int = 9, thin: bool = True) -> dict:
     """A 12 m x 9 m hall with a k x 3 grid of pillars, an inner wall with a door, thin walls."""
-    pillars = [box(1.5 + 1.2 * i, 2.0 + 2.0 * j, 1.8 + 1.2 * i, 2.3 + 2.0 * j)
-               for i in range(k) for j in range(3)]  # fmt: skip
+    pillars = [
+        box(1.5 + 1.2 * i, 2.0 + 2.0 * j, 1.8 + 1.2 * i, 2.3 + 2.0 * j)
+        for i in range(k)
+        for j in range(3)
+    ]
     room = box(0, 0, 12, 9).difference(box(6.0, 7.5, 6.2, 9.0))  # a wall stub from the north
     free = room.difference(unary_union(pillars))
     doc = {
@@ -54,14 +57,17 @@ def test_free_sides_point_into_the_free_area(world):
     probe = mid + 1e-3 * normal * np.where(sides == 0, 1, sides)[:, None]
     free = Polygon(world.boundary, [p.tolist() for p in world.obstacles])
     polygon_edges = sides != 0
-    inside = np.array([free.contains(Polygon(box(x - 1e-9, y - 1e-9, x + 1e-9, y + 1e-9)))
-                       for x, y in probe])  # fmt: skip
+    inside = np.array(
+        [free.contains(Polygon(box(x - 1e-9, y - 1e-9, x + 1e-9, y + 1e-9))) for x, y in probe]
+    )
     assert inside[polygon_edges].all()
 
 
 @settings(max_examples=60, deadline=None)
 @given(
-    x=st.floats(0.3, 11.7), y=st.floats(0.3, 8.7), h=st.floats(-math.pi, math.pi),
+    x=st.floats(0.3, 11.7),
+    y=st.floats(0.3, 8.7),
+    h=st.floats(-math.pi, math.pi),
 )
 def test_the_index_answers_as_the_plain_walls(world, index, x, y, h):
     if not world.in_free_area(x, y):
@@ -78,7 +84,8 @@ def test_the_index_answers_as_the_plain_walls(world, index, x, y, h):
         x1, y1 = x + 0.2 * math.cos(a), y + 0.2 * math.sin(a)
         c1 = index.all.point_clearance(x1, y1)
         assert index.swept_disc_contact(x, y, x1, y1, 0.26, clear0, c1) == (
-            index.all.swept_disc_contact(x, y, x1, y1, 0.26, clear0, c1))
+            index.all.swept_disc_contact(x, y, x1, y1, 0.26, clear0, c1)
+        )
 
 
 def test_cells_keep_fewer_walls_than_reach(world, index):

@@ -294,12 +294,16 @@ def test_regions_of_many_points_equals_region_of_each(name):
     lines = [c.threshold for rule in world.regions.rules for c in rule.conditions]
     x[: len(lines)] = lines  # points on the region lines themselves
     y[len(lines) : 2 * len(lines)] = lines
+
     def first_match(p: tuple[float, float]) -> str:  # the rules read literally, one point
         return next(
-            rule.region for rule in world.regions.rules
-            if all(p[c.axis] > c.threshold if c.greater else p[c.axis] < c.threshold
-                   for c in rule.conditions)
-        )  # fmt: skip
+            rule.region
+            for rule in world.regions.rules
+            if all(
+                p[c.axis] > c.threshold if c.greater else p[c.axis] < c.threshold
+                for c in rule.conditions
+            )
+        )
 
     expected = [first_match((float(a), float(b))) for a, b in zip(x, y, strict=True)]
     assert world.regions.regions_of(x, y) == expected

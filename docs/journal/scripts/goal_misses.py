@@ -56,8 +56,11 @@ def main() -> None:
     for name in args.maps.split(","):
         variants = (("odometry as shipped", []), ("perfect odometry", [PERFECT]))
         for label, extra in variants:
-            print(f"{name}, {label}: last 5 trials of {args.sets} sets:",
-                  dict(misses(name, args.sets, args.seed, extra)), flush=True)  # fmt: skip
+            print(
+                f"{name}, {label}: last 5 trials of {args.sets} sets:",
+                dict(misses(name, args.sets, args.seed, extra)),
+                flush=True,
+            )
     for name in args.drift_maps.split(","):
         errors, lengths = [], []
         for s in range(args.seed, args.seed + args.drives):
@@ -66,9 +69,11 @@ def main() -> None:
             errors.append(float(np.hypot(*(true - odo))))
             lengths.append(r["path_length"])
         e = np.array(errors)
-        print(f"{name}, reflex alone, {args.drives} drives: path {np.mean(lengths):.1f} m, "
-              f"odometry error at the end {e.mean():.2f} m mean, {e.max():.2f} m max, "
-              f"above 0.4 m in {(e > 0.4).sum()}")  # fmt: skip
+        print(
+            f"{name}, reflex alone, {args.drives} drives: path {np.mean(lengths):.1f} m, "
+            f"odometry error at the end {e.mean():.2f} m mean, {e.max():.2f} m max, "
+            f"above 0.4 m in {(e > 0.4).sum()}"
+        )
 
 
 if __name__ == "__main__":

@@ -28,9 +28,13 @@ VARIANTS = {
     "crossing map off": ["crossings.enabled=false"],
     "option critic off": ["option_critic.epsilon=0", "option_critic.try_untried=false"],
     "experts off": ["experts.learning=false"],
-    "all three off": ["crossings.enabled=false", "option_critic.epsilon=0",
-                      "option_critic.try_untried=false", "experts.learning=false"],
-}  # fmt: skip
+    "all three off": [
+        "crossings.enabled=false",
+        "option_critic.epsilon=0",
+        "option_critic.try_untried=false",
+        "experts.learning=false",
+    ],
+}
 
 
 def main() -> None:
@@ -48,8 +52,14 @@ def main() -> None:
         best = optimum(world)["steps"]
         full = None
         for name, overrides in VARIANTS.items():
-            sets = run_sets("paper", args.sets, args.trials, args.seed,
-                            [f"env.map={world}", *overrides], progress=False)  # fmt: skip
+            sets = run_sets(
+                "paper",
+                args.sets,
+                args.trials,
+                args.seed,
+                [f"env.map={world}", *overrides],
+                progress=False,
+            )
             rows = [r for s in sets for r in s.rows]
             total = curves(rows, "total_reinforcement")[:, -LAST:].mean(axis=1)  # per set
             steps = curves(rows, "steps")[:, -LAST:].mean()
@@ -58,12 +68,15 @@ def main() -> None:
             else:
                 d = full - total
                 delta = f"{d.mean():+.2f} ± {d.std(ddof=1) / np.sqrt(len(d)):.2f}"
-            lines.append(f"| `{world}` | {name} | {total.mean():.2f} | {delta} "
-                         f"| {steps / best:.2f} |")  # fmt: skip
+            lines.append(
+                f"| `{world}` | {name} | {total.mean():.2f} | {delta} | {steps / best:.2f} |"
+            )
             print(lines[-1], flush=True)
     print()
-    print(f"{args.sets} sets x {args.trials} trials, seeds {args.seed}-"
-          f"{args.seed + args.sets - 1}, noise on")
+    print(
+        f"{args.sets} sets x {args.trials} trials, seeds {args.seed}-"
+        f"{args.seed + args.sets - 1}, noise on"
+    )
     print("\n".join(lines))
 
 

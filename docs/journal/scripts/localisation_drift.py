@@ -38,9 +38,12 @@ def drift(name: str, drives: int, seed: int) -> dict[str, np.ndarray]:
     start = np.tile([world.start.x, world.start.y, world.start.heading], (drives, 1))
     r = physics.reset(np.arange(drives), start, rngs)
     lc = config.localize
-    tracker = PoseTracker(MapLocalizer(physics.walls, robot, lc.iterations, lc.prior_xy,
-                                       lc.prior_heading, max_move=lc.max_move),
-                          drives)  # fmt: skip
+    tracker = PoseTracker(
+        MapLocalizer(
+            physics.walls, robot, lc.iterations, lc.prior_xy, lc.prior_heading, max_move=lc.max_move
+        ),
+        drives,
+    )
     reflex, shield = FuzzyReflex(config.reflex), IRShield(ShieldConfig(), robot)
     true, odometry, belief, alive = [], [], [], []
     driving = np.ones(drives, dtype=bool)
@@ -68,9 +71,11 @@ def summary(name: str, d: dict[str, np.ndarray]) -> str:
         return e[alive], e[last, np.arange(e.shape[1])]
 
     (_, odo_end), (bel, bel_end) = err("odometry"), err("belief")
-    return (f"| `{name}` | {alive.sum(0).mean():.1f} | {odo_end.mean():.3f} | {odo_end.max():.3f} "
-            f"| {bel.mean() * 1000:.1f} | {np.quantile(bel, 0.99) * 1000:.1f} "
-            f"| {bel.max() * 1000:.1f} | {bel_end.mean() * 1000:.1f} |")  # fmt: skip
+    return (
+        f"| `{name}` | {alive.sum(0).mean():.1f} | {odo_end.mean():.3f} | {odo_end.max():.3f} "
+        f"| {bel.mean() * 1000:.1f} | {np.quantile(bel, 0.99) * 1000:.1f} "
+        f"| {bel.max() * 1000:.1f} | {bel_end.mean() * 1000:.1f} |"
+    )
 
 
 def figure(runs: dict[str, dict[str, np.ndarray]], path: str) -> None:
@@ -91,12 +96,20 @@ def figure(runs: dict[str, dict[str, np.ndarray]], path: str) -> None:
         arrived = ends < len(d["alive"])
         b = int(np.argmax(np.where(arrived, drift, -1.0) if arrived.any() else drift))
         n = int(ends[b])
-        for key, color, label in (("true", "black", "true path"),
-                                  ("odometry", "tab:red", "odometry"),
-                                  ("belief", "tab:blue", "map localisation")):  # fmt: skip
+        for key, color, label in (
+            ("true", "black", "true path"),
+            ("odometry", "tab:red", "odometry"),
+            ("belief", "tab:blue", "map localisation"),
+        ):
             xy = d[key][:n, b, :2]
-            ax.plot(xy[:, 0], xy[:, 1], color=color, lw=1.2, label=label,
-                    ls="--" if key == "belief" else "-")  # fmt: skip
+            ax.plot(
+                xy[:, 0],
+                xy[:, 1],
+                color=color,
+                lw=1.2,
+                label=label,
+                ls="--" if key == "belief" else "-",
+            )
         ax.plot(*d["true"][0, b, :2], "o", mfc="white", mec="black", label="start")
         ax.set_title(f"{name}: {n} actions, odometry {drift[b]:.2f} m off at the end", fontsize=9)
         ax.set_aspect("equal")
@@ -115,10 +128,14 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(1)
     runs = {name: drift(name, args.drives, args.seed) for name in args.maps.split(",")}
-    print(f"{args.drives} drives per map of the shielded reflex, noise seeds {args.seed}-"
-          f"{args.seed + args.drives - 1}; position errors against the true pose")  # fmt: skip
-    print("| world | actions | odometry at the end, mean (m) | max (m) "
-          "| belief, every step: mean (mm) | 99 % (mm) | max (mm) | belief at the end (mm) |")
+    print(
+        f"{args.drives} drives per map of the shielded reflex, noise seeds {args.seed}-"
+        f"{args.seed + args.drives - 1}; position errors against the true pose"
+    )
+    print(
+        "| world | actions | odometry at the end, mean (m) | max (m) "
+        "| belief, every step: mean (mm) | 99 % (mm) | max (mm) | belief at the end (mm) |"
+    )
     print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for name, d in runs.items():
         print(summary(name, d))

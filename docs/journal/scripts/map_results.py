@@ -30,7 +30,13 @@ from symrl.world import load_map
 from symrl.world.worldmap import SUITES, builtin_maps, suite_maps
 
 MAPS = (
-    "hailu2001", "hailu2001_mirror", "two_doors", "two_door_room", "office", "l_corridor", "maze",
+    "hailu2001",
+    "hailu2001_mirror",
+    "two_doors",
+    "two_door_room",
+    "office",
+    "l_corridor",
+    "maze",
     "dead_end",
 )
 
@@ -67,11 +73,16 @@ def row(world: str, variant: str, rows: list[dict], opt: dict, wall: float) -> s
     for r in rows:
         by_set.setdefault(int(r["set"]), []).append(r)
     tail_coll = np.mean(
-        [np.mean([float(r["collisions"]) for r in sorted(v, key=lambda r: r["trial"])[-LAST:]])
-         for v in by_set.values()]
+        [
+            np.mean([float(r["collisions"]) for r in sorted(v, key=lambda r: r["trial"])[-LAST:]])
+            for v in by_set.values()
+        ]
     )
-    st, tr, co = s[f"steps_last{LAST}"], s[f"total_reinforcement_last{LAST}"], \
-        s["collisions_all_trials"]
+    st, tr, co = (
+        s[f"steps_last{LAST}"],
+        s[f"total_reinforcement_last{LAST}"],
+        s["collisions_all_trials"],
+    )
     late = [r for r in rows if int(r["trial"]) >= FAILED_FROM]  # the target: none fails
     failed = sum(not bool(r["reached_goal"]) for r in late)
     return (
@@ -89,8 +100,12 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=100)
     ap.add_argument("--maps", default=",".join(MAPS), help="built-in names or map file paths")
     ap.add_argument("--variants", default=",".join(VARIANTS), help="of reflex, hand, auto")
-    ap.add_argument("overrides", nargs="*", metavar="KEY=VALUE",
-                    help="config overrides for every run (as after a recipe: options.reach=0.3)")
+    ap.add_argument(
+        "overrides",
+        nargs="*",
+        metavar="KEY=VALUE",
+        help="config overrides for every run (as after a recipe: options.reach=0.3)",
+    )
     args = ap.parse_args()
     maps = [m.strip() for m in args.maps.split(",") if m.strip()]
     shipped = builtin_maps() + [n for s in SUITES for n in suite_maps(s)]
@@ -117,14 +132,17 @@ def main() -> None:
                 world = str(auto_copy(name, Path(tmp))) if auto else name
                 t0 = time.perf_counter()
                 overrides = [f"env.map={world}", *args.overrides]
-                sets = run_sets(recipe, args.sets, args.trials, args.seed, overrides,
-                                progress=False)  # fmt: skip
+                sets = run_sets(
+                    recipe, args.sets, args.trials, args.seed, overrides, progress=False
+                )
                 rows = [r for s in sets for r in s.rows]
                 lines.append(row(title, label, rows, opt, time.perf_counter() - t0))
                 print(lines[-1], flush=True)
     print()
-    print(f"{args.sets} sets x {args.trials} trials, seeds {args.seed}-"
-          f"{args.seed + args.sets - 1}, noise on")
+    print(
+        f"{args.sets} sets x {args.trials} trials, seeds {args.seed}-"
+        f"{args.seed + args.sets - 1}, noise on"
+    )
     print("\n".join(lines))
 
 

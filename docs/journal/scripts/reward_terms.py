@@ -42,8 +42,15 @@ def main() -> None:
     trials: dict[int, list[tuple[float, ...]]] = {b: [] for b in range(args.sets)}
 
     def on_trial(b: int, record: dict[str, Any], policy: Any) -> None:
-        trials[b].append((record["total_reinforcement"], sums["f1"][b], sums["f2"][b],
-                          sums["near"][b], record["steps"]))  # fmt: skip
+        trials[b].append(
+            (
+                record["total_reinforcement"],
+                sums["f1"][b],
+                sums["f2"][b],
+                sums["near"][b],
+                record["steps"],
+            )
+        )
         for value in sums.values():
             value[b] = 0.0
 

@@ -58,12 +58,18 @@ def turned_map(name: str, turns: int) -> dict[str, Any]:
     for key in ("start", "goal"):
         x, y = _turn([doc[key]["x"], doc[key]["y"]], turns)
         doc[key] = {**doc[key], "x": x, "y": y}
-    doc["start"]["heading"] = round(float(doc["start"].get("heading", 0.0))
-                                    + turns * math.pi / 2, 9)  # fmt: skip
+    doc["start"]["heading"] = round(
+        float(doc["start"].get("heading", 0.0)) + turns * math.pi / 2, 9
+    )
     if doc.get("starts"):
-        doc["starts"] = [{**s, **dict(zip("xy", _turn([s["x"], s["y"]], turns), strict=True)),
-                          "heading": round(float(s.get("heading", 0.0)) + turns * math.pi / 2, 9)}
-                         for s in doc["starts"]]  # fmt: skip
+        doc["starts"] = [
+            {
+                **s,
+                **dict(zip("xy", _turn([s["x"], s["y"]], turns), strict=True)),
+                "heading": round(float(s.get("heading", 0.0)) + turns * math.pi / 2, 9),
+            }
+            for s in doc["starts"]
+        ]
     if isinstance(doc.get("regions"), dict):
         doc["regions"] = _turn_regions(doc["regions"], turns)
     return doc

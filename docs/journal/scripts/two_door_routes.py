@@ -46,14 +46,17 @@ def main() -> None:
         auto = str(auto_copy("two_door_room", Path(tmp)))
         for label, world in (("hand regions", "two_door_room"), ("regions: auto", auto)):
             config = resolve_config("paper_map", [f"env.map={world}", "run.trials=20"])
-            results = train_batch(config, list(range(args.seed, args.seed + args.sets)),
-                                  progress=False)  # fmt: skip
+            results = train_batch(
+                config, list(range(args.seed, args.seed + args.sets)), progress=False
+            )
             steps: dict[str, list[int]] = defaultdict(list)
             for r in results:
                 for t in r.trials[-5:]:
                     steps[door(np.asarray(t["path"]))].append(int(t["steps"]))
-            summary = ", ".join(f"{d} door {len(v)} trials, {np.mean(v):.1f} actions"
-                                for d, v in sorted(steps.items()))  # fmt: skip
+            summary = ", ".join(
+                f"{d} door {len(v)} trials, {np.mean(v):.1f} actions"
+                for d, v in sorted(steps.items())
+            )
             print(f"two_door_room, {label}, last 5 trials of {args.sets} sets: {summary}")
 
 

@@ -33,8 +33,7 @@ def check_finite(sonar: np.ndarray, goal_angle: np.ndarray) -> None:
 def memberships(a: dict[str, Any], sonar_range: float, s: np.ndarray) -> np.ndarray:
     """NEAR of every sector ``(B, S)`` from float64 sonars ``(B, n)`` (``a``: :func:`arrays`)."""
     sector = s[:, a["rays"]].reshape(len(s), *a["rays_shape"]).min(axis=-1)
-    return np.minimum(np.maximum((a["b"] - sector * sonar_range)
-                                 / a["b_minus_a"], 0.0), 1.0)  # fmt: skip
+    return np.minimum(np.maximum((a["b"] - sector * sonar_range) / a["b_minus_a"], 0.0), 1.0)
 
 
 def from_memberships(
