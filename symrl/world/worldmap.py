@@ -74,10 +74,10 @@ _UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG,
 
 MAX_PLAN_CORNERS = 1000
 """Most wall corners (polygon vertices, two per thin wall) a map the planner and the sub-goal
-table work on may have: their time grows with its square or faster (a 200-corner ring: 3.5 s,
-500: 20 s, ``benchmarks/big_maps.py``; a 30 m x 50 m office floor of 400 corners: 21-28 s,
-640: 65 s, ``benchmarks/bench_big_maps.py``): a building floor of up to a thousand corners is
-prepared in minutes, not hours."""
+table work on may have: their time grows faster than the corners (the planner, asking only the
+walls near each query: a 30 m x 50 m office floor of 400 corners about 5.5 s, 640 about 15 s,
+``benchmarks/bench_big_maps.py``): a building floor of up to a thousand corners is prepared in
+a minute or so, not hours."""
 MAX_PLAN_AREA = 250_000.0
 """Largest bounding box (m^2) of a map the sub-goal table works on: its look-out grid (one
 point per 0.2 m) grows with the area (a 400 m square: 1 s and 0.5 GB; 2 km: 32 s and 3.5 GB)."""
