@@ -1,4 +1,5 @@
-"""The one study runner: N sets of a recipe as batches of robots, plus the statistics over sets.
+"""The one study runner: N sets of a recipe as batches of robots, trained and driven from
+other starts.
 
 Set k of a study is robot k of a batched training loop seeded ``seed + k`` (``symrl.train``), so
 it is the same run as ``symrl train RECIPE --seed SEED+k`` alone, whatever the batch size or the
@@ -7,22 +8,36 @@ process (None, the CLI's default: one per CPU core). Workers are forked where th
 allows (Linux), so they start with torch, tensordict and torchrl already imported (a spawned
 worker imports them again: 2-4 s each); with one core per worker a split study then trains
 in about 1/``workers`` of the time, less the smaller batches' dearer steps.
+
+The statistics over sets (:mod:`symrl.studies.stats`), a set's keeping on disk
+(:mod:`symrl.studies.sets`) and the worker pool (:mod:`symrl.studies.workers`) have modules of
+their own; their names used with the runner are importable from here too.
 """
 
 from __future__ import annotations
 
-import functools
 import os
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import RunConfig, config_from_dict, config_to_dict, load_config
+from symrl.studies.sets import SetResult, load_set, save_set
+from symrl.studies.stats import (
+    LAST,
+    curves,
+    last_trial_rows,
+    mean_std,
+    optimum,
+    start_summary,
+    summarise,
+    table1,
+)
+from symrl.studies.workers import count_trial, fork_context, run_jobs, worker_pool
 
 __all__ = [
     "SetResult",
@@ -42,27 +57,7 @@ __all__ = [
     "LAST",
 ]
 
-LAST = 5
-"""Trials at the end of a set that its summary averages over."""
 _SKIP = ("path", "ghosts")
-
-
-@dataclass
-class SetResult:
-    """One set (one robot of a training batch): its trial rows, chosen paths and controller."""
-
-    index: int
-    seed: int
-    rows: list[dict[str, Any]]
-    paths: dict[int, list[list[float]]] = field(default_factory=dict)
-    """Trial number -> true path, for the first, first successful and final trials."""
-    ghosts: dict[int, list[list[float]]] = field(default_factory=dict)
-    evaluations: list[dict[str, Any]] = field(default_factory=list)
-    """Greedy runs of the final controller from other start poses (with their paths)."""
-    controller: dict[str, Any] = field(default_factory=dict)
-    """The final controller's state dict (loads into a one-robot policy)."""
-    timings: dict[str, float] = field(default_factory=dict)
-    """Of the training batch this set ran in (shared by the sets of that batch)."""
 
 
 def resolve_config(recipe: str | RunConfig, overrides: Sequence[str] = ()) -> RunConfig:
@@ -212,7 +207,7 @@ def _run_batch(
             s.evaluations.append(ev)
     if keeper is not None:  # each set kept as set-K.pt, then the batch's state is not needed
         for s in out:
-            _save_set(kept_in, s, config_data, starts)
+            save_set(kept_in, s, config_data, starts)
         keeper.done()
     return out
 
@@ -249,7 +244,7 @@ def run_sets(
     data = config_to_dict(config)
     done: dict[int, SetResult] = {}
     if keep is not None:
-        done = {k: s for k in range(sets) if (s := _load_set(keep, k, data, starts)) is not None}
+        done = {k: s for k in range(sets) if (s := load_set(keep, k, data, starts)) is not None}
     todo = np.array([k for k in range(sets) if k not in done], dtype=np.int64)
     waiting = [while_waiting] if while_waiting is not None else []
     if len(todo) == 0:
@@ -270,17 +265,32 @@ def run_sets(
         finished(_run_batch(*jobs[0][:4], progress=progress, kept_in=keep))
         for fn in waiting:
             _while_saying("the table's yardstick (the map's optimum)", fn, progress)
-        _drop_batch_states(keep)
-        return [done[k] for k in range(sets)]
+    else:
+        label = f"{config.recipe} x{len(todo)} ({len(jobs)} workers)"
+        _run_in_workers(jobs, label, len(todo) * trials, progress, waiting, finished)
+    _drop_batch_states(keep)
+    return [done[k] for k in range(sets)]
+
+
+def _run_in_workers(
+    jobs: list[tuple[Any, ...]],
+    label: str,
+    total: int,
+    progress: bool,
+    waiting: list[Callable[[], Any]],
+    finished: Callable[[list[SetResult]], Any],
+) -> None:
+    """The batches ``jobs`` of :func:`run_sets`, one per worker process: each finished batch
+    handed to ``finished`` as soon as it is done, the caller's ``waiting`` work done once a
+    worker is free, and a bar of ``total`` trials counted by the workers as they finish."""
     import queue
     from concurrent.futures import FIRST_COMPLETED, wait
 
     import torch
     from tqdm.auto import tqdm
 
-    label = f"{config.recipe} x{len(todo)} ({len(jobs)} workers)"
-    bar = tqdm(total=len(todo) * trials, desc=label, unit="trial", disable=not progress)
-    trials_done = _fork_context().Queue() if progress else None
+    bar = tqdm(total=total, desc=label, unit="trial", disable=not progress)
+    trials_done = fork_context().Queue() if progress else None
     try:
         with worker_pool(len(jobs), trials_done) as pool:
             pending = {pool.submit(_run_batch_in_worker, *job) for job in jobs}
@@ -311,8 +321,6 @@ def run_sets(
         bar.close()
         if trials_done is not None:
             trials_done.close()
-    _drop_batch_states(keep)
-    return [done[k] for k in range(sets)]
 
 
 def _while_saying(what: str, fn: Callable[[], Any], say: bool) -> None:
@@ -352,280 +360,8 @@ def _run_batch_in_worker(
     (beyond the usual limit on open files). Each finished trial is counted on the pool's
     progress queue, if it has one."""
     batch = _run_batch(
-        config_data, indices, seeds, starts, False, on_trial=_count_trial, kept_in=keep
+        config_data, indices, seeds, starts, False, on_trial=count_trial, kept_in=keep
     )
     for r in batch:
         r.controller = {k: v.numpy() for k, v in r.controller.items()}
     return batch
-
-
-def _set_settings(data: dict[str, Any], index: int, starts: Sequence[Any]) -> dict[str, Any]:
-    return {"config": data, "set": int(index), "starts": [[float(v) for v in s] for s in starts]}
-
-
-def _save_set(folder: str | os.PathLike, s: SetResult, data: dict[str, Any], starts) -> None:
-    import dataclasses
-    from pathlib import Path
-
-    from symrl.runs import _atomic_save
-
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    # the fields as they are (dataclasses.asdict deep-copies every row first: a third of the
-    # save, for a record that is pickled and dropped)
-    fields = {f.name: getattr(s, f.name) for f in dataclasses.fields(s)}
-    record = {"settings": _set_settings(data, s.index, starts), "set": fields}
-    _atomic_save(record, folder / f"set-{s.index:03d}.pt")
-
-
-def _load_set(folder, index: int, data: dict[str, Any], starts) -> SetResult | None:
-    """Set ``index`` as saved in ``folder`` if it was run with these settings, else None."""
-    from pathlib import Path
-
-    import torch
-
-    path = Path(folder) / f"set-{index:03d}.pt"
-    if not path.is_file():
-        return None
-    try:
-        record = torch.load(path, map_location="cpu", weights_only=True)
-        if record.get("settings") != _set_settings(data, index, starts):
-            return None
-        fields = dict(record["set"])
-        fields["paths"] = {int(k): v for k, v in fields["paths"].items()}
-        fields["ghosts"] = {int(k): v for k, v in fields["ghosts"].items()}
-        return SetResult(**fields)
-    except Exception:  # noqa: BLE001 - an unreadable or foreign file: run the set again
-        return None
-
-
-_TRIALS_DONE: Any = None
-"""In a worker process: the queue its finished trials are counted on (None: not counted)."""
-
-
-def _count_trial(*_: Any) -> None:
-    if _TRIALS_DONE is not None:
-        _TRIALS_DONE.put(1)
-
-
-def _die_with_parent() -> None:
-    """A worker ends when the command's process dies, even by ``kill -9`` (Linux: the parent
-    death signal), instead of training on into a folder no process holds any more."""
-    import ctypes
-    import signal
-    import sys
-
-    if not sys.platform.startswith("linux"):
-        return
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # pragma: no cover - no prctl: the worker may outlive it
-        return
-    if os.getppid() == 1:  # the parent died before the signal was set
-        os._exit(1)
-
-
-def _init_worker(trials_done: Any = None) -> None:
-    import torch
-
-    _die_with_parent()
-    global _TRIALS_DONE
-    _TRIALS_DONE = trials_done
-    torch.set_num_threads(1)  # one core per worker; and a forked child must not reuse the
-    # parent's OpenMP pool (torch's DataLoader workers do the same)
-
-
-def _fork_context() -> Any:
-    """Fork on Linux: a fork inherits the imported modules, where a spawned worker spends
-    2-4 s importing torch, tensordict and torchrl again (more than a 10-set study trains).
-    Spawn elsewhere (macOS and Windows do not fork safely)."""
-    import multiprocessing
-    import sys
-
-    return multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
-
-
-def worker_pool(workers: int, trials_done: Any = None) -> Any:
-    """A ``ProcessPoolExecutor`` of ``workers`` processes with one torch thread each (forked
-    where the platform allows, see ``_fork_context``); ``trials_done``: a queue of that context
-    on which the workers of :func:`run_sets` count their finished trials (the progress bar)."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    return ProcessPoolExecutor(
-        workers, mp_context=_fork_context(), initializer=_init_worker, initargs=(trials_done,)
-    )
-
-
-def run_jobs(
-    fn: Any, jobs: Sequence[dict[str, Any]], workers: int | None = 1, desc: str = "jobs"
-) -> list[Any]:
-    """``fn(**job)`` for every job, in ``workers`` processes (1: here; see ``worker_pool``),
-    in job order (for runs that are not batches of robots, e.g. the PPO baseline)."""
-    from concurrent.futures import as_completed
-
-    from tqdm.auto import tqdm
-
-    workers = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
-    results: list[Any] = [None] * len(jobs)
-    bar = tqdm(total=len(jobs), desc=desc, unit="run")
-    if workers == 1:
-        for i, job in enumerate(jobs):
-            results[i] = fn(**job)
-            bar.update()
-    else:
-        with worker_pool(workers) as pool:
-            futures = {pool.submit(fn, **job): i for i, job in enumerate(jobs)}
-            for fut in as_completed(futures):
-                results[futures[fut]] = fut.result()
-                bar.update()
-    bar.close()
-    return results
-
-
-# --- statistics over sets ------------------------------------------------------------------
-
-
-def last_trial_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The row of the last trial of every set (sets in increasing order)."""
-    last: dict[int, dict[str, Any]] = {}
-    for row in rows:
-        s = int(row["set"])
-        if s not in last or int(row["trial"]) > int(last[s]["trial"]):
-            last[s] = row
-    return [last[s] for s in sorted(last)]
-
-
-def table1(
-    rows: Sequence[dict[str, Any]],
-    keys: Sequence[str] = (
-        "neurons",
-        "steps",
-        "total_reinforcement",
-        "collisions",
-        "reached_goal",
-        "path_length",
-    ),
-) -> dict[str, Any]:
-    """Mean, sample variance (ddof 1), min and max over sets of each key at the last trial."""
-    if not rows:
-        raise ValueError("table1: no trial rows")
-    last = last_trial_rows(rows)
-    out: dict[str, Any] = {"sets": len(last), "trial": int(last[0]["trial"])}
-    for key in keys:
-        if key not in last[0]:
-            continue
-        v = np.array([float(r[key]) for r in last])
-        out[key] = {
-            "mean": float(v.mean()),
-            "variance": float(v.var(ddof=1)) if len(v) > 1 else float("nan"),
-            "min": float(v.min()),
-            "max": float(v.max()),
-        }
-    return out
-
-
-def curves(rows: Sequence[dict[str, Any]], key: str) -> np.ndarray:
-    """(sets, trials) array of ``key`` (NaN where a set has fewer trials)."""
-    sets = sorted({int(r["set"]) for r in rows})
-    trials = sorted({int(r["trial"]) for r in rows})
-    col = {t: j for j, t in enumerate(trials)}
-    row = {s: i for i, s in enumerate(sets)}
-    out = np.full((len(sets), len(trials)), np.nan)
-    for r in rows:
-        out[row[int(r["set"])], col[int(r["trial"])]] = float(r[key])
-    return out
-
-
-def mean_std(values: Sequence[float]) -> dict[str, Any]:
-    """Mean and sample standard deviation, plus a 95 % bootstrap interval of the mean."""
-    v = np.asarray(values, dtype=float)
-    if v.size == 0:
-        return {"mean": float("nan"), "std": float("nan"), "ci95": [float("nan")] * 2}
-    rng = np.random.default_rng(0)  # fixed: the same rows give the same interval
-    boot = rng.choice(v, size=(2000, v.size), replace=True).mean(axis=1)
-    return {
-        "mean": float(v.mean()),
-        "std": float(v.std(ddof=1)) if v.size > 1 else 0.0,
-        "ci95": [float(np.percentile(boot, 2.5)), float(np.percentile(boot, 97.5))],
-    }
-
-
-def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any]:
-    """The summary of one recipe's sets: first success, success rate over the last ``last``
-    trials, their mean actions and total reinforcement (per set, then mean, sd and a 95 %
-    bootstrap interval over sets), neurons and collisions at the last trial, all collisions."""
-    if not rows:
-        raise ValueError("summarise: no trial rows")
-    by_set: dict[int, list[dict[str, Any]]] = {}
-    for r in rows:
-        by_set.setdefault(int(r["set"]), []).append(r)
-    never = 0
-    firsts, success, steps, reinf, neurons, coll_last, coll_all = ([] for _ in range(7))
-    opening: list[float] = []
-    coll_tail = 0
-    for s in sorted(by_set):
-        trials = sorted(by_set[s], key=lambda r: int(r["trial"]))
-        first = next((int(r["trial"]) for r in trials if bool(r["reached_goal"])), None)
-        if first is None:
-            never += 1
-        else:
-            firsts.append(first)
-        tail = trials[-last:]
-        success += [float(bool(r["reached_goal"])) for r in tail]
-        steps.append(float(np.mean([float(r["steps"]) for r in tail])))
-        reinf.append(float(np.mean([float(r["total_reinforcement"]) for r in tail])))
-        neurons.append(float(trials[-1]["neurons"]))
-        coll_last.append(float(trials[-1]["collisions"]))
-        coll_all.append(sum(float(r["collisions"]) for r in trials))
-        coll_tail += int(sum(float(r["collisions"]) for r in tail))
-        opening.append(float(trials[0]["total_reinforcement"]))
-    return {
-        "sets": len(by_set),
-        "trials": max(int(r["trial"]) for r in rows),
-        "first_success": {**mean_std(firsts), "never": never},
-        f"success_last{last}": float(np.mean(success)),
-        f"steps_last{last}": mean_std(steps),
-        f"total_reinforcement_last{last}": mean_std(reinf),
-        "neurons_last": mean_std(neurons),
-        "collisions_last": mean_std(coll_last),
-        "collisions_all_trials": mean_std(coll_all),
-        f"collisions_last{last}_sum": coll_tail,
-        "total_reinforcement_first": mean_std(opening),
-    }
-
-
-def start_summary(results: Sequence[SetResult]) -> list[dict[str, Any]]:
-    """Per other start pose: how many sets' final controllers reached the goal from it."""
-    out = []
-    for k in range(len(results[0].evaluations) if results else 0):
-        evs = [r.evaluations[k] for r in results]
-        out.append(
-            {
-                "start": evs[0]["start"],
-                "reached": sum(e["reached_goal"] for e in evs),
-                "sets": len(evs),
-                "mean_steps_when_reached": (
-                    float(np.mean([e["steps"] for e in evs if e["reached_goal"]]))
-                    if any(e["reached_goal"] for e in evs)
-                    else None
-                ),
-            }
-        )
-    return out
-
-
-@functools.lru_cache(maxsize=8)
-def _optimum(map_name: str) -> tuple[int, float]:
-    from symrl.knowledge.planner import shortest_path
-    from symrl.world import load_map
-
-    plan = shortest_path(load_map(map_name))
-    return plan.actions, round(plan.length, 3)
-
-
-def optimum(map_name: str = "hailu2001") -> dict[str, Any]:
-    """The shortest path of a map (``symrl plan``), for the tables (computed once per map)."""
-    t0 = time.perf_counter()
-    steps, length = _optimum(map_name)
-    return {"steps": steps, "length_m": length, "seconds": round(time.perf_counter() - t0, 2)}
