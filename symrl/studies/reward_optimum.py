@@ -21,6 +21,9 @@ what is left to earn depends on the position alone. Three stages:
 Sequences handed in (``seeds``: the shortest path's walk) are a floor: the result is never
 worse. It is a feasible sequence, replayed in :class:`~symrl.world.env.Hailu2001Env`: a lower
 bound on the optimum, exact in what it reports, not a proof that nothing is better.
+
+The stepping of sequences (:mod:`symrl.studies.reward_rollout`) and the value table
+(:mod:`symrl.studies.reward_value`) have modules of their own.
 """
 
 from __future__ import annotations
@@ -34,7 +37,18 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from symrl.world.physics import RobotBatch
+from symrl.studies.reward_rollout import (
+    TWO_PI,
+    Totals,
+    headings_to_actions,
+    no_rngs,
+    open_loop_with_noise,
+    replay,
+    robots_at,
+    rollout,
+    walk_headings,
+)
+from symrl.studies.reward_value import ValueTable
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap
 
@@ -51,9 +65,6 @@ __all__ = [
     "walk_headings",
     "write_result",
 ]
-
-_TWO_PI = 2.0 * math.pi
-_CHUNK = 20_000  # robots stepped in one batch by the value table
 
 
 @dataclass(frozen=True)
@@ -86,21 +97,6 @@ class SearchSettings:
 
 
 @dataclass
-class Totals:
-    """What a batch of action sequences earns: one entry per sequence."""
-
-    total: np.ndarray
-    """Sum of f1 + f2 up to and including the step that reached the goal (-inf if none did)."""
-    steps: np.ndarray
-    """Actions up to the goal (the sequence's length if it never got there)."""
-    f1: np.ndarray
-    f2: np.ndarray
-    collisions: np.ndarray
-    near_wall: np.ndarray
-    """Steps with f1 < 0 and no collision (a sonar reading below d_c)."""
-
-
-@dataclass
 class Best:
     """The best sequence found: absolute headings and the actions (turns) that give them."""
 
@@ -111,250 +107,6 @@ class Best:
     """(stage, best total after it)."""
 
 
-def headings_to_actions(headings: np.ndarray, start_heading: float) -> np.ndarray:
-    """The turns in [-pi, pi] that point the noise-free robot at ``headings`` in turn."""
-    previous = np.concatenate(([start_heading], headings[:-1]))
-    return np.array(
-        [math.remainder(h - p, _TWO_PI) for h, p in zip(headings, previous, strict=True)]
-    )
-
-
-def _batch(
-    world: WorldMap, robot: RobotConfig, x: np.ndarray, y: np.ndarray, h: np.ndarray
-) -> RobotBatch:
-    """A noise-free batch of robots placed at the poses (x, y, h), odometry on the true pose."""
-    batch = RobotBatch(world, robot, len(x), noise=False, max_actions=10**9)
-    ex, ey, clear = batch.walls.closest_many(x, y)
-    state = batch.state()
-    state.update(
-        _x=x.copy(),
-        _y=y.copy(),
-        _h=h.copy(),
-        _xo=x.copy(),
-        _yo=y.copy(),
-        _ho=h.copy(),
-        _ex=ex,
-        _ey=ey,
-        _clear=clear,
-    )
-    batch.load_state(state)
-    return batch
-
-
-def _no_rngs(n: int) -> list[Any]:
-    return [None] * n  # noise off: the physics draws nothing
-
-
-def rollout(
-    world: WorldMap, robot: RobotConfig, start: Sequence[float], headings: np.ndarray
-) -> Totals:
-    """Drive one noise-free robot per row of ``headings`` (M, T) from ``start``; the reward
-    is summed until the goal is reached (the trial ends there, as in the env)."""
-    headings = np.atleast_2d(np.asarray(headings, dtype=np.float64))
-    m, t = headings.shape
-    x0, y0, h0 = (float(v) for v in start)
-    batch = _batch(world, robot, np.full(m, x0), np.full(m, y0), np.full(m, h0))
-    rngs = _no_rngs(m)
-    total, f1s, f2s = np.zeros(m), np.zeros(m), np.zeros(m)
-    collisions, near = np.zeros(m, int), np.zeros(m, int)
-    steps = np.full(m, t)
-    live = np.ones(m, dtype=bool)
-    current = np.full(m, h0)
-    for k in range(t):
-        alpha = np.array([math.remainder(a, _TWO_PI) for a in (headings[:, k] - current).tolist()])
-        r = batch.step(alpha, rngs)
-        current = r.true_pose[:, 2]
-        total += np.where(live, r.reward, 0.0)
-        f1s += np.where(live, r.f1, 0.0)
-        f2s += np.where(live, r.f2, 0.0)
-        collisions += live & r.collision
-        near += live & ~r.collision & (r.f1 < 0)
-        arrived = live & r.reached_goal
-        steps[arrived] = k + 1
-        live &= ~r.reached_goal
-        if not live.any():
-            break
-    total[live] = -np.inf
-    return Totals(total, steps, f1s, f2s, collisions, near)
-
-
-def replay(
-    world: WorldMap, robot: RobotConfig, start: Sequence[float], actions: Sequence[float]
-) -> dict[str, Any]:
-    """The actions in the Gymnasium env (noise off): total, per-step f1 and f2, true path."""
-    from symrl.world.env import Hailu2001Env
-
-    env = Hailu2001Env(map=world, noise=False, robot=robot, max_actions=max(len(actions), 1))
-    env.reset(seed=0, options={"pose": tuple(float(v) for v in start)})
-    total, f1, f2, collisions, reached = 0.0, [], [], 0, False
-    for a in actions:
-        _, reward, terminated, truncated, info = env.step(np.array([a], dtype=np.float64))
-        total += reward
-        f1.append(float(info["f1"]))
-        f2.append(float(info["f2"]))
-        collisions += int(info["collision"])
-        reached = bool(info["reached_goal"])
-        if terminated or truncated:
-            break
-    path = [[float(x), float(y)] for x, y in env.path]
-    env.close()
-    return {
-        "total": total,
-        "actions": len(f1),
-        "reached_goal": reached,
-        "collisions": collisions,
-        "f1": f1,
-        "f2": f2,
-        "path": path,
-    }
-
-
-def open_loop_with_noise(
-    world: WorldMap,
-    robot: RobotConfig,
-    start: Sequence[float],
-    actions: Sequence[float],
-    seeds: int = 100,
-) -> dict[str, Any]:
-    """The same actions with the env's noise on, blind (seeds 0 .. seeds-1): how many trials
-    still reach the goal by the last action, and what those earn. f2 is measured on the
-    odometry, which moves as commanded, so it barely changes; f1 and the goal see the true
-    pose, which drifts."""
-    from symrl.world.env import Hailu2001Env
-
-    env = Hailu2001Env(map=world, noise=True, robot=robot, max_actions=max(len(actions), 1))
-    got = []
-    for seed in range(seeds):
-        env.reset(seed=seed, options={"pose": tuple(float(v) for v in start)})
-        f1 = f2 = 0.0
-        collisions, reached = 0, False
-        for a in actions:
-            _, _, terminated, truncated, info = env.step(np.array([a], dtype=np.float64))
-            f1, f2 = f1 + float(info["f1"]), f2 + float(info["f2"])
-            collisions += int(info["collision"])
-            if terminated or truncated:
-                reached = bool(terminated)
-                break
-        got.append((reached, f1, f2, collisions))
-    env.close()
-    ok = np.array([g[1:3] for g in got if g[0]]).reshape(-1, 2)
-    f1, f2 = (float(v) for v in (ok.mean(axis=0) if len(ok) else (np.nan, np.nan)))
-    return {
-        "seeds": [0, seeds - 1],
-        "reached_goal": len(ok),
-        "total_when_reached": f1 + f2,
-        "f1_when_reached": f1,
-        "f2_when_reached": f2,
-        "collisions": sum(g[3] for g in got),
-    }
-
-
-# --- stage 1: the value table ---------------------------------------------------------------
-
-
-class _ValueTable:
-    """What is left to earn from a position, by value iteration on a grid (a guess: the grid
-    and the heading set are coarse; only used to rank the beam)."""
-
-    def __init__(
-        self,
-        world: WorldMap,
-        robot: RobotConfig,
-        spacing: float,
-        n_headings: int,
-        bar: tqdm | None = None,
-    ) -> None:
-        xmin, xmax, ymin, ymax = world.bounds
-        self.x0, self.y0, self.s = xmin, ymin, spacing
-        xs = np.arange(xmin, xmax + spacing / 2, spacing)
-        ys = np.arange(ymin, ymax + spacing / 2, spacing)
-        gx, gy = np.meshgrid(xs, ys, indexing="ij")
-        px, py = gx.ravel(), gy.ravel()
-        walls = RobotBatch(world, robot, 1, noise=False).walls
-        ok = world.in_free_area(px, py)
-        ok[ok] = walls.clearance(np.column_stack([px[ok], py[ok]])) > robot.radius
-        idx = np.flatnonzero(ok)
-        k = n_headings
-        angles = -math.pi + _TWO_PI * np.arange(k) / k
-        n = len(idx)
-        reward, done = np.empty((n, k)), np.empty((n, k), dtype=bool)
-        nx, ny = np.empty(n * k), np.empty(n * k)
-        rows = max(1, _CHUNK // k)  # grid points per batch: bounded memory on big maps
-        for a in range(0, n, rows):
-            b = min(a + rows, n)
-            bx, by = np.repeat(px[idx[a:b]], k), np.repeat(py[idx[a:b]], k)
-            batch = _batch(world, robot, bx, by, np.zeros(len(bx)))
-            r = batch.step(np.tile(angles, b - a), _no_rngs(len(bx)))
-            reward[a:b] = np.where(r.collision, -np.inf, r.reward).reshape(b - a, k)
-            done[a:b] = r.reached_goal.reshape(b - a, k)
-            nx[a * k : b * k], ny[a * k : b * k] = r.true_pose[:, 0], r.true_pose[:, 1]
-        self.shape = gx.shape
-        value = np.zeros(len(px))
-        valid = np.zeros(len(px), dtype=bool)
-        valid[idx] = True
-        self.valid = valid
-        corners, weights = self._corners(nx, ny)
-        for _ in range(2000):
-            grid = np.where(valid, value, np.nan)
-            later = self._interpolate(grid, corners, weights).reshape(n, k)
-            new = np.max(reward + np.where(done, 0.0, later), axis=1)
-            change = np.nanmax(np.abs(new - value[idx])) if n else 0.0
-            value[idx] = np.maximum(new, -1e3)
-            if bar is not None:
-                bar.set_postfix_str(f"value table: change {change:.2g}")
-            if change < 1e-9:
-                break
-        self.value = self._fill(np.where(valid, value, np.nan))
-
-    def _corners(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        nx, ny = self.shape
-        fx, fy = (x - self.x0) / self.s, (y - self.y0) / self.s
-        i, j = (
-            np.clip(np.floor(fx).astype(int), 0, nx - 2),
-            np.clip(np.floor(fy).astype(int), 0, ny - 2),
-        )
-        tx, ty = np.clip(fx - i, 0, 1), np.clip(fy - j, 0, 1)
-        corners = np.stack([i * ny + j, (i + 1) * ny + j, i * ny + j + 1, (i + 1) * ny + j + 1])
-        weights = np.stack([(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty])
-        return corners, weights
-
-    @staticmethod
-    def _interpolate(grid: np.ndarray, corners: np.ndarray, weights: np.ndarray) -> np.ndarray:
-        """Bilinear over the valid corners (their weights renormalised); -1e3 where none is."""
-        v = grid[corners]
-        w = np.where(np.isnan(v), 0.0, weights)
-        total = w.sum(axis=0)
-        out = np.full(v.shape[1], -1e3)
-        some = total > 1e-12
-        out[some] = (np.nan_to_num(v) * w).sum(axis=0)[some] / total[some]
-        return out
-
-    def _fill(self, grid: np.ndarray) -> np.ndarray:
-        """Grid points off the free area take their best valid neighbour's value (two rings),
-        so positions within a cell of a wall still read a value."""
-        g = grid.reshape(self.shape)
-        for _ in range(2):
-            padded = np.pad(g, 1, constant_values=np.nan)
-            stack = np.stack(
-                [
-                    padded[1 + dx : 1 + dx + g.shape[0], 1 + dy : 1 + dy + g.shape[1]]
-                    for dx in (-1, 0, 1)
-                    for dy in (-1, 0, 1)
-                ]
-            )
-            best = np.where(
-                np.all(np.isnan(stack), axis=0),
-                np.nan,
-                np.nanmax(np.where(np.isnan(stack), -np.inf, stack), axis=0),
-            )
-            g = np.where(np.isnan(g), best, g)
-        return g.ravel()
-
-    def __call__(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        corners, weights = self._corners(x, y)
-        return self._interpolate(self.value, corners, weights)
-
-
 # --- stage 2: the beam ----------------------------------------------------------------------
 
 
@@ -363,7 +115,7 @@ def _beam(
     robot: RobotConfig,
     start: Sequence[float],
     settings: SearchSettings,
-    value: _ValueTable,
+    value: ValueTable,
     max_actions: int,
     offset: float,
     bar: tqdm | None,
@@ -372,7 +124,7 @@ def _beam(
     nothing reaches the goal); the heading grid turned by ``offset`` of its spacing."""
     best_total = -np.inf  # the worst of the endings kept, once there are enough
     k = settings.headings
-    angles = -math.pi + _TWO_PI * (np.arange(k) + offset) / k
+    angles = -math.pi + TWO_PI * (np.arange(k) + offset) / k
     x, y, h = (np.array([float(v)]) for v in start)
     g = np.zeros(1)
     history: list[tuple[np.ndarray, np.ndarray]] = []  # per depth: parent index, heading
@@ -383,11 +135,11 @@ def _beam(
     k += 1  # and the heading straight at the goal (a straight run at it pays no f2)
     for depth in range(max_actions):
         n = len(x)
-        batch = _batch(world, robot, np.repeat(x, k), np.repeat(y, k), np.repeat(h, k))
+        batch = robots_at(world, robot, np.repeat(x, k), np.repeat(y, k), np.repeat(h, k))
         aim = np.arctan2(gy - y, gx - x)
         want = np.column_stack([np.tile(angles, (n, 1)), aim]).ravel()
-        alpha = np.array([math.remainder(a, _TWO_PI) for a in (want - np.repeat(h, k)).tolist()])
-        r = batch.step(alpha, _no_rngs(n * k))
+        alpha = np.array([math.remainder(a, TWO_PI) for a in (want - np.repeat(h, k)).tolist()])
+        r = batch.step(alpha, no_rngs(n * k))
         parent = np.repeat(np.arange(n), k)
         gain = np.repeat(g, k) + r.reward
         keep = ~r.collision
@@ -513,7 +265,7 @@ def search_best_total(
             if got.total[0] > best_total:
                 best_total, best = float(got.total[0]), s[: int(got.steps[0])]
         history.append(("seeds", best_total))
-        value = _ValueTable(world, robot, settings.dp_spacing, settings.dp_headings, bar)
+        value = ValueTable(world, robot, settings.dp_spacing, settings.dp_headings, bar)
         history.append(("value table", float(value(np.array([start[0]]), np.array([start[1]]))[0])))
         for i in range(settings.grids):
             endings = _beam(
@@ -530,12 +282,6 @@ def search_best_total(
     finally:
         bar.close()
     return Best(best_total, best, headings_to_actions(best, float(start[2])), history)
-
-
-def walk_headings(walk: np.ndarray) -> np.ndarray:
-    """The absolute headings of a walk of poses (n+1, 2): one per move."""
-    d = np.diff(np.asarray(walk, dtype=np.float64), axis=0)
-    return np.arctan2(d[:, 1], d[:, 0])
 
 
 def write_result(
