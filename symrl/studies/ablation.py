@@ -15,30 +15,34 @@ Summary columns (mean ± std over sets unless said):
 setting in which it differs from a base recipe (``paper_literal``) put back in turn, and RECIPE
 with the experts' learning off (their share). ``changes.md`` has one row per setting with the
 paired difference over sets (the same seeds, so the sets' luck cancels).
+
+What is compared (:mod:`symrl.studies.ablation_variants`) and the tables
+(:mod:`symrl.studies.ablation_tables`) have modules of their own.
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-from pydantic import BaseModel
-
 from symrl.learner.config import load_config
 from symrl.runs import read_trials_csv
+from symrl.studies.ablation_tables import (
+    changes_markdown,
+    ladder_markdown,
+    summary_markdown,
+)
+from symrl.studies.ablation_variants import LADDER, RECIPES, Variant, changes_of
 from symrl.studies.repeatability import (
     PAPER_TABLE1,
     StudyResult,
     write_study,
 )
 from symrl.studies.runner import (
-    LAST,
     curves,
     optimum,
     run_sets,
@@ -49,246 +53,16 @@ from symrl.studies.runner import (
 
 __all__ = [
     "RECIPES",
+    "LADDER",
     "Variant",
     "changes_of",
     "changes_markdown",
+    "ladder_markdown",
     "summarise",
     "summary_markdown",
     "run_ablation",
     "ablate_command",
 ]
-
-LADDER = ("reflex_only", "paper_literal", "paper", "paper_passages", "paper_map")
-"""``symrl ablate --ladder``: the best recipe of each knowledge rung, and the paper's literal
-learner, on the same seeds."""
-
-RECIPES = (
-    "paper",
-    "paper_passages",
-    "paper_map",
-    "paper_literal",
-    "no_partition",
-    "no_reflex",
-    "plain",
-    "reflex_only",
-)
-
-# what a change ablation leaves alone: the recipe's name, and the budget, seed and logging
-_NOT_CHANGES = ("recipe", "run.")
-
-
-@dataclasses.dataclass(frozen=True)
-class Variant:
-    """One row of an ablation: ``recipe`` with ``overrides``, run and written as ``name``.
-    ``change``: the setting put back (``"key: recipe value -> base value"``), if any."""
-
-    name: str
-    recipe: str
-    overrides: tuple[str, ...] = ()
-    change: str | None = None
-
-
-def _leaves(config: Any) -> dict[str, Any]:
-    """Every setting of a config as dotted key -> plain value (as ``config_to_dict`` writes it:
-    tuples as lists). Sections recurse; a setting whose value is a dict or a list, such as
-    ``reflex.near``, is one setting."""
-    from symrl.learner.config import config_to_dict
-
-    out: dict[str, Any] = {}
-
-    def walk(node: Any, plain: Any, prefix: str) -> None:
-        if isinstance(node, BaseModel):
-            names = list(type(node).model_fields)
-        elif dataclasses.is_dataclass(node) and not isinstance(node, type):
-            names = [f.name for f in dataclasses.fields(node)]
-        else:
-            out[prefix] = plain
-            return
-        for name in names:
-            walk(getattr(node, name), plain[name], f"{prefix}.{name}" if prefix else name)
-
-    walk(config, config_to_dict(config), "")
-    return out
-
-
-def changes_of(recipe: str, base: str = "paper_literal") -> list[Variant]:
-    """``recipe``, then ``recipe`` with each setting in which it differs from ``base`` set back
-    to ``base``'s value (one at a time, in config order), then ``recipe`` with
-    ``experts.learning=false`` if its experts learn. Names: ``RECIPE``, ``RECIPE-without-KEY``,
-    ``RECIPE-experts-off``. A setting that only matters under another (``options.*`` with
-    ``options.enabled``) is still its own row: put back with the rest of ``recipe`` kept. A
-    setting that cannot be put back alone (the config it gives is refused, e.g.
-    ``options.source=map`` below the map rung) has no row."""
-    from symrl.learner.config import ConfigError, load_config
-
-    mine, theirs = load_config(recipe), load_config(base)
-    name = mine.recipe
-    ours, other = _leaves(mine), _leaves(theirs)
-    variants = [Variant(name, recipe)]
-    for key, value in ours.items():
-        if key.startswith(_NOT_CHANGES) or other.get(key) == value:
-            continue
-        back = other[key]
-        try:
-            load_config(recipe, [f"{key}={json.dumps(back)}"])
-        except ConfigError:
-            continue
-        shown = (value, back)
-        if isinstance(value, dict) and isinstance(back, dict):  # only the entries that differ
-            keys = [k for k in {**back, **value} if value.get(k) != back.get(k)]
-            shown = ({k: value.get(k) for k in keys}, {k: back.get(k) for k in keys})
-        variants.append(
-            Variant(
-                f"{name}-without-{key}",
-                recipe,
-                (f"{key}={json.dumps(back)}",),
-                f"{key}: {_short(shown[0])} -> {_short(shown[1])}",
-            )
-        )
-    if mine.experts.learning:
-        variants.append(
-            Variant(
-                f"{name}-experts-off",
-                recipe,
-                ("experts.learning=false",),
-                "experts.learning: true -> false",
-            )
-        )
-    return variants
-
-
-def _short(value: Any) -> str:
-    """A setting's value for a table cell (floats to 4 significant digits)."""
-    if isinstance(value, float):
-        return f"{value:.4g}"
-    if isinstance(value, bool):
-        return str(value).lower()
-    if isinstance(value, list):
-        return "[" + ", ".join(_short(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{k}: {_short(v)}" for k, v in value.items()) + "}"
-    return str(value)
-
-
-def changes_markdown(
-    variants: Sequence[Variant], rows: dict[str, Sequence[dict[str, Any]]], last: int = LAST
-) -> str:
-    """One row per variant: its total over the last ``last`` trials and over all trials (means
-    over sets), each with the paired difference from the first variant (the full recipe), mean
-    ± standard error over sets (positive: the recipe is better with the setting); the last
-    trials' actions, the neurons at the last trial, collisions (per trial in the last ``last``
-    / per set over all trials) and the trials from trial 5 on that failed. Every variant ran
-    the same sets and trials."""
-    full = curves(rows[variants[0].name], "total_reinforcement")  # (sets, trials)
-    lines = [
-        f"| variant | setting put back | total last {last} | Δ last {last} (paired) "
-        "| total, all trials | Δ all trials (paired) "
-        f"| actions last {last} | neurons last | collisions last {last} / all trials "
-        "| failed trials from 5 |",
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
-    ]
-    for i, v in enumerate(variants):
-        r = rows[v.name]
-        total = curves(r, "total_reinforcement")
-        cells = []
-        for window in (slice(-last, None), slice(None)):  # the last trials; all of them
-            per_set = total[:, window].mean(axis=1)
-            cells.append(f"{per_set.mean():.2f}")
-            if i == 0:
-                cells.append("-")
-                continue
-            d = full[:, window].mean(axis=1) - per_set
-            se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
-            cells.append(f"{d.mean():+.2f} ± {se:.2f}")
-        steps, collisions = curves(r, "steps"), curves(r, "collisions")
-        neurons = curves(r, "neurons")[:, -1]
-        failed = sum(1 for x in r if int(x["trial"]) >= 5 and not _reached(x))
-        lines.append(
-            f"| {v.name} | {v.change or '-'} | {' | '.join(cells)} "
-            f"| {steps[:, -last:].mean():.1f} | {neurons.mean():.0f} "
-            f"| {collisions[:, -last:].mean():.2f} / {collisions.sum(axis=1).mean():.1f} "
-            f"| {failed} |"
-        )
-    return "\n".join(lines) + "\n"
-
-
-def _reached(row: dict[str, Any]) -> bool:
-    value = row["reached_goal"]
-    return value is True or str(value) == "True"
-
-
-def _pm(d: dict[str, float], fmt: str = ".1f") -> str:
-    if not np.isfinite(d["mean"]):
-        return "-"
-    return f"{d['mean']:{fmt}} ± {d['std']:{fmt}}"
-
-
-def summary_markdown(summary: dict[str, dict[str, Any]], last: int = LAST) -> str:
-    """One row per recipe; the paper's last-trial numbers and the optimum as reference rows."""
-    lines = [
-        f"| recipe | sets × trials | first success (never) | success last {last} "
-        f"| steps last {last} | total reinf. last {last} | neurons last | collisions last "
-        "| collisions all trials |",
-        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |",
-    ]
-    for recipe, s in summary.items():
-        if recipe.startswith("_"):
-            continue
-        fs = s["first_success"]
-        first = f"{_pm(fs)} ({fs['never']})"
-        lines.append(
-            f"| {recipe} | {s['sets']} × {s['trials']} | {first} | {s[f'success_last{last}']:.0%} "
-            f"| {_pm(s[f'steps_last{last}'])} | {_pm(s[f'total_reinforcement_last{last}'], '.2f')} "
-            f"| {_pm(s['neurons_last'])} | {_pm(s['collisions_last'], '.2f')} "
-            f"| {_pm(s['collisions_all_trials'])} |"
-        )
-    p = PAPER_TABLE1
-    if summary.get("_map", "hailu2001") == "hailu2001":  # the paper's numbers: its world only
-        lines.append(
-            f"| *paper, Table 1 (last trial)* | 10 × 20 | - | - | {p['steps']['mean']} "
-            f"(var {p['steps']['variance']}) | {p['total_reinforcement']['mean']} "
-            f"(var {p['total_reinforcement']['variance']}) | {p['neurons']['mean']} "
-            f"(var {p['neurons']['variance']}) | - | - |"
-        )
-    opt = summary.get("_optimum")
-    if opt:
-        lines.append(f"| *optimum (`symrl plan`)* | - | - | - | {opt['steps']} | - | - | 0 | 0 |")
-    return "\n".join(lines) + "\n"
-
-
-def ladder_markdown(summary: dict[str, dict[str, Any]], last: int = LAST) -> str:
-    """The knowledge ladder: per recipe, its rung and what the robot is told, and what that
-    buys (last-``last`` means over the sets), with the paper's real robot for reference."""
-    from symrl.knowledge.rungs import TOLD
-    from symrl.learner.config import load_config
-
-    lines = [
-        f"| rung | recipe | what the robot is told | total reinf. trial 1 "
-        f"| total reinf. last {last} | actions last {last} | neurons last "
-        f"| collisions last {last} (all sets) |",
-        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: |",
-    ]
-    from symrl.knowledge.rungs import RUNGS
-
-    rungs = {r: load_config(r).knowledge for r in summary if not r.startswith("_")}
-    order = {r: i for i, r in enumerate(LADDER)}
-    for recipe in sorted(rungs, key=lambda r: (RUNGS.index(rungs[r]), order.get(r, 99), r)):
-        s, rung = summary[recipe], rungs[recipe]
-        lines.append(
-            f"| {rung} | `{recipe}` | {TOLD[rung]} "
-            f"| {_pm(s['total_reinforcement_first'], '.2f')} "
-            f"| {_pm(s[f'total_reinforcement_last{last}'], '.2f')} "
-            f"| {_pm(s[f'steps_last{last}'])} | {_pm(s['neurons_last'])} "
-            f"| {s.get(f'collisions_last{last}_sum', '-')} |"
-        )
-    p = PAPER_TABLE1
-    if summary.get("_map", "hailu2001") == "hailu2001":
-        lines.append(
-            f"| regions | *paper, real robot (Table 1, last trial)* | {TOLD['regions']} | - "
-            f"| {p['total_reinforcement']['mean']} | {p['steps']['mean']} "
-            f"| {p['neurons']['mean']} | - |"
-        )
-    return "\n".join(lines) + "\n"
 
 
 def run_ablation(
@@ -331,75 +105,110 @@ def run_ablation(
     studies: dict[str, StudyResult] = {}
     for variant in variants:
         recipe = variant.name
-        r0 = time.perf_counter()
-        sets_r = run_sets(
-            variant.recipe,
-            sets,
-            trials,
-            seed,
-            [f"env.map={map}", *variant.overrides],
-            starts,
-            workers,
-            keep=Path(out) / recipe / "sets" if keep_sets and out else None,
+        folder = Path(out) / recipe if out else None
+        keep = folder / "sets" if keep_sets and folder else None
+        study = _run_variant(
+            variant, sets, trials, seed, workers, starts, (map, world), keep, opt, code
         )
-        rows = [r for s in sets_r for r in s.rows]
-        table = table1(rows)
-        table.update(
-            optimum=opt,
-            recipe=recipe,
-            seeds=[seed, seed + sets - 1],
-            knowledge=load_config(variant.recipe, list(variant.overrides)).knowledge,
-        )
-        if variant.overrides:
-            table["overrides"] = list(variant.overrides)
-        if world.name == "hailu2001":  # the paper's numbers are of its world only
-            table["paper"] = PAPER_TABLE1
-        table["other_starts"] = start_summary(sets_r)
-        table["provenance"] = code
-        wall_r = time.perf_counter() - r0
-        table["wall_time_s"] = round(wall_r, 1)
-        table["map"] = world.name
-        study = StudyResult(
-            recipe, sets_r, table, Path(out) / recipe if out else None, wall_r, world
-        )
+        study.out = folder
         studies[recipe] = study
-        summary[recipe] = summarise(rows)
-        summary[recipe]["wall_time_s"] = round(wall_r, 1)
+        summary[recipe] = summarise(study.rows)
+        summary[recipe]["wall_time_s"] = round(study.wall_time, 1)
     wall = time.perf_counter() - t0
     summary["_optimum"] = opt
     summary["_map"] = world.name
     summary["_seeds"] = [seed, seed + sets - 1]
     summary["_wall_time_s"] = round(wall, 1)
     if out is not None:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        for study in studies.values():
-            write_study(study, figures=figures)
-        summary = _merge(out, summary, sets, trials, seed)
-        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        (out / "summary.md").write_text(summary_markdown(summary))
-        if any(v.change for v in variants):
-            (out / "changes.md").write_text(
-                changes_markdown(variants, {n: studies[n].rows for n in names})
-            )
-        if figures:
-            from symrl.figures import plot_comparison
+        summary = _write_ablation(
+            Path(out), variants, studies, summary, sets, trials, seed, figures
+        )
+    return summary
 
-            qs = ("steps", "total_reinforcement", "neurons", "collisions")
-            # one curve per recipe; of a change ablation only the full recipe and experts off
-            # (a curve per setting would hide them all: changes.md has those)
-            put_back = {
-                v.name for v in variants if v.change and not v.name.endswith("-experts-off")
-            }
-            every = [r for r in summary if not r.startswith("_") and r not in put_back]
-            plot_comparison(
-                {
-                    r: {q: curves(read_trials_csv(out / r / "trials.csv"), q) for q in qs}
-                    for r in every
-                },
-                out / "comparison.png",
-                qs,
-            )
+
+def _run_variant(
+    variant: Variant,
+    sets: int,
+    trials: int,
+    seed: int,
+    workers: int | None,
+    starts: Sequence[tuple[float, float, float]],
+    where: tuple[str, Any],
+    keep: Path | None,
+    opt: dict[str, Any],
+    code: dict[str, Any],
+) -> StudyResult:
+    """One row of an ablation: ``variant``'s sets in ``where`` (the map as given and as loaded;
+    kept in ``keep``), and its Table 1 with what the ablation knows of it (``opt``: the map's
+    optimum, ``code``: the provenance). Its folder is left unset."""
+    map, world = where
+    r0 = time.perf_counter()
+    sets_r = run_sets(
+        variant.recipe,
+        sets,
+        trials,
+        seed,
+        [f"env.map={map}", *variant.overrides],
+        starts,
+        workers,
+        keep=keep,
+    )
+    rows = [r for s in sets_r for r in s.rows]
+    table = table1(rows)
+    table.update(
+        optimum=opt,
+        recipe=variant.name,
+        seeds=[seed, seed + sets - 1],
+        knowledge=load_config(variant.recipe, list(variant.overrides)).knowledge,
+    )
+    if variant.overrides:
+        table["overrides"] = list(variant.overrides)
+    if world.name == "hailu2001":  # the paper's numbers are of its world only
+        table["paper"] = PAPER_TABLE1
+    table["other_starts"] = start_summary(sets_r)
+    table["provenance"] = code
+    wall_r = time.perf_counter() - r0
+    table["wall_time_s"] = round(wall_r, 1)
+    table["map"] = world.name
+    return StudyResult(variant.name, sets_r, table, None, wall_r, world)
+
+
+def _write_ablation(
+    out: Path,
+    variants: list[Variant],
+    studies: dict[str, StudyResult],
+    summary: dict[str, Any],
+    sets: int,
+    trials: int,
+    seed: int,
+    figures: bool,
+) -> dict[str, Any]:
+    """Write every study's folder, ``summary.json`` / ``summary.md`` (merged with the recipes
+    run earlier into ``out``), ``changes.md`` and ``comparison.png``; return the merged
+    summary."""
+    out.mkdir(parents=True, exist_ok=True)
+    for study in studies.values():
+        write_study(study, figures=figures)
+    summary = _merge(out, summary, sets, trials, seed)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (out / "summary.md").write_text(summary_markdown(summary))
+    if any(v.change for v in variants):
+        (out / "changes.md").write_text(
+            changes_markdown(variants, {v.name: studies[v.name].rows for v in variants})
+        )
+    if figures:
+        from symrl.figures import plot_comparison
+
+        qs = ("steps", "total_reinforcement", "neurons", "collisions")
+        # one curve per recipe; of a change ablation only the full recipe and experts off
+        # (a curve per setting would hide them all: changes.md has those)
+        put_back = {v.name for v in variants if v.change and not v.name.endswith("-experts-off")}
+        every = [r for r in summary if not r.startswith("_") and r not in put_back]
+        plot_comparison(
+            {r: {q: curves(read_trials_csv(out / r / "trials.csv"), q) for q in qs} for r in every},
+            out / "comparison.png",
+            qs,
+        )
     return summary
 
 

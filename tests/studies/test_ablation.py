@@ -9,7 +9,8 @@ import pytest
 
 from symrl.cli import main
 from symrl.learner.config import load_config
-from symrl.studies.ablation import Variant, _leaves, changes_markdown, changes_of
+from symrl.studies.ablation import Variant, changes_markdown, changes_of
+from symrl.studies.ablation_variants import leaves
 
 RECIPE = """\
 knowledge: regions
@@ -43,10 +44,10 @@ def test_each_changed_setting_is_put_back_alone(recipe):
         "mine-without-reflex.near",
         "mine-without-shield.enabled",
     }
-    literal, mine = _leaves(load_config("paper_literal")), _leaves(load_config(str(recipe)))
+    literal, mine = leaves(load_config("paper_literal")), leaves(load_config(str(recipe)))
     for v in variants[1:-1]:
         key = v.name.removeprefix("mine-without-")
-        got = _leaves(load_config(str(recipe), list(v.overrides)))
+        got = leaves(load_config(str(recipe), list(v.overrides)))
         assert got[key] == literal[key]  # this setting is the base recipe's again
         assert {k: x for k, x in got.items() if k != key} == {
             k: x for k, x in mine.items() if k != key
