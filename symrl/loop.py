@@ -7,7 +7,7 @@ baseline``'s SAC and PPO, a learner of your own: docs/how-to/add-a-learner.md):
         td_error = agent.learn(batch)
         done = recorder.step(batch, td_error)        the trials' accumulators
         robots whose trial ended: recorder.finish, agent.end_trials -> table.add -> on_trial
-        on_boundary(); table.finished or stop() ends the loop
+        on_boundary(added); table.finished or stop() ends the loop
 
 Two ways of counting trials, the table's job:
 
@@ -164,9 +164,10 @@ class TrainingLoop:
     acting with ``agent.policy``) into ``table`` (:class:`RobotTrials` or
     :class:`SharedTrials`), with ``recorder`` (the trials in progress; fresh or resumed).
 
-    ``on_trial(robot, row)``: after every row added to the table. ``on_boundary()``: after every
-    step at which a trial ended (checkpoints). ``stop()``: asked after every step; True ends
-    the loop there (:attr:`stopped`). ``frames``: robot-steps before this loop (resumed);
+    ``on_trial(robot, row)``: after every row added to the table (robot -1: a pending row
+    taken on resume). ``on_boundary(added)``: after every step at which a trial ended, with
+    the ``(robot, row)`` pairs it added (checkpoints). ``stop()``: asked after every step; True
+    ends the loop there (:attr:`stopped`). ``frames``: robot-steps before this loop (resumed);
     :attr:`frames` counts on. ``bar``: the progress bar's description and tqdm options.
     """
 
@@ -178,7 +179,7 @@ class TrainingLoop:
         recorder: TrialRecorder,
         *,
         on_trial: Callable[[int, dict[str, Any]], None] | None = None,
-        on_boundary: Callable[[], None] | None = None,
+        on_boundary: Callable[[list[tuple[int, dict[str, Any]]]], None] | None = None,
         stop: Callable[[], bool] | None = None,
         progress: bool = True,
         bar: dict[str, Any] | None = None,
@@ -220,9 +221,9 @@ class TrainingLoop:
                 self.frames += batch
                 done = recorder.step(td, td_error)
                 if done.any():
-                    self._end_trials(done)
+                    added = self._end_trials(done)
                     if self.on_boundary is not None:
-                        self.on_boundary()
+                        self.on_boundary(added)
                     if self.table.finished:
                         break
                 if stop is not None and stop():
@@ -230,8 +231,8 @@ class TrainingLoop:
                     break
         return self.stopped
 
-    def _end_trials(self, done: np.ndarray) -> None:
-        """The trials of the robots ``done`` into the table."""
+    def _end_trials(self, done: np.ndarray) -> list[tuple[int, dict[str, Any]]]:
+        """The trials of the robots ``done`` into the table; the ``(robot, row)`` pairs added."""
         # the rows as numpy and Python ints: indexing and reading small tensors element by
         # element costs a torch dispatch each
         ended = np.flatnonzero(done)
@@ -247,6 +248,7 @@ class TrainingLoop:
         postfix = self.table.postfix(added)
         if postfix is not None:
             self._bar.set_postfix(**postfix)
+        return added
 
     def _take(self, added: list[tuple[int, dict[str, Any]]]) -> None:
         for b, record in added:

@@ -187,7 +187,7 @@ def train_batch(
         if len(trials[b]) == n_trials:
             finals[b] = policy.robot_state(b)
 
-    def boundary() -> None:
+    def boundary(added: list[tuple[int, dict[str, Any]]]) -> None:
         if on_snapshot is not None:
             on_snapshot(run_snapshot(collector, policy, update, trials[0]))
         if on_boundary is not None:
