@@ -173,12 +173,35 @@ def train_batch(
     collector = StepCollector(env, policy, exploration_type=ExplorationType.RANDOM)
     update = TeseoUpdate(policy)
     recorder = TrialRecorder(batch)
-    trials, finals = _resumed(resume_batch, resume, collector, policy, update, recorder, batch)
-    if resume is not None and len(trials[0]) >= n_trials:
-        raise ValueError(
-            f"--trials {n_trials}: the run has done {len(trials[0])} trials already; "
-            "give a larger budget to go on"
-        )
+    trials, finals = _resumed(resume_batch, resume, collector, policy, update, recorder, n_trials)
+    agent = TeseoAgent(policy, update)
+    hooks = {"on_trial": on_trial, "on_snapshot": on_snapshot, "on_boundary": on_boundary}
+    return _train(
+        config, seeds, env, collector, agent, recorder, trials, finals, progress, stop, hooks
+    )
+
+
+def _train(
+    config: RunConfig,
+    seeds: list[int],
+    env: Any,
+    collector: Any,
+    agent: TeseoAgent,
+    recorder: TrialRecorder,
+    trials: list[list[dict[str, Any]]],
+    finals: list[dict[str, torch.Tensor] | None],
+    progress: bool,
+    stop: Any,
+    hooks: dict[str, Any],
+) -> list[TrainResult]:
+    """:func:`train_batch`'s loop once its parts are built (and resumed): the robots' own
+    tables through :class:`symrl.loop.TrainingLoop`, the callbacks (``hooks``: ``on_trial``,
+    ``on_snapshot``, ``on_boundary`` as :func:`train_batch` has them), the results."""
+    policy, update = agent.policy, agent.update
+    on_trial, on_snapshot, on_boundary = (
+        hooks[k] for k in ("on_trial", "on_snapshot", "on_boundary")
+    )
+    batch, n_trials = len(seeds), config.run.trials
     table = RobotTrials(batch, n_trials, trials, closed=[f is not None for f in finals])
 
     def trial_ended(b: int, record: dict[str, Any]) -> None:
@@ -196,7 +219,7 @@ def train_batch(
     label = config.recipe if batch == 1 else f"{config.recipe} x{batch}"
     loop = TrainingLoop(
         collector,
-        TeseoAgent(policy, update),
+        agent,
         table,
         recorder,
         on_trial=trial_ended,
@@ -221,12 +244,23 @@ def train_batch(
         "steps_per_second": loop.frames / max(elapsed, 1e-9),
         "stopped": int(stopped),
     }
-    results = []
-    for b, seed in enumerate(seeds):
-        single = MixtureOfExpertsPolicy(config, policy.knowledge, [seed], policy.subgoals)
-        single.load_state_dict(finals[b] if finals[b] is not None else policy.robot_state(b))
-        results.append(TrainResult(config, seed, trials[b], single, timings, env.world))
-    return results
+    robots = [_robot_policy(config, policy, b, s, finals[b]) for b, s in enumerate(seeds)]
+    world = env.world
+    return [
+        TrainResult(config, s, trials[b], robots[b], timings, world) for b, s in enumerate(seeds)
+    ]
+
+
+def _robot_policy(
+    config: RunConfig, policy: Any, b: int, seed: int, final: dict[str, torch.Tensor] | None
+) -> Any:
+    """Robot ``b``'s controller as a B = 1 policy: ``final`` (its state when it finished its
+    trials) or its state now."""
+    from symrl.learner.policy import MixtureOfExpertsPolicy
+
+    single = MixtureOfExpertsPolicy(config, policy.knowledge, [seed], policy.subgoals)
+    single.load_state_dict(final if final is not None else policy.robot_state(b))
+    return single
 
 
 def _resumed(
@@ -236,11 +270,12 @@ def _resumed(
     policy: Any,
     update: Any,
     recorder: TrialRecorder,
-    batch: int,
+    n_trials: int,
 ) -> tuple[list[list[dict[str, Any]]], list[dict[str, torch.Tensor] | None]]:
     """The trial rows and finished robots' controllers of a fresh batch (none) or of a resumed
-    one (``resume_batch``: :func:`batch_snapshot`; ``resume``: :func:`run_snapshot`), whose
-    parts are put into the saved state."""
+    one (``resume_batch``: :func:`batch_snapshot`; ``resume``: :func:`run_snapshot`, which
+    must have fewer than ``n_trials`` trials), whose parts are put into the saved state."""
+    batch = recorder.batch
     trials: list[list[dict[str, Any]]] = [[] for _ in range(batch)]
     finals: list[dict[str, torch.Tensor] | None] = [None] * batch
     if resume_batch is not None:
@@ -250,6 +285,11 @@ def _resumed(
     if resume is not None:
         restore_snapshot(resume, collector, policy, update)
         trials[0] = [dict(r) for r in resume["trials"]]
+        if len(trials[0]) >= n_trials:
+            raise ValueError(
+                f"--trials {n_trials}: the run has done {len(trials[0])} trials already; "
+                "give a larger budget to go on"
+            )
     return trials, finals
 
 

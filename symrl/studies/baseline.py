@@ -178,11 +178,7 @@ def _train_baseline(
 ) -> dict[str, Any]:
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-    from symrl.collector import StepCollector
-    from symrl.loop import SharedTrials, TrainingLoop
-    from symrl.recorder import TrialRecorder
-    from symrl.runs import BASE_COLUMNS, RunWriter
-    from symrl.world.worldmap import load_map
+    from symrl.loop import TrainingLoop
 
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise ValueError(f"--episodes {episodes!r}: must be an integer >= 1")
@@ -202,63 +198,15 @@ def _train_baseline(
             raise ValueError("resume: needs the run folder (logdir)")
         state = load_run_state(logdir, run_settings, episodes, knowledge_of(config, priors))
     torch.manual_seed(seed)
-    clock = _Clock(state)
-    world = load_map(config.env.map)
-    env = make_env(config, priors, robot_seeds(seed, envs), world)
-    n_obs = env.observation_spec["observation"].shape[-1]
-    agent = BaselineAgent(algorithm_cls(cfg, n_obs, envs), PriorAction(priors, config))
-    collector = StepCollector(env, agent.policy, exploration_type=ExplorationType.RANDOM)
-    recorder = TrialRecorder(envs)
-    table = SharedTrials(episodes)
-    writer = None
-    if logdir is not None:
-        writer = RunWriter(
-            logdir,
-            config,
-            world,
-            overwrite=overwrite,
-            resume_rows=state["rows"] if state is not None else None,
-            columns=list(BASE_COLUMNS),
-            settings={**run_settings, "episodes": episodes, **knowledge_of(config)},
-        )
-    if state is not None:
-        table = _restore(state, agent, collector, recorder, episodes)
-    at20 = tuple(state["at20"]) if state is not None and state["at20"] is not None else None
-
-    def take(b: int, record: dict[str, Any]) -> None:
-        if writer is not None:
-            writer.trial(record, last=len(table.rows) == episodes)
-        nonlocal at20
-        if len(table.rows) == min(20, episodes) and at20 is None:
-            at20 = (round(clock.elapsed()[0], 1), loop.frames)
-
-    def boundary(added: list[tuple[int, dict[str, Any]]]) -> None:
-        done = len(table.rows)
-        if done // checkpoint_every > (done - len(added)) // checkpoint_every:
-            save()
-
-    def save() -> None:
-        wall, cpu = clock.elapsed()
-        run_state = {
-            "format": SNAPSHOT_FORMAT,
-            "settings": run_settings,
-            **_loop_state(agent, collector, recorder, table),
-            "frames": loop.frames,
-            "wall_s": wall,
-            "cpu_s": cpu,
-            "at20": list(at20) if at20 is not None else None,
-        }
-        if writer is not None:
-            path, actor = writer.dir / "checkpoint.pt", agent.algorithm
-            save_baseline(path, algorithm, actor, priors, config, world, seed, n_obs, run_state)
-
-    loop = TrainingLoop(
-        collector,
-        agent,
-        table,
-        recorder,
-        on_trial=take,
-        on_boundary=boundary,
+    run = _Run(algorithm, algorithm_cls, cfg, priors, config, seed, envs, state)
+    run.open(logdir, overwrite, run_settings, checkpoint_every)
+    run.loop = TrainingLoop(
+        run.collector,
+        run.agent,
+        run.table,
+        run.recorder,
+        on_trial=run.take,
+        on_boundary=run.boundary,
         stop=stop,
         progress=progress,
         bar={"desc": f"{algorithm} {priors.label()} seed {seed}", "mininterval": 5},
@@ -266,36 +214,139 @@ def _train_baseline(
     )
     try:
         with set_exploration_type(ExplorationType.RANDOM):
-            stopped = loop.run()
-        save()
-        if writer is not None and not stopped:
-            writer.finish(None, seed)
+            stopped = run.loop.run()
+        run.save()
+        if run.writer is not None and not stopped:
+            run.writer.finish(None, seed)
     finally:
-        collector.shutdown()
-        if writer is not None:
-            writer.close()
-            writer.release()  # the callbacks and the loop refer to each other: not left to gc
-    return _result(
-        algorithm, priors, seed, map, envs, cfg, table, stopped, at20, loop.frames, clock
-    )
+        run.close()
+    return _result(algorithm, priors, seed, map, envs, cfg, run, stopped)
 
 
 _algorithms = algorithms  # the name benchmarks/bench_baselines.py uses
 
 
-class _Clock:
-    """Wall and CPU seconds of a run, those before its resume included."""
+class _Run:
+    """One baseline run's parts: env, agent, collector, trial recorder and table (resumed
+    from ``state``), the run folder's writer and checkpoints, its clock and the time and
+    robot-steps at its 20th trial."""
 
-    def __init__(self, state: dict[str, Any] | None) -> None:
+    def __init__(
+        self,
+        algorithm: str,
+        algorithm_cls: Any,
+        cfg: Any,
+        priors: Priors,
+        config: Any,
+        seed: int,
+        envs: int,
+        state: dict[str, Any] | None,
+    ) -> None:
+        from torchrl.envs.utils import ExplorationType
+
+        from symrl.collector import StepCollector
+        from symrl.loop import SharedTrials
+        from symrl.recorder import TrialRecorder
+        from symrl.world.worldmap import load_map
+
+        self.algorithm, self.priors, self.config, self.seed = algorithm, priors, config, seed
+        self.state = state
         self.t0, self.cpu0 = time.perf_counter(), time.process_time()
-        self.wall0 = state["wall_s"] if state is not None else 0.0
-        self.cpu_before = state["cpu_s"] if state is not None else 0.0
+        self.world = load_map(config.env.map)
+        env = make_env(config, priors, robot_seeds(seed, envs), self.world)
+        self.n_obs = env.observation_spec["observation"].shape[-1]
+        self.agent = BaselineAgent(
+            algorithm_cls(cfg, self.n_obs, envs), PriorAction(priors, config)
+        )
+        self.collector = StepCollector(
+            env, self.agent.policy, exploration_type=ExplorationType.RANDOM
+        )
+        self.recorder = TrialRecorder(envs)
+        self.table = SharedTrials(config.run.trials)
+        self.writer: Any = None
+        self.loop: Any = None
+        self.at20: tuple[float, int] | None = None
+
+    def open(
+        self,
+        logdir: str | Path | None,
+        overwrite: bool,
+        run_settings: dict[str, Any],
+        checkpoint_every: int,
+    ) -> None:
+        """The run folder (if any), then the parts put into the resumed state."""
+        from symrl.runs import BASE_COLUMNS, RunWriter
+
+        state, episodes = self.state, self.table.total
+        self.run_settings, self.every = run_settings, checkpoint_every
+        if logdir is not None:
+            self.writer = RunWriter(
+                logdir,
+                self.config,
+                self.world,
+                overwrite=overwrite,
+                resume_rows=state["rows"] if state is not None else None,
+                columns=list(BASE_COLUMNS),
+                settings={**run_settings, "episodes": episodes, **knowledge_of(self.config)},
+            )
+        if state is not None:
+            self.table = _restore(state, self.agent, self.collector, self.recorder, episodes)
+            self.at20 = tuple(state["at20"]) if state["at20"] is not None else None
 
     def elapsed(self) -> tuple[float, float]:
+        """Wall and CPU seconds of the run, those before its resume included."""
+        before = self.state or {"wall_s": 0.0, "cpu_s": 0.0}
         return (
-            self.wall0 + time.perf_counter() - self.t0,
-            self.cpu_before + time.process_time() - self.cpu0,
+            before["wall_s"] + time.perf_counter() - self.t0,
+            before["cpu_s"] + time.process_time() - self.cpu0,
         )
+
+    def take(self, b: int, record: dict[str, Any]) -> None:
+        """A row of the table: to the run folder; the 20th trial's time and robot-steps."""
+        rows, episodes = self.table.rows, self.table.total
+        if self.writer is not None:
+            self.writer.trial(record, last=len(rows) == episodes)
+        if len(rows) == min(20, episodes) and self.at20 is None:
+            self.at20 = (round(self.elapsed()[0], 1), self.loop.frames)
+
+    def boundary(self, added: list[tuple[int, dict[str, Any]]]) -> None:
+        """A checkpoint when the table passed a multiple of ``checkpoint_every`` rows."""
+        done = len(self.table.rows)
+        if done // self.every > (done - len(added)) // self.every:
+            self.save()
+
+    def save(self) -> None:
+        """The checkpoint with the run state (nothing without a run folder)."""
+        if self.writer is None:
+            return
+        wall, cpu = self.elapsed()
+        run_state = {
+            "format": SNAPSHOT_FORMAT,
+            "settings": self.run_settings,
+            **_loop_state(self.agent, self.collector, self.recorder, self.table),
+            "frames": self.loop.frames,
+            "wall_s": wall,
+            "cpu_s": cpu,
+            "at20": list(self.at20) if self.at20 is not None else None,
+        }
+        save_baseline(
+            self.writer.dir / "checkpoint.pt",
+            self.algorithm,
+            self.agent.algorithm,
+            self.priors,
+            self.config,
+            self.world,
+            self.seed,
+            self.n_obs,
+            resume=run_state,
+        )
+
+    def close(self) -> None:
+        """The env closed, the run folder flushed and let go."""
+        self.collector.shutdown()
+        if self.writer is not None:
+            self.writer.close()
+            self.writer.release()  # the loop and the run refer to each other: not left to gc
 
 
 def _loop_state(agent: BaselineAgent, collector: Any, recorder: Any, table: Any) -> dict[str, Any]:
@@ -336,15 +387,12 @@ def _result(
     map: str,
     envs: int,
     cfg: Any,
-    table: Any,
+    run: _Run,
     stopped: bool,
-    at20: tuple[float, int] | None,
-    frames: int,
-    clock: _Clock,
 ) -> dict[str, Any]:
     """What :func:`train_baseline` returns."""
-    wall, cpu = clock.elapsed()
-    rows = table.rows
+    wall, cpu = run.elapsed()
+    rows, at20 = run.table.rows, run.at20
     return {
         "algorithm": algorithm,
         "variant": priors.label(),
@@ -360,7 +408,11 @@ def _result(
             "wall_time_s": at20[0] if at20 else None,
             "frames": at20[1] if at20 else None,
         },
-        "end": {**summarise(rows, table.total), "wall_time_s": round(wall, 1), "frames": frames},
+        "end": {
+            **summarise(rows, run.table.total),
+            "wall_time_s": round(wall, 1),
+            "frames": run.loop.frames,
+        },
         "cpu_time_s": round(cpu, 1),
     }
 
