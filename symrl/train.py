@@ -7,11 +7,13 @@ Readable top to bottom, as TorchRL's own recipes read:
     env = env.append_transform(policy.perception_transform())      what the robot perceives
     collector = StepCollector(env, policy)                          one step of B robots a batch
     update = TeseoUpdate(policy)                                    learns (TESEO update)
-    for batch in collector:
-        update(batch)                                               per-transition update
-        for robots whose trial ended: update.end_trial, record the trial
+    TrainingLoop(collector, TeseoAgent(policy, update), RobotTrials(B, trials), recorder).run()
+        for batch in collector: update(batch); robots whose trial ended: update.end_trial,
+        record the trial
 
-The collector (:class:`symrl.collector.StepCollector`, a TorchRL collector) steps the env with
+The loop is :class:`symrl.loop.TrainingLoop`, the one every learner trains in; the paper's
+learner is its agent :class:`symrl.teseo.TeseoAgent`. The collector
+(:class:`symrl.collector.StepCollector`, a TorchRL collector) steps the env with
 ``step_and_maybe_reset``, restarting the robots whose trial ended (partial resets); why it is
 not TorchRL's ``Collector`` itself (which gives the same trials at two thirds of the speed at
 B = 10) is measured in its module docstring. The perception transform marks each trial's first
