@@ -3,9 +3,10 @@
 :func:`symrl.loop.train_loop` trains anything that has these four parts, whatever it learns
 with (the paper's learner, :class:`symrl.teseo.TeseoAgent`; SAC and PPO,
 :class:`symrl.studies.baseline_agent.BaselineAgent`; the reflex alone,
-:class:`symrl.teseo.ReflexAgent`):
+:class:`symrl.studies.baseline_agent.ReflexAgent`):
 
-    policy                       a TorchRL policy: reads a batch [B], writes ``action``
+    policy                       a TorchRL policy: reads a batch [B], writes ``action`` and
+                                 ``shielded`` (whether the IR shield overrode the action)
     learn(batch)                 learns from the batch [B] of transitions (root + ``next``);
                                  the per-robot TD error (B,), or None (no such column)
     end_trials(rows, records, reached)
@@ -35,7 +36,8 @@ class Agent(Protocol):
     """A learner the training loop trains (see the module docstring)."""
 
     policy: Any
-    """A TorchRL policy (a ``TensorDictModule``): reads the batch [B], writes ``action``."""
+    """A TorchRL policy (a ``TensorDictModule``): reads the batch [B], writes ``action`` (B, 1)
+    and ``shielded`` (B,)."""
 
     def learn(self, td: TensorDictBase) -> torch.Tensor | None:
         """Learn from one batch [B] of transitions; the per-robot TD error (B,) or None."""

@@ -199,3 +199,28 @@ def test_a_baseline_is_an_agent_of_the_loop():
     assert "mean_abs_td_error" not in loop.table.rows[0]
     assert sac.frames == loop.frames and sac.updates == loop.frames - 10 + 1
     assert agent.state_dict()["frames"] == loop.frames
+
+
+def test_the_reflex_alone_is_an_agent_that_learns_nothing():
+    from symrl.studies.baseline import make_env as baseline_env
+    from symrl.studies.baseline import robot_seeds, run_config
+    from symrl.studies.baseline_agent import ReflexAgent
+    from symrl.studies.priors import PriorAction, Priors
+
+    config = run_config(seed=100, episodes=6)
+    priors = Priors(residual=True)
+    agent = ReflexAgent(PriorAction(priors, config))
+    assert isinstance(agent, Agent)
+    env = baseline_env(config, priors, robot_seeds(100, 2))
+    loop = TrainingLoop(
+        StepCollector(env, agent.policy), agent, SharedTrials(6), TrialRecorder(2), progress=False
+    )
+    loop.run()
+    rows = loop.table.rows
+    # the shielded reflex finds the goal of the paper's map from its start, in about 42 actions
+    assert [r["trial"] for r in rows] == [1, 2, 3, 4, 5, 6]
+    assert all(r["reached_goal"] for r in rows) and np.mean([r["steps"] for r in rows]) < 60
+    assert list(rows[0]) == [c for c in BASE if c != "trial"][:-1] + ["trial", "reached_goal"]
+    assert agent.state_dict() == {}
+    with pytest.raises(ValueError, match="priors.residual=False"):
+        ReflexAgent(PriorAction(Priors(), config))

@@ -14,7 +14,7 @@ from tensordict.nn import TensorDictModuleBase
 from symrl.agent import no_extras
 from symrl.studies.priors import PriorAction
 
-__all__ = ["Algorithm", "BaselineAgent", "algorithms"]
+__all__ = ["Algorithm", "BaselineAgent", "ReflexAgent", "algorithms"]
 
 
 class Algorithm(Protocol):
@@ -84,6 +84,51 @@ class BaselineAgent:
     def load_state_dict(self, state: dict[str, Any]) -> None:
         """Go on from :meth:`state_dict`."""
         self.algorithm.load_state(state)
+
+
+class _Reflex(TensorDictModuleBase):
+    """No correction (``control`` 0), then the priors' action: the shielded reflex."""
+
+    def __init__(self, to_action: PriorAction) -> None:
+        super().__init__()
+        self.to_action = to_action
+        self.in_keys = to_action.in_keys[1:]
+        self.out_keys = ["control", "action", "shielded"]
+
+    def forward(self, td: TensorDictBase) -> TensorDictBase:
+        td.set("control", torch.zeros(*td.batch_size, 1))
+        return self.to_action(td)
+
+
+class ReflexAgent:
+    """The paper's shielded fuzzy reflex alone, learning nothing, as an
+    :class:`symrl.agent.Agent` (the residual baselines' base: ``to_action`` of residual
+    priors; their env writes ``reflex_action``)."""
+
+    def __init__(self, to_action: PriorAction) -> None:
+        if not to_action.priors.residual:
+            raise ValueError(
+                f"ReflexAgent: priors.residual={to_action.priors.residual}: the reflex acts "
+                "only through residual priors"
+            )
+        self.policy = _Reflex(to_action)
+
+    def learn(self, td: TensorDictBase) -> torch.Tensor | None:
+        """Nothing to learn."""
+        return None
+
+    def end_trials(
+        self, rows: np.ndarray, records: list[dict[str, Any]], reached: np.ndarray
+    ) -> list[dict[str, Any]]:
+        """Nothing to add to the base columns."""
+        return no_extras(rows)
+
+    def state_dict(self) -> dict[str, Any]:
+        """Nothing learnt."""
+        return {}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Nothing to load."""
 
 
 def algorithms() -> dict[str, tuple[Any, Any]]:
