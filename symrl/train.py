@@ -7,11 +7,13 @@ Readable top to bottom, as TorchRL's own recipes read:
     env = env.append_transform(policy.perception_transform())      what the robot perceives
     collector = StepCollector(env, policy)                          one step of B robots a batch
     update = TeseoUpdate(policy)                                    learns (TESEO update)
-    for batch in collector:
-        update(batch)                                               per-transition update
-        for robots whose trial ended: update.end_trial, record the trial
+    TrainingLoop(collector, TeseoAgent(policy, update), RobotTrials(B, trials), recorder).run()
+        for batch in collector: update(batch); robots whose trial ended: update.end_trial,
+        record the trial
 
-The collector (:class:`symrl.collector.StepCollector`, a TorchRL collector) steps the env with
+The loop is :class:`symrl.loop.TrainingLoop`, the one every learner trains in; the paper's
+learner is its agent :class:`symrl.teseo.TeseoAgent`. The collector
+(:class:`symrl.collector.StepCollector`, a TorchRL collector) steps the env with
 ``step_and_maybe_reset``, restarting the robots whose trial ended (partial resets); why it is
 not TorchRL's ``Collector`` itself (which gives the same trials at two thirds of the speed at
 B = 10) is measured in its module docstring. The perception transform marks each trial's first
@@ -30,7 +32,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from contextlib import ExitStack
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,7 +40,9 @@ import torch
 
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import expert_names
-from symrl.tensordicts import read
+from symrl.loop import RobotTrials, TrainingLoop
+from symrl.recorder import TrialRecorder
+from symrl.teseo import TeseoAgent
 
 __all__ = [
     "TrainResult",
@@ -85,139 +88,6 @@ def make_env(config: RunConfig, seeds: Sequence[int], world: Any = None, starts:
     if starts is not None:
         env.set_starts(starts)
     return env
-
-
-# ---------------------------------------------------------------------------------------------
-# Trial bookkeeping
-
-
-_RECORDER_ARRAYS = ("steps", "total", "collisions", "shielded", "td_error", "_start", "_first")
-
-
-class TrialRecorder:
-    """Per-robot accumulators of the current trial, read from each batch of transitions."""
-
-    def __init__(self, batch: int) -> None:
-        self.batch = batch
-        self.steps = np.zeros(batch, dtype=np.int64)
-        self.total = np.zeros(batch)
-        self.collisions = np.zeros(batch, dtype=np.int64)
-        self.shielded = np.zeros(batch, dtype=np.int64)
-        self.td_error = np.zeros(batch)
-        self._poses: list[np.ndarray] = []  # (B, 2) true positions after each step
-        self._winners: list[np.ndarray] = []  # (B,) expert/winner id acting at each step
-        self._offset = 0  # global step of _poses[0]
-        self._start = np.zeros(batch, dtype=np.int64)  # global step each trial started at
-        self._first = np.zeros((batch, 2))  # the trial's start position
-
-    def step(self, td, td_error: torch.Tensor) -> np.ndarray:
-        """Record one transition of every robot; return the mask of robots whose trial ended."""
-        nxt = read(td, "next")
-        fresh = self.steps == 0
-        if fresh.any():
-            self._first[fresh] = read(td, "true_pose")[:, :2].numpy()[fresh]
-        self.steps += 1
-        # numpy on the tensors' memory: a numpy call costs a fraction of a torch op's dispatch
-        self.total += read(nxt, "reward").numpy().reshape(-1)  # float32 widened exactly
-        self.collisions += read(nxt, "collision").numpy().reshape(-1)
-        self.shielded += read(td, "shielded").numpy()
-        self.td_error += np.abs(td_error.numpy())
-        self.reached = read(nxt, "reached_goal").reshape(-1)
-        self._poses.append(read(nxt, "true_pose").numpy()[:, :2].copy())
-        expert, winner = read(td, "expert", None), read(td, "winner", None)
-        if expert is None:  # a controller without neurons (the baselines): no ghosts
-            self._winners.append(np.zeros(self.batch, dtype=np.int64))
-        else:
-            self._winners.append(expert.numpy() * 1_000_003 + winner.numpy())
-        return read(nxt, "done").numpy().reshape(-1).copy()
-
-    def finish(self, b: int) -> dict[str, Any]:
-        """Robot ``b``'s trial record (its path and ghosts included); resets its accumulators."""
-        lo, hi = self._start[b] - self._offset, len(self._poses)
-        # the steps' arrays joined in one call, then robot b's rows (not a Python loop over the
-        # steps)
-        path = np.concatenate(
-            (self._first[b : b + 1], np.concatenate(self._poses[lo:hi])[b :: self.batch])
-        )
-        ids = np.concatenate(self._winners[lo:hi])[b :: self.batch]
-        change = np.flatnonzero(np.concatenate(([True], ids[1:] != ids[:-1])))
-        rounded = path.round(4)
-        record: dict[str, Any] = {
-            "steps": int(self.steps[b]),
-            "total_reinforcement": float(self.total[b]),
-            "collisions": int(self.collisions[b]),
-            "shielded": int(self.shielded[b]),
-            "mean_abs_td_error": float(self.td_error[b] / max(self.steps[b], 1)),
-            # np.linalg.norm(axis=1)'s own formula, without its argument handling
-            "path_length": float(np.sqrt(np.add.reduce(np.square(path[1:] - path[:-1]), 1)).sum()),
-            "path": rounded.tolist(),
-            "ghosts": rounded[change].tolist(),  # where the acting neuron changed
-        }
-        self.steps[b] = 0
-        self.total[b] = self.collisions[b] = self.shielded[b] = self.td_error[b] = 0
-        self._start[b] = self._offset + hi
-        self._trim()
-        return record
-
-    def state(self) -> dict[str, Any]:
-        """The accumulators of the trials in progress, as tensors (a run snapshot between two
-        steps, the baselines' resume)."""
-        arrays = {k: getattr(self, k) for k in _RECORDER_ARRAYS}
-        reached = getattr(self, "reached", None)
-        return {
-            **{k: torch.from_numpy(v.copy()) for k, v in arrays.items()},
-            "poses": torch.from_numpy(np.array(self._poses).reshape(-1, self.batch, 2)),
-            "winners": torch.from_numpy(
-                np.array(self._winners, dtype=np.int64).reshape(-1, self.batch)
-            ),
-            "offset": int(self._offset),
-            "reached": None if reached is None else reached.clone(),
-        }
-
-    def load_state(self, state: dict[str, Any]) -> None:
-        """Go on from :meth:`state`."""
-        for k in _RECORDER_ARRAYS:
-            setattr(self, k, state[k].numpy().copy())
-        self._poses = list(state["poses"].numpy().copy())
-        self._winners = list(state["winners"].numpy().copy())
-        self._offset = int(state["offset"])
-        if state["reached"] is not None:
-            self.reached = state["reached"].clone()
-
-    def _trim(self) -> None:
-        drop = int(self._start.min()) - self._offset
-        if drop > 512:  # forget steps no running trial needs
-            del self._poses[:drop], self._winners[:drop]
-            self._offset += drop
-
-
-def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor]) -> list[dict[str, Any]]:
-    """The learner columns of the trial records of robots ``rows`` (``out``: what
-    ``update.end_trial`` returned for them, with the temperature each trial explored with).
-    Tensors are read once per call, not per robot."""
-    # numpy on the buffers' memory: a small tensor's indexing costs a torch dispatch
-    index = rows.numpy()
-    counts = policy.experts.count.numpy()[index].tolist()
-    replaced, improved = out["replaced"].tolist(), out["improved"].tolist()
-    temperature = out["temperature"].tolist()
-    choices = policy.options.choice.numpy()[index].tolist() if policy.options is not None else None
-    extras = []
-    for j in range(len(counts)):
-        extra: dict[str, Any] = {"neurons": sum(counts[j])}
-        extra.update(
-            {f"neurons_{n}": c for n, c in zip(policy.expert_names, counts[j], strict=True)}
-        )
-        extra.update(temperature=temperature[j], replaced=replaced[j], improved=improved[j])
-        crossings = policy.options.crossings if policy.options is not None else None
-        if crossings is not None:
-            extra.update(crossings.summary(int(index[j])))
-        if choices is not None:
-            labels = policy.options.labels
-            for r, name in enumerate(policy.region_names):
-                if choices[j][r] >= 0:
-                    extra[f"option_{name}"] = labels[r][choices[j][r]]
-        extras.append(extra)
-    return extras
 
 
 # ---------------------------------------------------------------------------------------------
@@ -284,7 +154,6 @@ def train_batch(
     ``resume_batch=state`` goes on from such a state as the uninterrupted batch would have.
     """
     from torchrl.envs.utils import ExplorationType
-    from tqdm.auto import tqdm
 
     from symrl.collector import StepCollector
     from symrl.learner.policy import MixtureOfExpertsPolicy
@@ -306,7 +175,110 @@ def train_batch(
     collector = StepCollector(env, policy, exploration_type=ExplorationType.RANDOM)
     update = TeseoUpdate(policy)
     recorder = TrialRecorder(batch)
-    trials: list[list[dict[str, Any]]] = [[] for _ in seeds]
+    trials, finals = _resumed(resume_batch, resume, collector, policy, update, recorder, n_trials)
+    agent = TeseoAgent(policy, update)
+    hooks = {"on_trial": on_trial, "on_snapshot": on_snapshot, "on_boundary": on_boundary}
+    return _train(
+        config, seeds, env, collector, agent, recorder, trials, finals, progress, stop, hooks
+    )
+
+
+def _train(
+    config: RunConfig,
+    seeds: list[int],
+    env: Any,
+    collector: Any,
+    agent: TeseoAgent,
+    recorder: TrialRecorder,
+    trials: list[list[dict[str, Any]]],
+    finals: list[dict[str, torch.Tensor] | None],
+    progress: bool,
+    stop: Any,
+    hooks: dict[str, Any],
+) -> list[TrainResult]:
+    """:func:`train_batch`'s loop once its parts are built (and resumed): the robots' own
+    tables through :class:`symrl.loop.TrainingLoop`, the callbacks (``hooks``: ``on_trial``,
+    ``on_snapshot``, ``on_boundary`` as :func:`train_batch` has them), the results."""
+    policy, update = agent.policy, agent.update
+    on_trial, on_snapshot, on_boundary = (
+        hooks[k] for k in ("on_trial", "on_snapshot", "on_boundary")
+    )
+    batch, n_trials = len(seeds), config.run.trials
+    table = RobotTrials(batch, n_trials, trials, closed=[f is not None for f in finals])
+
+    def trial_ended(b: int, record: dict[str, Any]) -> None:
+        if on_trial is not None:
+            on_trial(b, record, policy)
+        if len(trials[b]) == n_trials:
+            finals[b] = policy.robot_state(b)
+
+    def boundary(added: list[tuple[int, dict[str, Any]]]) -> None:
+        if on_snapshot is not None:
+            on_snapshot(run_snapshot(collector, policy, update, trials[0]))
+        if on_boundary is not None:
+            on_boundary(lambda: batch_snapshot(collector, policy, update, recorder, trials, finals))
+
+    label = config.recipe if batch == 1 else f"{config.recipe} x{batch}"
+    loop = TrainingLoop(
+        collector,
+        agent,
+        table,
+        recorder,
+        on_trial=trial_ended,
+        on_boundary=boundary,
+        stop=stop,
+        progress=progress,
+        bar={"desc": label},
+    )
+    started, cpu_started = time.perf_counter(), time.process_time()
+    # nothing in the loop needs autograd: inference mode skips the version counters and the
+    # autograd dispatch of every op (about a sixth of the learner's per-op cost, measured with
+    # benchmarks/bench_train.py); tensors created here are inference tensors, which later code
+    # only reads or clones
+    with torch.inference_mode():
+        stopped = loop.run()
+    elapsed, cpu = time.perf_counter() - started, time.process_time() - cpu_started
+    timings = {
+        "seconds": elapsed,
+        "cpu_seconds": cpu,
+        "frames": loop.frames,
+        "robots": batch,
+        "steps_per_second": loop.frames / max(elapsed, 1e-9),
+        "stopped": int(stopped),
+    }
+    robots = [_robot_policy(config, policy, b, s, finals[b]) for b, s in enumerate(seeds)]
+    world = env.world
+    return [
+        TrainResult(config, s, trials[b], robots[b], timings, world) for b, s in enumerate(seeds)
+    ]
+
+
+def _robot_policy(
+    config: RunConfig, policy: Any, b: int, seed: int, final: dict[str, torch.Tensor] | None
+) -> Any:
+    """Robot ``b``'s controller as a B = 1 policy: ``final`` (its state when it finished its
+    trials) or its state now."""
+    from symrl.learner.policy import MixtureOfExpertsPolicy
+
+    single = MixtureOfExpertsPolicy(config, policy.knowledge, [seed], policy.subgoals)
+    single.load_state_dict(final if final is not None else policy.robot_state(b))
+    return single
+
+
+def _resumed(
+    resume_batch: dict[str, Any] | None,
+    resume: dict[str, Any] | None,
+    collector: Any,
+    policy: Any,
+    update: Any,
+    recorder: TrialRecorder,
+    n_trials: int,
+) -> tuple[list[list[dict[str, Any]]], list[dict[str, torch.Tensor] | None]]:
+    """The trial rows and finished robots' controllers of a fresh batch (none) or of a resumed
+    one (``resume_batch``: :func:`batch_snapshot`; ``resume``: :func:`run_snapshot`, which
+    must have fewer than ``n_trials`` trials), whose parts are put into the saved state."""
+    batch = recorder.batch
+    trials: list[list[dict[str, Any]]] = [[] for _ in range(batch)]
     finals: list[dict[str, torch.Tensor] | None] = [None] * batch
     if resume_batch is not None:
         restore_batch_snapshot(resume_batch, collector, policy, update, recorder)
@@ -320,86 +292,7 @@ def train_batch(
                 f"--trials {n_trials}: the run has done {len(trials[0])} trials already; "
                 "give a larger budget to go on"
             )
-    label = config.recipe if batch == 1 else f"{config.recipe} x{batch}"
-    bar = tqdm(
-        total=n_trials * batch,
-        desc=label,
-        unit="trial",
-        disable=not progress,
-        initial=sum(len(t) for t in trials),
-    )
-    started, cpu_started = time.perf_counter(), time.process_time()
-    frames, stopped = 0, False
-    # nothing in the loop needs autograd: inference mode skips the version counters and the
-    # autograd dispatch of every op (about a sixth of the learner's per-op cost, measured with
-    # benchmarks/bench_train.py); tensors created here are inference tensors, which later code
-    # only reads or clones
-    with torch.inference_mode(), ExitStack() as contexts:
-        contexts.callback(collector.shutdown)
-        contexts.callback(bar.close)
-        for td in collector:
-            stats = update(td)
-            frames += batch
-            done = recorder.step(td, read(stats, "td_error"))
-            if not done.any():
-                if stop is not None and stop():
-                    stopped = True
-                    break
-                continue
-            # the rows as numpy and Python ints: indexing and reading small tensors element by
-            # element costs a torch dispatch each
-            ended = np.flatnonzero(done)
-            rows, ended_list = torch.from_numpy(ended), ended.tolist()
-            records = [recorder.finish(b) for b in ended_list]
-            # float32 as torch.tensor of the floats makes it, for a fraction of its cost
-            totals = torch.from_numpy(
-                np.array([r["total_reinforcement"] for r in records], dtype=np.float32)
-            )
-            reached_np = recorder.reached.numpy()[ended]
-            out = update.end_trial(rows, totals, torch.from_numpy(reached_np))
-            extras = _trial_extras(policy, rows, out)
-            for j, b in enumerate(ended_list):
-                if finals[b] is not None:
-                    continue  # this robot has done its trials: only driving on
-                record = {"trial": len(trials[b]) + 1, **records[j]}
-                record["reached_goal"] = bool(reached_np[j])
-                record.update(extras[j])
-                trials[b].append(record)
-                bar.update(1)
-                if batch == 1:
-                    bar.set_postfix(
-                        steps=record["steps"], total=f"{record['total_reinforcement']:.2f}"
-                    )
-                if on_trial is not None:
-                    on_trial(b, record, policy)
-                if len(trials[b]) == n_trials:
-                    finals[b] = policy.robot_state(b)
-            if on_snapshot is not None:
-                on_snapshot(run_snapshot(collector, policy, update, trials[0]))
-            if on_boundary is not None:
-                on_boundary(
-                    lambda: batch_snapshot(collector, policy, update, recorder, trials, finals)
-                )
-            if all(f is not None for f in finals):
-                break
-            if stop is not None and stop():
-                stopped = True
-                break
-    elapsed, cpu = time.perf_counter() - started, time.process_time() - cpu_started
-    timings = {
-        "seconds": elapsed,
-        "cpu_seconds": cpu,
-        "frames": frames,
-        "robots": batch,
-        "steps_per_second": frames / max(elapsed, 1e-9),
-        "stopped": int(stopped),
-    }
-    results = []
-    for b, seed in enumerate(seeds):
-        single = MixtureOfExpertsPolicy(config, policy.knowledge, [seed], policy.subgoals)
-        single.load_state_dict(finals[b] if finals[b] is not None else policy.robot_state(b))
-        results.append(TrainResult(config, seed, trials[b], single, timings, env.world))
-    return results
+    return trials, finals
 
 
 def train(

@@ -80,7 +80,7 @@ def add_baseline(commands: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 def _baseline(args: argparse.Namespace) -> int:
     """``symrl baseline`` (stoppable with one worker: see :func:`symrl.cli.stops.stoppable`)."""
-    from symrl.studies.baseline import baseline_command
+    from symrl.studies.baseline_command import baseline_command
 
     if args.out is not None:
         output_folder("--out", args.out)
