@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from symrl.assembly import make_env
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import expert_names
 from symrl.tensordicts import read
@@ -64,27 +65,6 @@ class TrainResult:
     timings: dict[str, float] = field(default_factory=dict)
     world: Any = None
     """The world the robot learned in (the env's; the policy holds only what it was told)."""
-
-
-def make_env(config: RunConfig, seeds: Sequence[int], world: Any = None, starts: Any = None):
-    """The world of ``config`` as a TorchRL env with one robot per seed."""
-    from symrl.world.batched_env import BatchedWorldEnv
-    from symrl.world.budget import step_budget
-    from symrl.world.worldmap import WorldMap, load_map
-
-    ec = config.env
-    world = world if isinstance(world, WorldMap) else load_map(ec.map if world is None else world)
-    env = BatchedWorldEnv(
-        world,
-        size=len(seeds),
-        robot=ec.robot,
-        noise=ec.noise,
-        max_actions=step_budget(world, ec.max_actions, ec.robot.step),
-        seeds=list(seeds),
-    )
-    if starts is not None:
-        env.set_starts(starts)
-    return env
 
 
 # ---------------------------------------------------------------------------------------------
@@ -283,28 +263,19 @@ def train_batch(
     (:func:`batch_snapshot`; the caller decides when it is worth building);
     ``resume_batch=state`` goes on from such a state as the uninterrupted batch would have.
     """
-    from torchrl.envs.utils import ExplorationType
     from tqdm.auto import tqdm
 
-    from symrl.collector import StepCollector
-    from symrl.learner.policy import MixtureOfExpertsPolicy
-    from symrl.learner.update import TeseoUpdate
+    from symrl.assembly import assemble, build_policy
 
     seeds = [int(s) for s in seeds]
     batch, n_trials = len(seeds), config.run.trials
     if (resume is not None or on_snapshot is not None) and batch != 1:
         raise ValueError(f"train_batch: snapshots and resume need one robot, got {batch}")
-    env = make_env(config, seeds, world=world)
-    if env.physics.max_actions != config.env.max_actions:  # a big world's budget (make_env)
-        budget = {"max_actions": env.physics.max_actions}
-        config = config.model_copy(update={"env": config.env.model_copy(update=budget)})
-    check_memory(config, batch, env.world)
-    policy = MixtureOfExpertsPolicy(config, env.world, seeds)  # cut to config.knowledge
-    # what the robot makes of each observation, written once on reset and step
-    env = env.append_transform(policy.perception_transform())
-    # one step of the B robots per batch; the policy draws its exploration noise
-    collector = StepCollector(env, policy, exploration_type=ExplorationType.RANDOM)
-    update = TeseoUpdate(policy)
+    # env (perception transform appended), policy told config.knowledge, collector, update;
+    # the config with the world's step budget
+    run = assemble(config, seeds, world=world, check=check_memory)
+    config, env, policy, update = run.config, run.env, run.policy, run.update
+    collector = run.collector
     recorder = TrialRecorder(batch)
     trials: list[list[dict[str, Any]]] = [[] for _ in seeds]
     finals: list[dict[str, torch.Tensor] | None] = [None] * batch
@@ -396,7 +367,7 @@ def train_batch(
     }
     results = []
     for b, seed in enumerate(seeds):
-        single = MixtureOfExpertsPolicy(config, policy.knowledge, [seed], policy.subgoals)
+        single = build_policy(config, policy.knowledge, [seed], policy.subgoals)
         single.load_state_dict(finals[b] if finals[b] is not None else policy.robot_state(b))
         results.append(TrainResult(config, seed, trials[b], single, timings, env.world))
     return results
