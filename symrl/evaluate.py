@@ -2,7 +2,8 @@
 
 A batch of robots, each driven by its own controller (or copies of one), each from its own
 start pose, one trial each, with TorchRL's DETERMINISTIC exploration type: the policy adds no
-noise and stores nothing.
+noise and stores nothing. The copies and their env are built by the assembly
+(:func:`symrl.assembly.assemble_greedy`), as a training run's are.
 """
 
 from __future__ import annotations
@@ -20,9 +21,10 @@ __all__ = ["rollout", "evaluate"]
 
 @torch.inference_mode()
 def rollout(policy: Any, env: Any, progress: str | None = None) -> list[dict[str, Any]]:
-    """One greedy trial per robot of ``env`` (batch size = ``policy.batch``); their records
-    (inference mode: no op needs autograd, as in the training loop). ``progress``: the label of
-    a bar counting the batch's steps (on a big world these trials take minutes)."""
+    """One greedy trial per robot of ``env`` (batch size = ``policy.batch``; for a learner's
+    policy, an env with its perception transform: ``symrl.assembly.assemble_greedy``); their
+    records (inference mode: no op needs autograd, as in the training loop). ``progress``: the
+    label of a bar counting the batch's steps (on a big world these trials take minutes)."""
     from torchrl.envs.utils import ExplorationType, set_exploration_type
     from tqdm.auto import tqdm
 

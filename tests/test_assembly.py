@@ -114,3 +114,22 @@ def test_greedy_copies_are_told_what_the_controller_learned_in_and_drive_elsewhe
         assert first == [float(np.random.default_rng(s).random()) for s in (1, 2)]
     finally:
         env.close()
+
+
+def test_the_policy_reads_the_transforms_keys_and_not_the_raw_pose_or_goal():
+    """What the policy acts on is its perception's: the odometry and the goal reading taken out
+    of the TensorDict change nothing."""
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+    run = assemble(load_config("paper_map"), SEEDS)
+    policy = run.policy
+    assert set(policy.in_keys) == {"sonar", "ir", "state_reward", "is_init", *PERCEPTION_KEYS}
+    td = run.env.reset()
+    bare = td.clone().exclude("odometry", "goal")
+    with set_exploration_type(ExplorationType.DETERMINISTIC):
+        full = policy(td.clone())
+        policy.begin_trial(torch.arange(len(SEEDS)))
+        cut = policy(bare)
+    for key in ("action", "winner", "aim", "option"):
+        assert torch.equal(full[key], cut[key]), key
+    run.collector.shutdown()

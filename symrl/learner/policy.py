@@ -73,7 +73,8 @@ __all__ = [
     "is_greedy",
 ]
 
-OBS_KEYS = ("sonar", "ir", "odometry", "goal", "state_reward")
+OBS_KEYS = ("sonar", "ir", "state_reward")
+"""The observation keys the policy reads beside its perception transform's."""
 _GREEDY = (ExplorationType.DETERMINISTIC, ExplorationType.MODE, ExplorationType.MEAN)
 _PI = math.pi
 _PER_ROBOT = {"options.choice", "options.stage", "options.visit"}
@@ -145,7 +146,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ``option_entry``.
     """
 
-    in_keys = [*OBS_KEYS, *PERCEPTION_KEYS]
+    in_keys = [*OBS_KEYS, *PERCEPTION_KEYS, INIT_KEY]
     out_keys = [
         "action",
         "winner",
