@@ -65,17 +65,24 @@ class _Learner:
 
     def __init__(self, recipe: str, size: int, trials: int) -> None:
         from symrl.learner.config import load_config
-        from symrl.learner.loss import TeseoLoss
-        from symrl.learner.policy import MixtureOfExpertsPolicy
         from symrl.train import TrialRecorder, make_env
 
         config = load_config(recipe, [f"run.trials={trials}"])
         self.size, self.trials = size, trials
         seeds = list(range(size))
         env = make_env(config, seeds)
-        self.policy = MixtureOfExpertsPolicy(config, env.world, seeds)
+        try:
+            from symrl.assembly import build_policy, build_update
+        except ImportError:  # a checkout from before the assembly (--compare)
+            from symrl.learner.loss import TeseoLoss
+            from symrl.learner.policy import MixtureOfExpertsPolicy
+
+            self.policy = MixtureOfExpertsPolicy(config, env.world, seeds)
+            self.loss = TeseoLoss(self.policy)
+        else:
+            self.policy = build_policy(config, env.world, seeds)
+            self.loss = build_update(config, self.policy)
         self.env = env.append_transform(self.policy.perception_transform())
-        self.loss = TeseoLoss(self.policy)
         self.recorder = TrialRecorder(size)
         self.steps: list[list[int]] = [[] for _ in seeds]
 

@@ -59,11 +59,11 @@ def main() -> None:
         t2 = time.perf_counter()
         line = f"{doc['name']:>12s}: load {t1 - t0:.3f} s, check {t2 - t1:.4f} s; {verdict}"
         if build and not verdict.startswith("refused"):
+            from symrl.assembly import build_policy
             from symrl.learner.config import load_config
-            from symrl.learner.policy import MixtureOfExpertsPolicy
 
             t3 = time.perf_counter()
-            MixtureOfExpertsPolicy(load_config("paper", []), world, [0])
+            build_policy(load_config("paper", []), world, [0])
             line += f"; table and paths built in {time.perf_counter() - t3:.2f} s"
         print(line)
 

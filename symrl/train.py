@@ -2,11 +2,9 @@
 
 Readable top to bottom, as TorchRL's own recipes read:
 
-    env = BatchedWorldEnv(B robots, robot b seeded seeds[b])       the world, batch [B]
-    policy = MixtureOfExpertsPolicy(config, seeds)                  acts (gate, experts, reflex)
-    env = env.append_transform(policy.perception_transform())      what the robot perceives
-    collector = StepCollector(env, policy)                          one step of B robots a batch
-    update = TeseoUpdate(policy)                                    learns (TESEO update)
+    run = assemble(config, seeds)      the world cut to the recipe's knowledge (symrl.assembly);
+                                       env of B robots + perception transform, policy,
+                                       collector (one step of B robots a batch), update
     TrainingLoop(collector, TeseoAgent(policy, update), RobotTrials(B, trials), recorder).run()
         for batch in collector: update(batch); robots whose trial ended: update.end_trial,
         record the trial
@@ -38,6 +36,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from symrl.assembly import make_env
 from symrl.learner.config import RunConfig
 from symrl.learner.experts import expert_names
 from symrl.loop import RobotTrials, TrainingLoop
@@ -67,27 +66,6 @@ class TrainResult:
     timings: dict[str, float] = field(default_factory=dict)
     world: Any = None
     """The world the robot learned in (the env's; the policy holds only what it was told)."""
-
-
-def make_env(config: RunConfig, seeds: Sequence[int], world: Any = None, starts: Any = None):
-    """The world of ``config`` as a TorchRL env with one robot per seed."""
-    from symrl.world.batched_env import BatchedWorldEnv
-    from symrl.world.budget import step_budget
-    from symrl.world.worldmap import WorldMap, load_map
-
-    ec = config.env
-    world = world if isinstance(world, WorldMap) else load_map(ec.map if world is None else world)
-    env = BatchedWorldEnv(
-        world,
-        size=len(seeds),
-        robot=ec.robot,
-        noise=ec.noise,
-        max_actions=step_budget(world, ec.max_actions, ec.robot.step),
-        seeds=list(seeds),
-    )
-    if starts is not None:
-        env.set_starts(starts)
-    return env
 
 
 # ---------------------------------------------------------------------------------------------
@@ -153,27 +131,17 @@ def train_batch(
     (:func:`batch_snapshot`; the caller decides when it is worth building);
     ``resume_batch=state`` goes on from such a state as the uninterrupted batch would have.
     """
-    from torchrl.envs.utils import ExplorationType
-
-    from symrl.collector import StepCollector
-    from symrl.learner.policy import MixtureOfExpertsPolicy
-    from symrl.learner.update import TeseoUpdate
+    from symrl.assembly import assemble
 
     seeds = [int(s) for s in seeds]
     batch, n_trials = len(seeds), config.run.trials
     if (resume is not None or on_snapshot is not None) and batch != 1:
         raise ValueError(f"train_batch: snapshots and resume need one robot, got {batch}")
-    env = make_env(config, seeds, world=world)
-    if env.physics.max_actions != config.env.max_actions:  # a big world's budget (make_env)
-        budget = {"max_actions": env.physics.max_actions}
-        config = config.model_copy(update={"env": config.env.model_copy(update=budget)})
-    check_memory(config, batch, env.world)
-    policy = MixtureOfExpertsPolicy(config, env.world, seeds)  # cut to config.knowledge
-    # what the robot makes of each observation, written once on reset and step
-    env = env.append_transform(policy.perception_transform())
-    # one step of the B robots per batch; the policy draws its exploration noise
-    collector = StepCollector(env, policy, exploration_type=ExplorationType.RANDOM)
-    update = TeseoUpdate(policy)
+    # env (perception transform appended), policy told config.knowledge, collector, update;
+    # the config with the world's step budget
+    run = assemble(config, seeds, world=world, check=check_memory)
+    config, env, policy, update = run.config, run.env, run.policy, run.update
+    collector = run.collector
     recorder = TrialRecorder(batch)
     trials, finals = _resumed(resume_batch, resume, collector, policy, update, recorder, n_trials)
     agent = TeseoAgent(policy, update)
@@ -258,9 +226,9 @@ def _robot_policy(
 ) -> Any:
     """Robot ``b``'s controller as a B = 1 policy: ``final`` (its state when it finished its
     trials) or its state now."""
-    from symrl.learner.policy import MixtureOfExpertsPolicy
+    from symrl.assembly import build_policy
 
-    single = MixtureOfExpertsPolicy(config, policy.knowledge, [seed], policy.subgoals)
+    single = build_policy(config, policy.knowledge, [seed], policy.subgoals)
     single.load_state_dict(final if final is not None else policy.robot_state(b))
     return single
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 import pytest
 
 import symrl.train
+from symrl.assembly import build_policy
 from symrl.cli import main
 from symrl.learner.config import load_config
-from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.runs import save_checkpoint
 from symrl.world.worldmap import load_map
 
@@ -20,7 +20,7 @@ def paths(tmp_path_factory):
     afile.write_text("not a folder")
     config = load_config("paper", [])
     checkpoint = root / "checkpoint.pt"
-    save_checkpoint(checkpoint, MixtureOfExpertsPolicy(config), config, 0)  # untrained
+    save_checkpoint(checkpoint, build_policy(config), config, 0)  # untrained
     return {"FILE": str(afile), "CKPT": str(checkpoint), "ROOT": str(root)}
 
 

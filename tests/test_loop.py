@@ -158,18 +158,14 @@ def test_stop_ends_the_loop_between_two_steps(config):
 
 
 def test_the_paper_learner_through_the_loop_is_train_batch(config):
-    from symrl.learner.policy import MixtureOfExpertsPolicy
-    from symrl.learner.update import TeseoUpdate
+    from symrl.assembly import assemble
     from symrl.teseo import TeseoAgent
 
     config = load_config("paper", ["run.trials=3"])
     seeds = [5, 6]
     expected = [r.trials for r in train_batch(config, seeds, progress=False)]
-    env = make_env(config, seeds)
-    policy = MixtureOfExpertsPolicy(config, env.world, seeds)
-    env = env.append_transform(policy.perception_transform())
-    collector = StepCollector(env, policy, exploration_type=ExplorationType.RANDOM)
-    agent = TeseoAgent(policy, TeseoUpdate(policy))
+    run = assemble(config, seeds)
+    collector, agent = run.collector, TeseoAgent(run.policy, run.update)
     loop = TrainingLoop(collector, agent, RobotTrials(2, 3), TrialRecorder(2), progress=False)
     with torch.inference_mode():
         loop.run()

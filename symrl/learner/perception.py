@@ -14,9 +14,11 @@ told (its :class:`~symrl.knowledge.rungs.Knowledge`) and its config:
   forgets a robot's per-trial decisions there, so the loop needs no call into it between two
   trials. Written by the env transform only (a direct call does not know a trial's start).
 
-The transform is part of the agent, not of the world: the policy builds it
-(``policy.perception_transform()``) and the training loop appends it to the batched env; the
-policy and the update read its keys (root: the state acted in; ``"next"``: the state reached).
+The transform is part of the agent, not of the world: the assembly (:mod:`symrl.assembly`)
+builds it from what the robot is told, appends it to the batched env and hands it to the
+policy; the policy and the update read its keys (root: the state acted in; ``"next"``: the
+state reached). It takes the config sections it uses: the robot's (``env.robot``),
+``experts`` (the input and its codes), ``localize`` and the gate's ``partition``.
 """
 
 from __future__ import annotations
@@ -32,10 +34,11 @@ from torchrl.envs.transforms import Transform
 from symrl.knowledge.localize import MapLocalizer, PoseTracker
 from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.rungs import Knowledge
-from symrl.learner.config import RunConfig
+from symrl.learner.config import ExpertsConfig, LocalizeSection
 from symrl.tensordicts import read, write
 from symrl.world.geometry import Walls
 from symrl.world.physics import goal_reading
+from symrl.world.robot import RobotConfig
 
 __all__ = ["Perception", "PERCEPTION_KEYS", "INIT_KEY"]
 
@@ -46,13 +49,23 @@ INIT_KEY = "is_init"
 class Perception(Transform):
     """The robot's perception of B observations (see the module docstring), written into the
     TensorDict by a TorchRL env (``env.append_transform(perception)``) or by a direct call
-    (``perception(td)``, for a policy driven without it)."""
+    (``perception(td)``: a saved observation perceived again, as a resumed run does)."""
 
-    def __init__(self, knowledge: Knowledge, config: RunConfig, batch: int) -> None:
+    def __init__(
+        self,
+        knowledge: Knowledge,
+        batch: int,
+        robot: RobotConfig,
+        experts: ExpertsConfig,
+        localize: LocalizeSection,
+        partition: bool,
+    ) -> None:
+        """B = ``batch`` robots told ``knowledge``, with the sections ``env.robot``,
+        ``experts``, ``localize`` and ``gate.partition`` of their config."""
         super().__init__(
             in_keys=["sonar", "odometry", "goal"], out_keys=[*PERCEPTION_KEYS, INIT_KEY]
         )
-        robot, xc, lc = config.env.robot, config.experts, config.localize
+        xc, lc = experts, localize
         self.batch = batch
         self.goal = (float(knowledge.goal.x), float(knowledge.goal.y))
         self.tracker = (
@@ -71,7 +84,7 @@ class Perception(Transform):
             else None
         )
         self.mapper = RegionMapper(knowledge.regions)
-        self.partition = bool(config.gate.partition)
+        self.partition = bool(partition)
         self.pose_input = xc.input == "pose"
         self.heading_scale = float(xc.heading_scale)
         self.code_width = float(xc.goal_code_width)

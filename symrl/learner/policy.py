@@ -1,9 +1,18 @@
 """The mixture-of-experts controller of B robots (paper Fig. 4, sections 6-8): it acts, it does
 not learn.
 
+It reads the TensorDict's ``sonar``, ``ir``, ``state_reward`` and the keys its perception
+transform wrote, ``pose``, ``belief_goal``, ``region``, ``expert``, ``x`` and ``is_init``, and
+nothing else: it does not perceive. A TensorDict without them (an env without the transform) is
+a :class:`PerceptionMissing` error. The policy is handed what it needs by the assembly
+(:mod:`symrl.assembly`): what the robot is told (its ``Knowledge``), the perception transform,
+the ``experts`` config section, the reflex, the initial temperature and, where the recipe has
+them, the sub-goal options and the IR shield; it neither cuts the world to its rung nor builds
+its perception.
+
 Per step, for every robot of the batch at once (``docs/explanation/algorithm.md``); steps 0-2 are
-the robot's perception (:class:`symrl.learner.perception.Perception`, a TorchRL env transform the
-policy builds from what the robot is told: the env writes them once per observation):
+the robot's perception (:class:`symrl.learner.perception.Perception`, the TorchRL env transform
+the policy is handed: the env writes them once per observation):
 
 0. the pose the robot believes: its odometry pose, or with map localisation the pose its sonar
    scan gives in the map; "pose" below is this one;
@@ -35,6 +44,7 @@ the same seed alone.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -46,19 +56,25 @@ from torchrl.envs.utils import ExplorationType, exploration_type
 from symrl.grad import no_grad
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.rungs import Knowledge
-from symrl.knowledge.shield import IRShield, ShieldConfig
+from symrl.knowledge.shield import IRShield
 from symrl.knowledge.subgoals import SubgoalTable
-from symrl.learner.config import RunConfig
+from symrl.learner.config import ExpertsConfig
 from symrl.learner.experts import ExpertBank
 from symrl.learner.options import SubgoalOptions
 from symrl.learner.perception import INIT_KEY, PERCEPTION_KEYS, Perception
 from symrl.learner.progress import TrialProgress
 from symrl.tensordicts import read, write
-from symrl.world.worldmap import WorldMap, load_map
 
-__all__ = ["PerceptionResult", "MixtureOfExpertsPolicy", "OBS_KEYS", "is_greedy"]
+__all__ = [
+    "PerceptionResult",
+    "MixtureOfExpertsPolicy",
+    "OBS_KEYS",
+    "PerceptionMissing",
+    "is_greedy",
+]
 
-OBS_KEYS = ("sonar", "ir", "odometry", "goal", "state_reward")
+OBS_KEYS = ("sonar", "ir", "state_reward")
+"""The observation keys the policy reads beside its perception transform's."""
 _GREEDY = (ExplorationType.DETERMINISTIC, ExplorationType.MODE, ExplorationType.MEAN)
 _PI = math.pi
 _PER_ROBOT = {"options.choice", "options.stage", "options.visit"}
@@ -87,6 +103,17 @@ class PerceptionResult(NamedTuple):
     """(B,) bool: no neuron within the novelty radius."""
 
 
+class PerceptionMissing(KeyError):
+    """The policy was driven on a TensorDict its perception transform did not write."""
+
+    def __str__(self) -> str:
+        return (
+            "policy: no 'pose' in the TensorDict (the perception transform's key): drive it on "
+            "an env with its perception transform appended (symrl.assembly.assemble, or "
+            "env.append_transform(policy.perception_transform()))"
+        )
+
+
 _PERCEPTION = "perception."
 
 
@@ -108,9 +135,9 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
 
     Reads ``sonar``, ``ir``, ``state_reward`` of a batch [B] and what its perception
     transform (:meth:`perception_transform`) made of them: ``pose`` (the pose it believes),
-    ``belief_goal``, ``region``, ``expert``, ``x`` (without them, as on a bare env, it perceives
-    ``sonar``, ``odometry``, ``goal`` itself and writes them) and, where the transform marks a
-    trial's first state, ``is_init``: it forgets those robots' per-trial decisions
+    ``belief_goal``, ``region``, ``expert``, ``x`` (without them: :class:`PerceptionMissing`)
+    and, where the transform marks a trial's first state, ``is_init``: it forgets those robots'
+    per-trial decisions
     (:meth:`begin_trial`) before acting. Writes ``action`` (B, 1) and the
     decision: ``winner`` (-1 when novel), ``novel``, ``proto`` (the action a new neuron here
     gets), ``xi`` (exploration draw), ``sigma``, ``taken`` (the action relative to its base,
@@ -119,7 +146,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     ``option_entry``.
     """
 
-    in_keys = [*OBS_KEYS, *PERCEPTION_KEYS]
+    in_keys = [*OBS_KEYS, *PERCEPTION_KEYS, INIT_KEY]
     out_keys = [
         "action",
         "winner",
@@ -136,73 +163,54 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
 
     def __init__(
         self,
-        config: RunConfig,
-        knowledge: Knowledge | WorldMap | None = None,
-        seeds: list[int] | None = None,
-        subgoals: SubgoalTable | None = None,
+        knowledge: Knowledge,
+        perception: Perception,
+        seeds: Sequence[int],
+        experts: ExpertsConfig,
+        reflex: FuzzyReflex,
+        temperature0: float,
+        options: SubgoalOptions | None = None,
+        shield: IRShield | None = None,
     ) -> None:
-        """``knowledge``: what the robot is told (``symrl.knowledge.rungs``); a ``WorldMap`` (or
-        None: ``config.env.map``) is cut down to the rung ``config.knowledge`` declares, so the
-        agent never holds more. ``subgoals``: the map's sub-goal table if already built (it is
-        derived from the map and ``config.options`` alone; building it takes tens of
-        milliseconds)."""
+        """B = ``len(seeds)`` robots told ``knowledge``, perceiving through ``perception``
+        (the transform of their env, built for the same knowledge and batch), with the config
+        section ``experts``, the reflex, the initial temperature ``update.temperature0`` and,
+        where the recipe has them, the sub-goal options and the IR shield. Build it with
+        :func:`symrl.assembly.build_policy`, which cuts the world to the recipe's rung."""
         super().__init__()
-        self.config = config
-        if not isinstance(knowledge, Knowledge):
-            world = knowledge if knowledge is not None else load_map(config.env.map)
-            knowledge = Knowledge.told(world, config.knowledge)
-        elif knowledge.rung != config.knowledge:
+        if perception.batch != len(seeds):
             raise ValueError(
-                f"knowledge={config.knowledge} in the config, but the agent is handed "
-                f"knowledge of rung {knowledge.rung!r}"
+                f"seeds: {len(seeds)} robots, but the perception is built for {perception.batch}"
             )
         self.knowledge = knowledge
-        self.seeds = list(seeds) if seeds is not None else [config.run.seed]
+        self.experts_config = experts
+        self.seeds = [int(s) for s in seeds]
         batch = len(self.seeds)
-        robot = config.env.robot
-        xc = config.experts
-        # what the robot makes of an observation: a TorchRL env transform built from what it
-        # is told. A submodule (``.to()`` and the module tree reach it) whose entries stay out
-        # of the state dict: its region rules and goal codes are saved as ``mapper.`` and
+        # what the robot makes of an observation: the TorchRL env transform it is handed. A
+        # submodule (``.to()`` and the module tree reach it) whose entries stay out of the
+        # state dict: its region rules and goal codes are saved as ``mapper.`` and
         # ``code_centres``, the keys of every saved controller
-        perception = Perception(knowledge, config, batch)
         self.perception = perception
         self.register_state_dict_post_hook(_without_perception)
         self.register_load_state_dict_post_hook(_perception_not_missing)
         self.mapper = perception.mapper
         self.region_names: tuple[str, ...] = tuple(self.mapper.names)
-        self.expert_names = self.region_names if config.gate.partition else ("all",)
-        self.reflex = FuzzyReflex(config.reflex)
+        self.expert_names = self.region_names if perception.partition else ("all",)
+        self.reflex = reflex
         self.input_dim = perception.input_dim
         self.experts = ExpertBank(
             batch,
             len(self.expert_names),
             self.input_dim,
-            xc.capacity,
-            xc.max_neurons,
+            experts.capacity,
+            experts.max_neurons,
             names=self.expert_names,
         )
-        self.options = None
-        if config.options.enabled:
-            self.options = SubgoalOptions(
-                knowledge,
-                batch,
-                config.options,
-                self.seeds,
-                subgoals,
-                config.option_critic,
-                config.crossings,
-                robot,
-                config.env.max_actions,
-            )
-        self.shield = (
-            IRShield(ShieldConfig(margin=config.shield.margin), robot)
-            if config.shield.enabled
-            else None
-        )
+        self.options = options
+        self.shield = shield
         goal = knowledge.goal
         self.register_buffer("code_centres", perception.code_centres)
-        self.progress = TrialProgress(batch, config.update.temperature0)
+        self.progress = TrialProgress(batch, temperature0)
         self.generators = [torch.Generator().manual_seed(int(s)) for s in self.seeds]
         self._normals = torch.empty(batch, 0)
         self._uniforms = torch.empty(batch, 0)
@@ -225,9 +233,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
 
     # -- perception ---------------------------------------------------------------------
     def perception_transform(self) -> Perception:
-        """The robot's perception as a TorchRL env transform (``env.append_transform``): it
-        writes ``pose``, ``belief_goal``, ``region``, ``expert`` and ``x`` on reset and step,
-        which the policy and the update read. The policy's own: one env at a time."""
+        """The robot's perception as a TorchRL env transform (``env.append_transform``), the
+        one the policy was handed: it writes ``pose``, ``belief_goal``, ``region``, ``expert``
+        and ``x`` on reset and step, which the policy and the update read. One env at a
+        time."""
         return self.perception
 
     def perceive(
@@ -249,10 +258,10 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     def _winners(self, expert: torch.Tensor, x: torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
         """The nearest neuron of each robot's expert to its input and whether none lies within
         the novelty radius (numpy: the control loop reads them so)."""
-        if not self.config.experts.learning:
+        if not self.experts_config.learning:
             return np.full(len(expert), -1), np.ones(len(expert), dtype=bool)
         winner, distance = self.experts.nearest_np(expert.numpy(), x.numpy())
-        return winner, distance > self.config.experts.novelty_radius  # inf for an empty expert
+        return winner, distance > self.experts_config.novelty_radius  # inf for an empty expert
 
     # -- random streams -------------------------------------------------------------------
     def random_state(self) -> dict[str, Any]:
@@ -299,17 +308,19 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     # -- acting ---------------------------------------------------------------------------
     @no_grad
     def forward(self, td: TensorDictBase) -> TensorDictBase:
-        xc = self.config.experts
+        xc = self.experts_config
         greedy = is_greedy()
         sonar = read(td, "sonar")
-        if self.perception.container is None:  # driven without its env transform
-            self.perception(td)
         init = read(td, INIT_KEY, None)  # a trial's first state: forget the last trial's
         starting = None if init is None else init.numpy().reshape(-1)  # decisions there
         if starting is not None and starting.any():
             self.begin_trial(torch.from_numpy(np.flatnonzero(starting)))
-        pose, goal = read(td, "pose"), read(td, "belief_goal")
-        region, expert, x = read(td, "region"), read(td, "expert"), read(td, "x")
+        try:
+            pose = read(td, "pose")
+        except KeyError:
+            raise PerceptionMissing() from None
+        goal, region = read(td, "belief_goal"), read(td, "region")
+        expert, x = read(td, "expert"), read(td, "x")
         winner, novel = self._winners(expert, x)
         zero = self._zeros
         option, entered, aim = self._no_option, self._no_entry, self._goal_aim
@@ -319,48 +330,16 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         else:
             target = goal[:, 1].to(torch.float64)
         if xc.reflex or not xc.learning:
-            # float32 widened exactly, in numpy (a torch cast is a dispatch more)
-            reflex_action = self.reflex(torch.from_numpy(sonar.numpy().astype(np.float64)), target)
-            if start_turn is not None and start_turn.any():
-                # a trial's first action with the aim behind: straight at it, in one action
-                reflex_action = torch.from_numpy(
-                    np.where(start_turn, target.numpy(), reflex_action.numpy())
-                )
+            reflex_action = self._reflex_action(sonar, target, start_turn)
         else:
             reflex_action = zero
-        xi = sigma = zero
         if not xc.learning:
-            base = proto = zero
+            base = proto = xi = sigma = zero
             alpha = reflex_action
         else:
-            # numpy on the tensors' memory (a handful of rows: a fraction of the torch
-            # dispatches); exp stays torch's, the rest is exact arithmetic in the same order
-            z, uniform = (self._zeros_np, self._zeros_np) if greedy else self._draws()
-            if xc.residual:
-                base, proto = reflex_action, zero
-            elif xc.reflex:
-                base, proto = zero, reflex_action
-            else:
-                base, proto = zero, torch.from_numpy(uniform * (2 * _PI) - _PI)
-            bank = self.experts
-            index = bank.flat_index_np(expert.numpy(), np.maximum(winner, 0))
-            known = ~novel
-            flat = bank.flat
-            p = np.where(known, flat.actions[index], proto.numpy())
-            mu = np.where(known, flat.means[index], 0.0)
-            if greedy:
-                noisy = mu
-            else:
-                # a novel state's neuron is born with u = r(state): the reward of arriving here
-                u_new = read(td, "state_reward").numpy().reshape(-1).astype(np.float64)
-                u = np.where(known, flat.utilities[index], u_new)
-                e = torch.from_numpy(np.minimum(u, 60.0)).exp().numpy()
-                spread = self.progress.arrays["temperature"] / (1.0 + e)
-                noisy = mu + spread * z
-                sigma = torch.from_numpy(spread)
-            xi = torch.from_numpy(noisy)
-            # clipped to [-pi, pi] by min/max (np.clip's dispatch costs about twice as much)
-            alpha = torch.from_numpy(np.minimum(np.maximum(base.numpy() + p + noisy, -_PI), _PI))
+            base, proto, xi, sigma, alpha = self._explore(
+                td, expert, winner, novel, reflex_action, greedy
+            )
         shielded = self._no_entry
         if self.shield is not None:
             alpha, shielded = self.shield(read(td, "ir"), alpha)
@@ -383,6 +362,59 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         )
         return td
 
+    def _explore(
+        self,
+        td: TensorDictBase,
+        expert: torch.Tensor,
+        winner: np.ndarray,
+        novel: np.ndarray,
+        reflex_action: torch.Tensor,
+        greedy: bool,
+    ) -> tuple[torch.Tensor, ...]:
+        """The learned action (Gullapalli's Gaussian unit, Eq. 6): ``base``, ``proto``, ``xi``,
+        ``sigma`` and the action clipped to [-pi, pi]."""
+        xc = self.experts_config
+        zero = sigma = self._zeros
+        # numpy on the tensors' memory (a handful of rows: a fraction of the torch
+        # dispatches); exp stays torch's, the rest is exact arithmetic in the same order
+        z, uniform = (self._zeros_np, self._zeros_np) if greedy else self._draws()
+        if xc.residual:
+            base, proto = reflex_action, zero
+        elif xc.reflex:
+            base, proto = zero, reflex_action
+        else:
+            base, proto = zero, torch.from_numpy(uniform * (2 * _PI) - _PI)
+        bank = self.experts
+        index = bank.flat_index_np(expert.numpy(), np.maximum(winner, 0))
+        known = ~novel
+        flat = bank.flat
+        p = np.where(known, flat.actions[index], proto.numpy())
+        mu = np.where(known, flat.means[index], 0.0)
+        if greedy:
+            noisy = mu
+        else:
+            # a novel state's neuron is born with u = r(state): the reward of arriving here
+            u_new = read(td, "state_reward").numpy().reshape(-1).astype(np.float64)
+            u = np.where(known, flat.utilities[index], u_new)
+            e = torch.from_numpy(np.minimum(u, 60.0)).exp().numpy()
+            spread = self.progress.arrays["temperature"] / (1.0 + e)
+            noisy = mu + spread * z
+            sigma = torch.from_numpy(spread)
+        # clipped to [-pi, pi] by min/max (np.clip's dispatch costs about twice as much)
+        alpha = torch.from_numpy(np.minimum(np.maximum(base.numpy() + p + noisy, -_PI), _PI))
+        return base, proto, torch.from_numpy(noisy), sigma, alpha
+
+    def _reflex_action(
+        self, sonar: torch.Tensor, target: torch.Tensor, start_turn: np.ndarray | None
+    ) -> torch.Tensor:
+        """The reflex's action at the sonars steering at ``target``; at a trial's first action
+        with the aim behind (``start_turn``), straight at it in one action."""
+        # float32 widened exactly, in numpy (a torch cast is a dispatch more)
+        action = self.reflex(torch.from_numpy(sonar.numpy().astype(np.float64)), target)
+        if start_turn is not None and start_turn.any():
+            action = torch.from_numpy(np.where(start_turn, target.numpy(), action.numpy()))
+        return action
+
     @no_grad
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the per-trial decisions of robots ``rows`` (they start a new trial); called
@@ -393,26 +425,19 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     # -- per-robot state ------------------------------------------------------------------
     def robot_state(self, b: int) -> dict[str, torch.Tensor]:
         """Robot ``b``'s controller: a cloned state dict that loads into a policy of one robot
-        (``MixtureOfExpertsPolicy(config, policy.knowledge, [seed])``)."""
+        (``symrl.assembly.build_policy(config, policy.knowledge, [seed])``)."""
         out = {}
         for key, value in self.state_dict().items():
             per_robot = key.startswith(_PER_ROBOT_MODULES) or key in _PER_ROBOT
             out[key] = (value[b : b + 1] if per_robot else value).clone()
         return out
 
-    @classmethod
-    def from_robot_states(
-        cls,
-        config: RunConfig,
-        knowledge: Knowledge | WorldMap,
-        states: list[dict[str, torch.Tensor]],
-        seeds: list[int] | None = None,
-        subgoals: SubgoalTable | None = None,
-    ) -> MixtureOfExpertsPolicy:
-        """One policy whose robot b is the controller ``states[b]`` (from :meth:`robot_state`
-        or a one-robot policy's state dict): evaluate several controllers side by side."""
-        seeds = list(seeds) if seeds is not None else [0] * len(states)
-        policy = cls(config, knowledge, seeds, subgoals)
+    def load_robot_states(self, states: Sequence[dict[str, torch.Tensor]]) -> None:
+        """Make robot b the controller ``states[b]`` (from :meth:`robot_state` or a one-robot
+        policy's state dict; one state per robot): evaluate several controllers side by
+        side."""
+        if len(states) != self.batch:
+            raise ValueError(f"states: {len(states)} controllers for a batch of {self.batch}")
         merged = {}
         for key, value in states[0].items():
             if key.startswith(_PER_ROBOT_MODULES) or key in _PER_ROBOT:
@@ -426,8 +451,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 merged[key] = torch.cat(parts, dim=0)
             else:
                 merged[key] = value
-        policy.load_state_dict(merged)
-        return policy
+        self.load_state_dict(merged)
 
     # -- sizes ----------------------------------------------------------------------------
     def neurons(self) -> torch.Tensor:

@@ -240,14 +240,28 @@ def trial_gradient(
         d = max(math.hypot(ex, ey), 1e-9)
         r0[n - 1] -= step_cost / step * ex / d
         r1[n - 1] -= step_cost / step * ey / d
+    grad = _costate((d0, d1), (e0, e1, e2), (r0, r1, sign))
+    out = np.asarray(grad)
+    out[held] = 0.0
+    return out
+
+
+def _costate(
+    d: tuple[np.ndarray, np.ndarray],
+    e: tuple[np.ndarray, np.ndarray, np.ndarray],
+    r: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> list[float]:
+    """dJ/da_t of every step from d = ds_{t+1}/da_t = (d0, d1, 1), e = da_t/ds_t and
+    r = d r_t / d s_{t+1} (each a tuple of (T,) columns)."""
     # the costate lam = dJ(rewards from step t on) / ds_{t+1}, backward on Python floats (a
     # handful of products per step: 3 x 3 numpy calls would cost 10x more). With d = ds_{t+1}/da_t
     # = (d0, d1, 1) and e = da_t/ds_t, ds_{t+1}/ds_t = I + (d0, d1 in the heading column) + d e^T.
+    n = len(d[0])
     grad = [0.0] * n
     l0 = l1 = l2 = 0.0
-    d0s, d1s = d0.tolist(), d1.tolist()
-    e0s, e1s, e2s = e0.tolist(), e1.tolist(), e2.tolist()
-    r0s, r1s, r2s = r0.tolist(), r1.tolist(), sign.tolist()  # r2 = sign * 1
+    d0s, d1s = d[0].tolist(), d[1].tolist()
+    e0s, e1s, e2s = e[0].tolist(), e[1].tolist(), e[2].tolist()
+    r0s, r1s, r2s = r[0].tolist(), r[1].tolist(), r[2].tolist()  # r2 = sign * 1
     for t in range(n - 1, -1, -1):
         l0 += r0s[t]
         l1 += r1s[t]
@@ -256,6 +270,4 @@ def trial_gradient(
         ld = xy + l2
         grad[t] = ld
         l0, l1, l2 = l0 + ld * e0s[t], l1 + ld * e1s[t], l2 + xy + ld * e2s[t]
-    out = np.asarray(grad)
-    out[held] = 0.0
-    return out
+    return grad

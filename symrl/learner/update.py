@@ -47,9 +47,11 @@ from tensordict import TensorDict, TensorDictBase
 
 from symrl.fastpaths import new_tensordict, read
 from symrl.grad import no_grad
+from symrl.learner.config import TrialGradientConfig, UpdateConfig
 from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.learner.returns import TrialReturns
 from symrl.learner.trial_gradient import TrialRecord, trial_gradient
+from symrl.world.robot import RobotConfig
 
 __all__ = ["TeseoUpdate", "UpdateKeys"]
 
@@ -91,15 +93,30 @@ class TeseoUpdate:
 
     out_keys = ["td_error", "grown", "neurons"]
 
-    def __init__(self, policy: MixtureOfExpertsPolicy) -> None:
+    def __init__(
+        self,
+        policy: MixtureOfExpertsPolicy,
+        update: UpdateConfig,
+        trial_gradient: TrialGradientConfig,
+        robot: RobotConfig,
+        max_actions: int,
+    ) -> None:
+        """The update of ``policy``'s experts with the config sections ``update`` and
+        ``trial_gradient``, for a robot ``robot`` (``env.robot``) whose trials last at most
+        ``max_actions`` actions (``env.max_actions``, the world's step budget applied). Build
+        it with :func:`symrl.assembly.build_update`."""
         self.policy = policy
+        self.settings = update
+        self.gradient = trial_gradient
+        self.robot = robot
+        self.learning = policy.experts_config.learning
+        self.novelty_radius = policy.experts_config.novelty_radius
         # the modules the policy hands over (saved with it)
         self.experts = policy.experts
         self.progress = policy.progress
         self.options = policy.options
         self.critic = policy.options.critic if policy.options is not None else None
         self.crossings = policy.options.crossings if policy.options is not None else None
-        self.config = policy.config
         self.tensor_keys = UpdateKeys()
         batch = policy.batch
         # option critics: the return so far in the trial, at each region's first entry and,
@@ -112,9 +129,9 @@ class TeseoUpdate:
         # the trial gradient's record of the trials in progress (empty at every trial boundary,
         # where runs are saved, so it is not part of the state)
         self.record: TrialRecord | None = None
-        if self.config.trial_gradient.rate > 0 and self.config.experts.learning:
+        if trial_gradient.rate > 0 and self.learning:
             rays = policy.reflex.config.n_rays
-            self.record = TrialRecord(batch, self.config.env.max_actions, rays)
+            self.record = TrialRecord(batch, max_actions, rays)
 
     @property
     def in_keys(self) -> list:
@@ -168,24 +185,15 @@ class TeseoUpdate:
         exactly rounded IEEE operation in the same order as the formulas, so the numbers are
         those of the torch version; the centre shift stays a torch ``lerp``."""
         k = self.tensor_keys
-        policy, cfg = self.policy, self.config
-        batch = policy.batch
+        batch = self.policy.batch
         nxt = read(td, "next")
-        r = read(nxt, k.reward).numpy().reshape(batch).astype(np.float64)
-        if policy.options is not None:
-            entered = read(td, k.option_entry).numpy()
-            if entered.any():
-                option = read(td, "option").numpy() if self.crossings is not None else None
-                self.returns.enter(np.flatnonzero(entered), read(td, k.region).numpy(), option)
-        self.returns.add(r)
-        if self.crossings is not None:
-            self._observe_crossings(td, nxt)
-        if not cfg.experts.learning:
+        r = self._returns(td, nxt)
+        if not self.learning:
             zero = torch.zeros(batch, dtype=torch.float64)
             return TensorDict(
                 td_error=zero,
                 grown=torch.zeros(batch, dtype=torch.long),
-                neurons=policy.neurons().sum(-1),
+                neurons=self.policy.neurons().sum(-1),
                 batch_size=[batch],
             )
         bank = self.experts
@@ -203,40 +211,17 @@ class TeseoUpdate:
             grown += novel
         # flat views of the storage, taken after any growth (the capacity may have doubled)
         flat = bank.flat
-        utilities = flat.utilities
         index = bank.flat_index_np(expert, winner)
         bank.mark_taken(index, read(td, k.taken).numpy())
-
-        if self.record is not None:  # the poses the robot steered by (its belief)
-            self.record.append(
-                read(td, k.pose).numpy(),
-                read(td, k.sonar).numpy(),
-                read(td, k.aim).numpy(),
-                read(td, k.shielded).numpy(),
-                flat.row_base + expert,
-                winner,
-                read(nxt, k.pose).numpy(),
-                read(nxt, k.sonar).numpy(),
-            )
+        if self.record is not None:
+            self._record(td, nxt, flat.row_base + expert, winner)
 
         # 2. the utility of the state reached
-        terminated = read(nxt, k.terminated).numpy().reshape(-1)
-        truncated = read(nxt, k.truncated).numpy().reshape(-1)
-        u_prev = utilities[index]
-        # the state reached as the robot perceives it (its perception transform's keys), and
-        # its nearest neuron
-        seen_expert = read(nxt, k.expert).numpy()
-        seen_winner, distance = bank.nearest_np(seen_expert, read(nxt, k.x).numpy())
-        seen_novel = distance > cfg.experts.novelty_radius  # inf for an empty expert
-        u_seen = utilities[bank.flat_index_np(seen_expert, np.maximum(seen_winner, 0))]
-        # a truncated trial bootstraps from the nearest neuron (no growth: the trial is over)
-        u_trunc = np.where(seen_winner >= 0, u_seen, u_prev)
-        u_next = np.where(seen_novel, r, u_seen)
-        u_next = np.where(truncated, u_trunc, u_next)
-        u_next[terminated] = 0.0
+        u_prev = flat.utilities[index]
+        u_next = self._next_utility(nxt, r, u_prev, flat.utilities)
 
         # 3. TD error; error-driven growth or the TD / REINFORCE / centre steps
-        update = cfg.update
+        update = self.settings
         delta = r + update.gamma * u_next - u_prev
         split = np.abs(delta) > update.error_threshold
         if split.any():
@@ -265,12 +250,65 @@ class TeseoUpdate:
             torch.Size([batch]),
         )
 
+    def _returns(self, td: TensorDictBase, nxt: TensorDictBase) -> np.ndarray:
+        """The transition's rewards (B,) float64, added to the returns of the trials in
+        progress (with options: from each region's first entry; with crossings: the crossing
+        evidence too)."""
+        k = self.tensor_keys
+        r = read(nxt, k.reward).numpy().reshape(self.policy.batch).astype(np.float64)
+        if self.options is not None:
+            entered = read(td, k.option_entry).numpy()
+            if entered.any():
+                option = read(td, "option").numpy() if self.crossings is not None else None
+                self.returns.enter(np.flatnonzero(entered), read(td, k.region).numpy(), option)
+        self.returns.add(r)
+        if self.crossings is not None:
+            self._observe_crossings(td, nxt)
+        return r
+
+    def _record(
+        self, td: TensorDictBase, nxt: TensorDictBase, row: np.ndarray, winner: np.ndarray
+    ) -> None:
+        """The step in the trial gradient's record: the poses the robot steered by (its
+        belief), its sonars, aim, shield and the neuron that acted (storage row, index)."""
+        k, record = self.tensor_keys, self.record
+        assert record is not None
+        record.append(
+            read(td, k.pose).numpy(),
+            read(td, k.sonar).numpy(),
+            read(td, k.aim).numpy(),
+            read(td, k.shielded).numpy(),
+            row,
+            winner,
+            read(nxt, k.pose).numpy(),
+            read(nxt, k.sonar).numpy(),
+        )
+
+    def _next_utility(
+        self, nxt: TensorDictBase, r: np.ndarray, u_prev: np.ndarray, utilities: np.ndarray
+    ) -> np.ndarray:
+        """u' of the state reached, as the robot perceives it (its perception transform's
+        keys): 0 if terminal; r if novel (its new neuron's utility); else its winner's; a
+        truncated trial bootstraps from the nearest neuron (no growth: the trial is over)."""
+        k, bank = self.tensor_keys, self.experts
+        terminated = read(nxt, k.terminated).numpy().reshape(-1)
+        truncated = read(nxt, k.truncated).numpy().reshape(-1)
+        seen_expert = read(nxt, k.expert).numpy()
+        seen_winner, distance = bank.nearest_np(seen_expert, read(nxt, k.x).numpy())
+        seen_novel = distance > self.novelty_radius  # inf for an empty expert
+        u_seen = utilities[bank.flat_index_np(seen_expert, np.maximum(seen_winner, 0))]
+        u_trunc = np.where(seen_winner >= 0, u_seen, u_prev)
+        u_next = np.where(seen_novel, r, u_seen)
+        u_next = np.where(truncated, u_trunc, u_next)
+        u_next[terminated] = 0.0
+        return u_next
+
     def _observe_crossings(self, td: TensorDictBase, nxt: TensorDictBase) -> None:
         """The crossing evidence of the state reached (and of a trial's first state): the
         sonar rays from the believed pose, and where the robot crossed a border."""
         k, crossings, policy = self.tensor_keys, self.crossings, self.policy
         assert crossings is not None
-        scale = policy.config.env.robot.sonar_range
+        scale = self.robot.sonar_range
         pose = read(td, k.pose).numpy().astype(np.float64)
         pose_next = read(nxt, k.pose).numpy().astype(np.float64)
         first = read(td, "is_init", None)
@@ -303,19 +341,19 @@ class TeseoUpdate:
         ``replaced`` (neurons replaced per row), ``improved`` (a better success),
         ``best_total`` (the best success so far) and ``temperature`` (the one the trial
         explored with, before this call cools it)."""
-        cfg, progress = self.config, self.progress
+        update, progress = self.settings, self.progress
         # numpy on the buffers' memory (a handful of rows), the same operations
         rows_np, n = rows.numpy(), rows.shape[0]
         explored = progress.temperatures(rows_np)
         totals_np = totals.numpy().astype(np.float64)
         replaced = np.zeros(n, dtype=np.int64)
         improved = np.zeros(n, dtype=bool)
-        if cfg.experts.learning:
+        if self.learning:
             improved = progress.improve(rows_np, totals_np, reached.numpy())
-            if cfg.update.replace_actions and improved.any():
+            if update.replace_actions and improved.any():
                 better = torch.from_numpy(rows_np[improved])
                 replaced[improved] = self.experts.replace_actions(better).numpy()
-            progress.cool(rows_np, cfg.update.cooling, cfg.update.temperature_min)
+            progress.cool(rows_np, update.cooling, update.temperature_min)
             if self.record is not None:
                 self._trial_gradient_step(rows_np)
             self.experts.clear_trial(rows)
@@ -342,9 +380,9 @@ class TeseoUpdate:
     def _trial_gradient_step(self, rows: np.ndarray) -> None:
         """mu_j += clip(rate * sum of dJ/da_t over the steps neuron j acted, +-max_step), kept
         within +-limit, for every neuron that acted in the finished trials of ``rows``."""
-        rec, policy, cfg = self.record, self.policy, self.config
+        rec, policy = self.record, self.policy
         assert rec is not None
-        tg, robot = cfg.trial_gradient, cfg.env.robot
+        tg, robot = self.gradient, self.robot
         goal = policy.knowledge.goal
         flat = self.experts.flat
         returns = self.returns.so_far()
@@ -365,7 +403,7 @@ class TeseoUpdate:
                 robot.sonar_range,
                 robot.close_distance,
                 cost,
-                reactive=cfg.experts.residual,
+                reactive=policy.experts_config.residual,
             )
             index = rec.row[b, :n] * flat.capacity + rec.neuron[b, :n]
             # per neuron, its steps' sum in the steps' order (bincount's), read at the neurons
@@ -378,7 +416,7 @@ class TeseoUpdate:
         rec.clear(rows)
 
     def __repr__(self) -> str:
-        u = self.config.update
+        u = self.settings
         return (
             f"{type(self).__name__}(gamma={u.gamma}, eta={u.eta}, beta={u.beta}, "
             f"kappa={u.kappa}, theta={u.error_threshold})"

@@ -38,9 +38,6 @@ from symrl.runs.policy_check import check_policy_state
 from symrl.runs.tables import BASE_COLUMNS, read_trials_csv, trial_columns, write_trials_csv
 from symrl.runs.whole_run import finished_trials, run_one
 
-_atomic_save = atomic_save  # the names other modules of symrl imported before the split
-_map_content = map_content
-
 __all__ = [
     "RunWriter",
     "BASE_COLUMNS",

@@ -158,7 +158,7 @@ def load_checkpoint(path: str | Path) -> tuple[Any, RunConfig]:
 def load_checkpoint_world(path: str | Path) -> tuple[Any, RunConfig, Any]:
     """:func:`load_checkpoint` and the world the robot learned in (the checkpoint's map; the
     policy holds only what its recipe's ``knowledge`` tells it)."""
-    from symrl.learner.policy import MixtureOfExpertsPolicy
+    from symrl.assembly import build_policy
     from symrl.world.worldmap import MapError, load_map
 
     path = Path(path)
@@ -195,7 +195,7 @@ def load_checkpoint_world(path: str | Path) -> tuple[Any, RunConfig, Any]:
         world = load_map(data["map"]) if data.get("map") else load_map(config.env.map)
     except (ConfigError, MapError) as err:
         raise CheckpointError(f"checkpoint {str(path)!r}: {err}") from None
-    policy = MixtureOfExpertsPolicy(config, world, [int(data.get("seed", config.run.seed))])
+    policy = build_policy(config, world, [int(data.get("seed", config.run.seed))])
     state = data["policy"]
     fault = check_policy_state(state, policy.state_dict())
     if fault:

@@ -51,9 +51,9 @@ def save_baseline(
     ``resume`` also the run state to go on from (:func:`load_run_state`). Written atomically: a
     crash leaves the previous file."""
     from symrl.about import provenance
-    from symrl.runs import CHECKPOINT_FORMAT, _atomic_save, _map_content
+    from symrl.runs import CHECKPOINT_FORMAT, atomic_save, map_content
 
-    _atomic_save(
+    atomic_save(
         {
             **({"resume": resume} if resume is not None else {}),
             "format": CHECKPOINT_FORMAT,
@@ -63,7 +63,7 @@ def save_baseline(
             "priors": asdict(priors),
             "actor_spec": {"n_obs": n_obs, **agent.actor_spec},
             "config": config_to_dict(config),
-            "map": _map_content(world),
+            "map": map_content(world),
             "seed": int(seed),
             "actor": agent.actor.state_dict(),
         },

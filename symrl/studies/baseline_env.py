@@ -42,7 +42,7 @@ def make_env(config: RunConfig, priors: Priors, seeds: Sequence[int], world: Any
     """``BatchedWorldEnv`` (one robot per seed) with the :class:`PriorObservation` transform."""
     from torchrl.envs import TransformedEnv
 
-    from symrl.train import make_env as make_world
+    from symrl.assembly import make_env as make_world
     from symrl.world.worldmap import load_map
 
     world = world if world is not None else load_map(config.env.map)

@@ -68,10 +68,10 @@ class BatchKeeper:
         now = time.monotonic()
         if now - self._last < INTERVAL_S:
             return
-        from symrl.runs import _atomic_save
+        from symrl.runs import atomic_save
 
         self.folder.mkdir(parents=True, exist_ok=True)
-        _atomic_save({"settings": self.settings, "state": snapshot()}, self.path)
+        atomic_save({"settings": self.settings, "state": snapshot()}, self.path)
         self._last = time.monotonic()
 
     def done(self) -> None:

@@ -24,7 +24,6 @@ from typing import Any
 
 import numpy as np
 
-from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import RunConfig, config_from_dict, config_to_dict, load_config
 from symrl.studies.sets import SetResult, load_set, save_set
 from symrl.studies.stats import (
@@ -89,18 +88,11 @@ def evaluation_batch(
     ``map`` its sub-goal table, planner and localiser are built from it); the env holds
     ``env_world`` (default ``world``), e.g. the same map with a new obstacle the agent is not
     told of."""
-    from symrl.learner.policy import MixtureOfExpertsPolicy
-    from symrl.train import make_env
+    from symrl.assembly import assemble_greedy
 
-    told = Knowledge.told(world, config.knowledge)
-    policy = MixtureOfExpertsPolicy.from_robot_states(config, told, list(states), list(seeds))
-    env = make_env(
-        config,
-        list(seeds),
-        world=world if env_world is None else env_world,
-        starts=np.asarray(starts, dtype=np.float64),
-    )
-    return policy, env
+    place = world if env_world is None else env_world
+    poses = np.asarray(starts, dtype=np.float64)
+    return assemble_greedy(config, world, list(states), list(seeds), place, poses)
 
 
 def evaluate_states(

@@ -67,9 +67,9 @@ def _alarm(seconds: int):
 
 def make_fixtures(root: Path) -> dict[str, str]:
     """The files and folders the corpus's placeholders stand for, made under ``root``."""
+    from symrl.assembly import build_policy
     from symrl.cli import main
     from symrl.learner.config import load_config
-    from symrl.learner.policy import MixtureOfExpertsPolicy
     from symrl.runs import save_checkpoint
 
     root.mkdir(parents=True, exist_ok=True)
@@ -77,7 +77,7 @@ def make_fixtures(root: Path) -> dict[str, str]:
     (root / "adir").mkdir(exist_ok=True)
     config = load_config("paper", [])
     ckpt = root / "checkpoint.pt"
-    save_checkpoint(ckpt, MixtureOfExpertsPolicy(config), config, 0)
+    save_checkpoint(ckpt, build_policy(config), config, 0)
     run = root / "run"
     with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
         assert main(["train", "paper", "--trials", "1", "--logdir", str(run)]) == 0

@@ -8,9 +8,9 @@ import pytest
 import torch
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
+from symrl.assembly import build_policy
 from symrl.knowledge.rungs import RUNGS, Knowledge, rung_at_least
 from symrl.learner.config import ConfigError, builtin_recipes, load_config
-from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.train import make_env
 from symrl.world.worldmap import load_map
 
@@ -82,7 +82,7 @@ def test_every_recipe_declares_a_rung_its_settings_fit():
 def test_an_agent_is_refused_knowledge_of_another_rung_than_its_config():
     told = Knowledge.told(load_map("hailu2001"), "map")
     with pytest.raises(ValueError, match="knowledge=regions in the config"):
-        MixtureOfExpertsPolicy(load_config("paper"), told)
+        build_policy(load_config("paper"), told)
 
 
 def test_two_worlds_with_the_same_rules_give_the_same_agent_below_map():
@@ -92,8 +92,8 @@ def test_two_worlds_with_the_same_rules_give_the_same_agent_below_map():
     plain = load_map("hailu2001")
     boxed = plain.with_obstacle(BOX)
     config = load_config("paper")
-    a = MixtureOfExpertsPolicy(config, plain, [3, 4])
-    b = MixtureOfExpertsPolicy(config, boxed, [3, 4])
+    a = build_policy(config, plain, [3, 4])
+    b = build_policy(config, boxed, [3, 4])
     assert a.knowledge.world is None and b.knowledge.world is None
     assert a.knowledge.regions == b.knowledge.regions
     state_a, state_b = a.state_dict(), b.state_dict()
@@ -103,9 +103,9 @@ def test_two_worlds_with_the_same_rules_give_the_same_agent_below_map():
     td = env.reset()
     with set_exploration_type(ExplorationType.RANDOM):
         for _ in range(15):
-            act_a = a(td.clone())["action"]
-            act_b = b(td.clone())["action"]
+            act_a = a(a.perception_transform()(td.clone()))["action"]
+            act_b = b(b.perception_transform()(td.clone()))["action"]
             assert torch.equal(act_a, act_b)
             td = env.step(td.set("action", act_a))["next"]
     mapped = load_config("paper_map")
-    assert MixtureOfExpertsPolicy(mapped, boxed).knowledge.world is boxed
+    assert build_policy(mapped, boxed).knowledge.world is boxed

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import weakref
+
 import torch
 from tensordict import TensorDict
 
+from symrl.assembly import build_policy, build_update
 from symrl.learner.config import RunConfig, load_config
 from symrl.learner.policy import MixtureOfExpertsPolicy
+from symrl.learner.update import TeseoUpdate
 
 N_SENSORS = 24
 
@@ -26,8 +30,31 @@ def config(recipe: str = "paper_literal", *overrides: str) -> RunConfig:
     return load_config(recipe, [*([] if named else ["localize.enabled=false"]), *overrides])
 
 
+_CONFIGS: weakref.WeakKeyDictionary[MixtureOfExpertsPolicy, RunConfig] = weakref.WeakKeyDictionary()
+
+
 def policy(recipe: str = "paper_literal", *overrides: str, seeds=(0,)) -> MixtureOfExpertsPolicy:
-    return MixtureOfExpertsPolicy(config(recipe, *overrides), seeds=list(seeds))
+    """The recipe's policy of robots ``seeds``, as the assembly builds it."""
+    cfg = config(recipe, *overrides)
+    p = build_policy(cfg, None, list(seeds))
+    _CONFIGS[p] = cfg
+    return p
+
+
+def config_of(p: MixtureOfExpertsPolicy) -> RunConfig:
+    """The config :func:`policy` built ``p`` from."""
+    return _CONFIGS[p]
+
+
+def teseo(p: MixtureOfExpertsPolicy) -> TeseoUpdate:
+    """The update of a policy from :func:`policy`, as the assembly builds it."""
+    return build_update(config_of(p), p)
+
+
+def act(p: MixtureOfExpertsPolicy, td: TensorDict) -> TensorDict:
+    """The policy acting on ``td`` perceived by its perception transform (called directly, as
+    an env with the transform appended writes its keys)."""
+    return p(p.perception_transform()(td))
 
 
 def observation(

@@ -8,9 +8,9 @@ from tensordict import TensorDict
 from torchrl.collectors import BaseCollector
 from torchrl.envs.utils import ExplorationType
 
+from symrl.assembly import build_policy
 from symrl.collector import StepCollector
 from symrl.learner.config import load_config
-from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.train import make_env
 
 SEEDS = [3, 4, 5]
@@ -19,7 +19,7 @@ SEEDS = [3, 4, 5]
 def _collector(total_frames: int = -1, max_actions: int = 200) -> StepCollector:
     config = load_config("paper", [f"env.max_actions={max_actions}"])
     env = make_env(config, SEEDS)
-    policy = MixtureOfExpertsPolicy(config, env.world, SEEDS)
+    policy = build_policy(config, env.world, SEEDS)
     env = env.append_transform(policy.perception_transform())
     return StepCollector(
         env, policy, total_frames=total_frames, exploration_type=ExplorationType.RANDOM

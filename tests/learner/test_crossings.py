@@ -227,12 +227,11 @@ def test_every_choice_is_credited_with_the_return_to_go_from_it():
     which reaches the goal 2 actions later: the first is credited with -6, the second -2."""
     from tensordict import TensorDict
 
-    from symrl.learner.policy import MixtureOfExpertsPolicy
-    from symrl.learner.update import TeseoUpdate
+    from symrl.assembly import build_policy, build_update
 
     config = load_config("paper", ["crossings.enabled=true", "experts.learning=false"])
-    policy = MixtureOfExpertsPolicy(config, OFFICE, [0])
-    loss = TeseoUpdate(policy)
+    policy = build_policy(config, OFFICE, [0])
+    loss = build_update(config, policy)
     r = policy.region_names.index("west_office")
     first, second = 0, policy.options.labels[r].index("wc>middle_office")
     pose, sonar = torch.tensor([[2.0, 4.5, 0.0]]), torch.ones(1, ROBOT.n_sensors)

@@ -6,11 +6,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 import torch
-from learner_helpers import policy
+from learner_helpers import config_of, policy
 from torchrl.envs import TransformedEnv
 
 from symrl.learner.perception import PERCEPTION_KEYS, Perception
+from symrl.learner.policy import PerceptionMissing
 from symrl.train import make_env
 from symrl.world.batched_env import BatchedTransformedEnv
 
@@ -18,7 +20,7 @@ SEEDS = (0, 1, 2)
 
 
 def _env(p, generic: bool = False):
-    env = make_env(p.config, SEEDS)
+    env = make_env(config_of(p), SEEDS)
     if generic:  # TorchRL's own TransformedEnv: its generic step, step_mdp and reset
         return TransformedEnv(env, p.perception_transform())
     return env.append_transform(p.perception_transform())
@@ -36,7 +38,7 @@ def test_reset_and_step_write_the_perception_on_the_root_and_on_next():
     assert torch.equal(td["x"][:, :24], td["sonar"])
     g = p.knowledge.goal
     rho = math.hypot(g.x - start.x, g.y - start.y) / p.perception.start_distance
-    codes = torch.exp(-(((torch.arange(8) / 7 - rho) / p.config.experts.goal_code_width) ** 2))
+    codes = torch.exp(-(((torch.arange(8) / 7 - rho) / config_of(p).experts.goal_code_width) ** 2))
     assert torch.allclose(td["x"][0, 24:], codes, atol=1e-5)
     td["action"] = torch.zeros(3, 1)
     td, following = env.step_and_maybe_reset(td)
@@ -86,20 +88,28 @@ def test_a_restarted_robot_is_localised_afresh():
         td["action"] = torch.full((3, 1), 0.3)
         _, td = env.step_and_maybe_reset(td)
     assert env.physics.actions_taken.tolist() == [2, 0, 2]
-    fresh = Perception(p.knowledge, p.config, 1)
+    c = config_of(p)
+    fresh = Perception(p.knowledge, 1, c.env.robot, c.experts, c.localize, c.gate.partition)
     one = fresh.perceive(td["sonar"][1:2], td["odometry"][1:2], td["goal"][1:2])
     for key in PERCEPTION_KEYS:
         assert torch.equal(td[key][1:2], one[key]), key
 
 
-def test_a_policy_without_its_transform_perceives_for_itself():
-    p, q = (policy("paper_map", "localize.enabled=true", seeds=SEEDS) for _ in range(2))
-    bare, env = make_env(p.config, SEEDS), _env(q)
-    a, b = bare.reset(), env.reset()
-    assert not set(PERCEPTION_KEYS) & set(a.keys())
-    p(a), q(b)
-    for key in ("action", "winner", "aim", *PERCEPTION_KEYS):
-        assert torch.equal(a[key], b[key]), key
+def test_a_policy_on_an_env_without_its_transform_is_a_one_line_error_naming_the_key():
+    """The policy reads the transform's keys and does not perceive by itself: on a bare env
+    it stops at once, with one line naming the missing key and the fix."""
+    p = policy("paper_map", seeds=SEEDS)
+    bare = make_env(config_of(p), SEEDS)
+    td = bare.reset()
+    assert not set(PERCEPTION_KEYS) & set(td.keys())
+    with pytest.raises(PerceptionMissing) as err:
+        p(td)
+    message = str(err.value)
+    assert "\n" not in message and "'pose'" in message and "perception transform" in message
+    assert "action" not in td  # it wrote nothing
+    # the same observation perceived by its transform (a direct call, as the env's)
+    p(p.perception_transform()(td))
+    assert "action" in td
 
 
 def test_perception_keys_are_in_the_transformed_specs():

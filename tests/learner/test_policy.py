@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 import torch
-from learner_helpers import N_SENSORS, POSES, observation, place, policy, stack
+from learner_helpers import N_SENSORS, POSES, act, config_of, observation, place, policy, stack
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from symrl.learner.policy import MixtureOfExpertsPolicy
+from symrl.assembly import build_policy
 from symrl.world.batched_env import BatchedWorldEnv
 from symrl.world.geometry import Walls
 from symrl.world.worldmap import load_map
@@ -70,7 +70,7 @@ def test_perceiving_again_follows_the_observation_not_the_tensor(recipe):
 
 def test_acting_writes_the_decision_and_grows_nothing():
     p = policy()
-    td = p(observation())
+    td = act(p, observation())
     for key in p.out_keys:
         assert key in td, key
     assert td["action"].shape == (1, 1) and td["action"].dtype == torch.float32
@@ -82,7 +82,7 @@ def test_novel_state_acts_as_its_new_neuron_would():
     obs = observation(sonar=0.5, goal=(4.0, 0.6), state_reward=-0.4)
     # paper_literal: p = the reflex's action, u = state_reward
     p = policy()
-    td = p(obs.clone())
+    td = act(p, obs.clone())
     reflex = _reflex(p, obs)
     assert float(td["proto"][0]) == pytest.approx(reflex)
     assert float(td["sigma"][0]) == pytest.approx(0.3 / (1 + math.exp(-0.4)))
@@ -90,14 +90,14 @@ def test_novel_state_acts_as_its_new_neuron_would():
     assert float(td["taken"][0]) == pytest.approx(float(td["action"][0, 0]), abs=1e-6)
     # residual experts: p = 0 on top of the reflex
     r = policy("paper_map", "options.enabled=false", "shield.enabled=false")
-    td = r(obs.clone())
+    td = act(r, obs.clone())
     assert float(td["proto"][0]) == 0.0
     reflex = _reflex(r, obs)  # the paper recipe's own reflex (its output sets differ)
     assert float(td["action"][0, 0]) == pytest.approx(reflex + float(td["xi"][0]), abs=1e-6)
     assert float(td["taken"][0]) == pytest.approx(float(td["xi"][0]), abs=1e-6)  # minus base
     # no reflex: a uniform random action in [-pi, pi], a new one each time
     n = policy("no_reflex")
-    protos = [float(n(obs.clone())["proto"][0]) for _ in range(8)]
+    protos = [float(act(n, obs.clone())["proto"][0]) for _ in range(8)]
     assert len(set(protos)) == 8 and all(-math.pi <= a <= math.pi for a in protos)
 
 
@@ -108,7 +108,7 @@ def test_known_state_acts_with_its_neuron():
     sigma = 0.3 / (1 + math.exp(-1.0))  # T / (1 + e^u)
     draws = []
     for _ in range(300):
-        td = p(obs.clone())
+        td = act(p, obs.clone())
         assert not bool(td["novel"][0]) and int(td["winner"][0]) == 0
         assert float(td["sigma"][0]) == pytest.approx(sigma)
         xi = float(td["xi"][0])
@@ -119,14 +119,14 @@ def test_known_state_acts_with_its_neuron():
     assert abs(float(xs.std()) - sigma) < 0.15 * sigma
     p.experts.actions[0, 0, 0] = 3.1
     p.experts.means[0, 0, 0] = 1.0
-    assert float(p(obs.clone())["action"][0, 0]) == pytest.approx(math.pi)  # clipped
+    assert float(act(p, obs.clone())["action"][0, 0]) == pytest.approx(math.pi)  # clipped
 
 
 def test_sigma_follows_the_temperature():
     p = policy()
     obs = observation(state_reward=-0.5)
     p.progress.temperature.fill_(0.0)
-    td = p(obs.clone())
+    td = act(p, obs.clone())
     assert float(td["sigma"][0]) == 0.0 and float(td["xi"][0]) == 0.0
 
 
@@ -138,8 +138,8 @@ def test_greedy_is_deterministic_and_draws_nothing():
     states = [g.get_state() for g in p.generators]
     drawn = p._drawn
     with set_exploration_type(GREEDY):
-        first = [p(obs.clone()), p(novel.clone())]
-        second = [p(obs.clone()), p(novel.clone())]
+        first = [act(p, obs.clone()), act(p, novel.clone())]
+        second = [act(p, obs.clone()), act(p, novel.clone())]
     assert float(first[0]["action"][0, 0]) == pytest.approx(0.25, abs=1e-6)  # p + mu
     assert float(first[1]["action"][0, 0]) == pytest.approx(_reflex(p, novel), abs=1e-6)
     for a, b in zip(first, second, strict=True):
@@ -151,7 +151,7 @@ def test_greedy_is_deterministic_and_draws_nothing():
     # the next exploring action draws what it would have drawn without the greedy ones
     fresh = policy()
     place(fresh, obs, action=0.2, utility=-1.0, mean=0.05)
-    assert torch.equal(p(obs.clone())["xi"], fresh(obs.clone())["xi"])
+    assert torch.equal(act(p, obs.clone())["xi"], act(fresh, obs.clone())["xi"])
 
 
 def test_greedy_residual_expert_adds_its_correction_to_the_reflex():
@@ -159,18 +159,18 @@ def test_greedy_residual_expert_adds_its_correction_to_the_reflex():
     obs = observation(goal=(4.5, -0.46))
     place(p, obs, action=0.25)
     with set_exploration_type(GREEDY):
-        td = p(obs.clone())
+        td = act(p, obs.clone())
     assert float(td["action"][0, 0]) == pytest.approx(_reflex(p, obs) + 0.25, abs=1e-6)
     absolute = policy()
     place(absolute, obs, action=0.25)
     with set_exploration_type(GREEDY):
-        assert float(absolute(obs.clone())["action"][0, 0]) == pytest.approx(0.25, abs=1e-6)
+        assert float(act(absolute, obs.clone())["action"][0, 0]) == pytest.approx(0.25, abs=1e-6)
 
 
 def test_without_learning_the_reflex_drives():
     p = policy("reflex_only")
     obs = observation(sonar=0.03, goal=(3.0, -1.0))
-    td = p(obs.clone())
+    td = act(p, obs.clone())
     assert float(td["action"][0, 0]) == pytest.approx(_reflex(p, obs), abs=1e-6)
     assert int(td["winner"][0]) == -1 and float(td["proto"][0]) == 0.0
     assert float(td["sigma"][0]) == 0.0 and int(p.neurons().sum()) == 0
@@ -192,7 +192,7 @@ def test_shield_replaces_a_move_into_a_wall():
     for p in (shielded, plain):
         place(p, obs, action=0.0)  # the neuron drives straight into the wall
     with set_exploration_type(GREEDY):
-        a, b = shielded(obs.clone()), plain(obs.clone())
+        a, b = act(shielded, obs.clone()), act(plain, obs.clone())
     assert not bool(b["shielded"][0]) and float(b["action"][0, 0]) == 0.0
     alpha = float(a["action"][0, 0])
     assert bool(a["shielded"][0]) and abs(alpha) > math.radians(30)
@@ -200,7 +200,7 @@ def test_shield_replaces_a_move_into_a_wall():
     # in free space the shield changes nothing
     free = observation()
     with set_exploration_type(GREEDY):
-        c, d = shielded(free.clone()), plain(free.clone())
+        c, d = act(shielded, free.clone()), act(plain, free.clone())
     assert not bool(c["shielded"][0]) and torch.equal(c["action"], d["action"])
 
 
@@ -208,23 +208,23 @@ def test_options_choose_at_the_first_entry_of_a_region_per_trial():
     p = policy("paper_map", seeds=(0, 1))
     room, door = observation(), observation(pose=POSES["door"])
     both = stack(room, room)
-    td = p(both.clone())
+    td = act(p, both.clone())
     assert td["option_entry"].tolist() == [True, True]
     assert (td["option"] >= 0).all()
     chosen = td["option"].clone()
     for _ in range(3):  # the same region again: no new choice, the same option
-        td = p(both.clone())
+        td = act(p, both.clone())
         assert td["option_entry"].tolist() == [False, False]
         assert torch.equal(td["option"], chosen)
-    td = p(stack(door, room))  # robot 0 enters the door region
+    td = act(p, stack(door, room))  # robot 0 enters the door region
     assert td["option_entry"].tolist() == [True, False]
-    td = p(stack(room, room))  # back in the room: the room's choice still holds
+    td = act(p, stack(room, room))  # back in the room: the room's choice still holds
     assert td["option_entry"].tolist() == [False, False] and torch.equal(td["option"], chosen)
     p.begin_trial(torch.tensor([1]))  # robot 1 starts a new trial: it chooses again
-    td = p(both.clone())
+    td = act(p, both.clone())
     assert td["option_entry"].tolist() == [False, True]
     assert p.options.choice[1].tolist().count(-1) == len(p.region_names) - 1
-    off = policy("paper_literal")(room.clone())
+    off = act(policy("paper_literal"), room.clone())
     assert int(off["option"][0]) == -1 and not bool(off["option_entry"][0])
 
 
@@ -244,7 +244,7 @@ def test_options_steer_the_reflex_at_the_chosen_subgoal():
     p.options.critic.q[0, r, k] = -1.0
     obs = observation(goal=(4.5, -0.46))
     with set_exploration_type(GREEDY):
-        td = p(obs.clone())
+        td = act(p, obs.clone())
     assert int(td["option"][0]) == k
     px, py = p.options.points[r, k].tolist()
     target = math.atan2(py, px)  # from the pose (0, 0, 0)
@@ -260,7 +260,8 @@ def test_robot_states_round_trip():
     p.progress.best_total[0] = -9.0
     p.options.critic.q[1, 0, 1] = -4.5
     p.options.critic.n[1, 0, 1] = 3
-    single = MixtureOfExpertsPolicy(p.config, p.knowledge, [5])
+    config = config_of(p)
+    single = build_policy(config, p.knowledge, [5])
     single.load_state_dict(p.robot_state(1))
     assert single.neurons().tolist() == [p.neurons()[1].tolist()]
     assert float(single.progress.temperature[0]) == 0.05
@@ -268,23 +269,21 @@ def test_robot_states_round_trip():
     n = int(p.experts.count[1, 0])
     assert torch.equal(single.experts.centres[0, 0, :n], p.experts.centres[1, 0, :n])
     # several controllers side by side, in any order, with different capacities
-    small = MixtureOfExpertsPolicy(p.config, p.knowledge, [4])
+    small = build_policy(config, p.knowledge, [4])
     small.load_state_dict(p.robot_state(0))
-    both = MixtureOfExpertsPolicy.from_robot_states(
-        p.config, p.knowledge, [small.state_dict(), single.state_dict()], seeds=[4, 5]
+    both = build_policy(
+        config, p.knowledge, [4, 5], states=[small.state_dict(), single.state_dict()]
     )
     for key, value in p.state_dict().items():
         assert torch.equal(both.state_dict()[key], value), key
-    swapped = MixtureOfExpertsPolicy.from_robot_states(
-        p.config, p.knowledge, [p.robot_state(1), p.robot_state(0)]
-    )
+    swapped = build_policy(config, p.knowledge, [0, 0], states=[p.robot_state(1), p.robot_state(0)])
     assert swapped.neurons().tolist() == p.neurons().flip(0).tolist()
     assert swapped.progress.best_total.tolist() == [-math.inf, -9.0]
     # each robot acts as its controller alone
     obs = stack(observation(sonar=0.7), observation(sonar=0.2))
     with set_exploration_type(GREEDY):
-        td = swapped(obs.clone())
-        alone = single(observation(sonar=0.7))
+        td = act(swapped, obs.clone())
+        alone = act(single, observation(sonar=0.7))
     assert torch.equal(td["action"][0], alone["action"][0])
     assert int(td["winner"][0]) == int(alone["winner"][0]) >= 0
 
@@ -295,9 +294,9 @@ def test_a_robots_actions_do_not_depend_on_the_batch():
     batch = policy("paper_map", seeds=(11, 12))
     alone = [policy("paper_map", seeds=(s,)) for s in (11, 12)]
     for _ in range(5):
-        td = batch(stack(*obs))
+        td = act(batch, stack(*obs))
         for b, p in enumerate(alone):
-            one = p(obs[b].clone())
+            one = act(p, obs[b].clone())
             for key in ("action", "xi", "option", "proto"):
                 assert torch.equal(td[key][b], one[key][0]), key
 
@@ -357,20 +356,20 @@ def test_a_trials_first_action_turns_straight_at_an_aim_behind_the_robot(side):
     p = policy("paper", *args)
     heading = side * 2.6  # the goal (4, -2) is ~150 degrees off from (0, 0)
     behind = observation(pose=(0.0, 0.0, heading))
-    td = p(behind.clone())
+    td = act(p, behind.clone())
     aim = math.atan2(-2.0, 4.0) - heading
     aim = math.remainder(aim, 2 * math.pi)
     assert abs(aim) > math.radians(90)
     assert float(td["action"][0, 0]) == pytest.approx(aim, abs=1e-5)
-    again = p(behind.clone())  # the trial's second action: the reflex's (at most 45 degrees)
+    again = act(p, behind.clone())  # the trial's second action: the reflex's (at most 45 degrees)
     assert abs(float(again["action"][0, 0])) <= math.radians(45) + 1e-6
     p.begin_trial(torch.tensor([0]))  # a new trial turns again
-    assert float(p(behind.clone())["action"][0, 0]) == pytest.approx(aim, abs=1e-5)
+    assert float(act(p, behind.clone())["action"][0, 0]) == pytest.approx(aim, abs=1e-5)
     off = policy("paper", *args[:2], "options.start_turn_deg=null")
-    assert abs(float(off(behind.clone())["action"][0, 0])) <= math.radians(45) + 1e-6
+    assert abs(float(act(off, behind.clone())["action"][0, 0])) <= math.radians(45) + 1e-6
     ahead = policy("paper", *args)  # the aim 26 degrees off: the reflex's action
     obs = observation(pose=(0.0, 0.0, 0.0))
-    assert float(ahead(obs.clone())["action"][0, 0]) == pytest.approx(
+    assert float(act(ahead, obs.clone())["action"][0, 0]) == pytest.approx(
         _reflex(ahead, obs, math.atan2(-2.0, 4.0)), abs=1e-5
     )
 

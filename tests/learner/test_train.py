@@ -9,10 +9,10 @@ import math
 import pytest
 import torch
 
+from symrl.assembly import build_policy
 from symrl.cli import main
 from symrl.evaluate import evaluate
 from symrl.learner.config import load_config
-from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.runs import CheckpointError, load_checkpoint, save_checkpoint
 from symrl.train import make_env, train, train_batch
 
@@ -149,7 +149,7 @@ def test_evaluating_side_by_side_is_evaluating_each_alone():
     """A batch of greedy trials from several starts gives each start's record alone, also
     when the trials end at different steps."""
     config = load_config("reflex_only")
-    policy = MixtureOfExpertsPolicy(config)
+    policy = build_policy(config)
     starts = [(0.0, 0.0, 0.0), (2.5, -1.5, 0.0)]
     both = evaluate(policy, config, starts=starts, noise=False)
     assert both[0]["steps"] != both[1]["steps"]

@@ -9,7 +9,7 @@ import pytest
 import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from learner_helpers import POSES, observation, place, policy, transition
+from learner_helpers import POSES, act, config_of, observation, place, policy, teseo, transition
 from tensordict import TensorDictBase
 
 from symrl.learner.update import TeseoUpdate
@@ -48,12 +48,12 @@ def _room(p) -> int:
 @pytest.mark.parametrize("r", [-0.4, -2.2])  # delta > 0 (centre shift) and delta < 0
 def test_update_matches_autograd(r):
     p = _two_neurons()
-    update = TeseoUpdate(p)
+    update = teseo(p)
     e = _room(p)
     x = p.perceive(A["sonar"], A["odometry"], A["goal"]).x[0] + 0.05  # off the centre
     c_before = p.experts.centres[0, e, 0].clone()
     xi, sigma = 0.35, 0.2
-    u = p.config.update
+    u = config_of(p).update
     u_new, mu_new, delta = _oracle(-1.0, -0.5, 0.1, sigma, xi, r, u.gamma, u.eta, u.beta)
     out = update(transition(p, A, B, r, x=x, xi=xi, taken=0.6))
     bank = p.experts
@@ -87,9 +87,9 @@ def test_update_matches_autograd(r):
 )
 def test_update_matches_autograd_everywhere(u_prev, u_next, mu, r, xi, sigma):
     p = _two_neurons(u_prev=u_prev, u_next=u_next, mu=mu)
-    u = p.config.update
+    u = config_of(p).update
     u_new, mu_new, delta = _oracle(u_prev, u_next, mu, sigma, xi, r, u.gamma, u.eta, u.beta)
-    out = TeseoUpdate(p)(transition(p, A, B, r, xi=xi))
+    out = teseo(p)(transition(p, A, B, r, xi=xi))
     bank, e = p.experts, _room(p)
     assert float(out["td_error"][0]) == pytest.approx(delta, abs=1e-5)
     if abs(delta) > u.error_threshold:  # error-driven growth instead of adaptation
@@ -105,11 +105,11 @@ def test_update_matches_autograd_everywhere(u_prev, u_next, mu, r, xi, sigma):
 def test_error_driven_growth_instead_of_adaptation():
     p = _two_neurons()
     x = p.perceive(A["sonar"], A["odometry"], A["goal"]).x[0] + 0.05
-    out = TeseoUpdate(p)(transition(p, A, B, -3.5, x=x, proto=0.7, xi=0.3))
+    out = teseo(p)(transition(p, A, B, -3.5, x=x, proto=0.7, xi=0.3))
     delta = -3.5 + 0.95 * -0.5 + 1.0
     bank, e = p.experts, _room(p)
     assert float(out["td_error"][0]) == pytest.approx(delta)
-    assert abs(delta) > p.config.update.error_threshold and int(out["grown"][0]) == 1
+    assert abs(delta) > config_of(p).update.error_threshold and int(out["grown"][0]) == 1
     assert int(bank.count[0, e]) == 3
     assert torch.equal(bank.centres[0, e, 2], x)  # a neuron at the previous input
     assert float(bank.utilities[0, e, 2]) == pytest.approx(-1.0 + delta)
@@ -121,22 +121,22 @@ def test_error_driven_growth_instead_of_adaptation():
 
 def test_error_threshold_is_configurable():
     p = _two_neurons("update.error_threshold=5.0")
-    TeseoUpdate(p)(transition(p, A, B, -3.5))
+    teseo(p)(transition(p, A, B, -3.5))
     assert int(p.experts.count[0, _room(p)]) == 2  # |delta| = 2.975 < 5: adaptation
 
 
 def test_terminated_next_state_is_worth_zero():
     p = _two_neurons()
-    out = TeseoUpdate(p)(transition(p, A, B, -0.3, terminated=True))
+    out = teseo(p)(transition(p, A, B, -0.3, terminated=True))
     assert float(out["td_error"][0]) == pytest.approx(-0.3 + 1.0)
     p = _two_neurons()  # terminated wins over truncated (the goal reached at the last action)
-    out = TeseoUpdate(p)(transition(p, A, B, -0.3, terminated=True, truncated=True))
+    out = teseo(p)(transition(p, A, B, -0.3, terminated=True, truncated=True))
     assert float(out["td_error"][0]) == pytest.approx(-0.3 + 1.0)
 
 
 def test_novel_next_state_is_worth_its_reward():
     p = _two_neurons()
-    out = TeseoUpdate(p)(transition(p, A, FAR, -0.7))
+    out = teseo(p)(transition(p, A, FAR, -0.7))
     # u' = r: the utility the neuron grown there will get
     assert float(out["td_error"][0]) == pytest.approx(-0.7 + 0.95 * -0.7 + 1.0)
     assert int(p.experts.count[0, _room(p)]) == 2  # the policy grows it when it acts there
@@ -147,24 +147,24 @@ def test_next_state_in_another_region_bootstraps_from_that_expert():
     door = observation(sonar=0.6, pose=POSES["door"])
     d = p.region_names.index("door")
     place(p, door, utility=-3.0)
-    out = TeseoUpdate(p)(transition(p, A, door, -0.3))
+    out = teseo(p)(transition(p, A, door, -0.3))
     assert float(out["td_error"][0]) == pytest.approx(-0.3 + 0.95 * -3.0 + 1.0)
     assert int(p.experts.count[0, d]) == 1
 
 
 def test_truncated_step_bootstraps_from_the_nearest_neuron():
     p = _two_neurons()
-    out = TeseoUpdate(p)(transition(p, A, B, -0.3, truncated=True))
+    out = teseo(p)(transition(p, A, B, -0.3, truncated=True))
     assert float(out["td_error"][0]) == pytest.approx(-0.3 + 0.95 * -0.5 + 1.0)
     # far from every neuron: still the nearest one (B's), not the reward, and nothing grows
     p = _two_neurons()
-    out = TeseoUpdate(p)(transition(p, A, FAR, -0.3, truncated=True))
+    out = teseo(p)(transition(p, A, FAR, -0.3, truncated=True))
     assert float(out["td_error"][0]) == pytest.approx(-0.3 + 0.95 * -0.5 + 1.0)
     assert int(out["grown"][0]) == 0 and int(p.experts.count[0, _room(p)]) == 2
     # an empty expert there: the previous winner's own utility
     p = _two_neurons()
     empty = observation(sonar=0.6, pose=POSES["door"])
-    out = TeseoUpdate(p)(transition(p, A, empty, -0.3, truncated=True))
+    out = teseo(p)(transition(p, A, empty, -0.3, truncated=True))
     assert float(out["td_error"][0]) == pytest.approx(-0.3 + 0.95 * -1.0 + 1.0)
 
 
@@ -172,7 +172,7 @@ def test_novel_state_neuron_is_grown_at_the_start_of_the_update():
     p = _two_neurons()
     now = observation(sonar=0.9, state_reward=-0.7)
     x = p.perceive(now["sonar"], now["odometry"], now["goal"]).x[0]
-    out = TeseoUpdate(p)(transition(p, now, B, -0.4, novel=True, proto=0.45, xi=0.1, taken=0.55))
+    out = teseo(p)(transition(p, now, B, -0.4, novel=True, proto=0.45, xi=0.1, taken=0.55))
     bank, e = p.experts, _room(p)
     assert int(out["grown"][0]) == 1 and int(bank.count[0, e]) == 3
     delta = -0.4 + 0.95 * -0.5 - (-0.7)  # u of the new neuron = state_reward
@@ -187,7 +187,7 @@ def test_novel_state_neuron_is_grown_at_the_start_of_the_update():
 def test_first_transition_into_an_empty_bank():
     p = policy("paper_literal")
     now = observation(sonar=0.3, state_reward=-0.2)
-    out = TeseoUpdate(p)(transition(p, now, B, -0.3, novel=True, proto=0.1))
+    out = teseo(p)(transition(p, now, B, -0.3, novel=True, proto=0.1))
     # the new neuron is the only one: the next state (novel) is worth its reward
     assert int(p.experts.count.sum()) == 1
     assert float(out["td_error"][0]) == pytest.approx(-0.3 + 0.95 * -0.3 + 0.2, abs=1e-6)
@@ -195,7 +195,7 @@ def test_first_transition_into_an_empty_bank():
 
 def test_set_keys_renames_what_the_update_reads():
     p = _two_neurons()
-    update = TeseoUpdate(p)
+    update = teseo(p)
     update.set_keys(xi="noise", reward="r2", x="features")
     assert "noise" in update.in_keys and ("next", "r2") in update.in_keys
     assert "xi" not in update.in_keys and ("next", "reward") not in update.in_keys
@@ -206,7 +206,7 @@ def test_set_keys_renames_what_the_update_reads():
     td.rename_key_("x", "features")  # the perception's key, on the root and on next
     td.rename_key_(("next", "x"), ("next", "features"))
     update(td)
-    u = p.config.update
+    u = config_of(p).update
     u_new, mu_new, _ = _oracle(-1.0, -0.5, 0.1, 0.2, 0.35, -0.4, u.gamma, u.eta, u.beta)
     e = _room(p)
     assert float(p.experts.means[0, e, 0]) == pytest.approx(mu_new, abs=1e-6)
@@ -221,7 +221,7 @@ def test_a_missing_key_is_a_key_error_naming_it(key):
     td = transition(p, A, B, -0.4)
     del td[key]
     with pytest.raises(KeyError, match=key if isinstance(key, str) else key[1]):
-        TeseoUpdate(p)(td)
+        teseo(p)(td)
 
 
 def test_a_batch_updates_each_robot_as_alone():
@@ -237,13 +237,13 @@ def test_a_batch_updates_each_robot_as_alone():
     t0 = transition(p, A, B, -0.4, xi=0.3)
     t1 = transition(p, A, B, -3.9, xi=-0.2, row=1)  # robot 1: error-driven growth
     batch = torch.cat([t0, t1], 0)
-    out = TeseoUpdate(p)(batch)
+    out = teseo(p)(batch)
     alone = []
     for u0, t in ((-1.0, t0), (-2.0, t1)):
         q = policy("paper_literal")
         place(q, A, action=0.2, utility=u0, mean=0.1)
         place(q, B, utility=-0.5)
-        alone.append((q, TeseoUpdate(q)(t.clone())))
+        alone.append((q, teseo(q)(t.clone())))
     assert out["grown"].tolist() == [0, 1]
     for b, (q, o) in enumerate(alone):
         assert float(out["td_error"][b]) == float(o["td_error"][0])
@@ -255,7 +255,7 @@ def test_a_batch_updates_each_robot_as_alone():
 
 def test_no_learning_changes_nothing():
     p = policy("reflex_only")
-    out = TeseoUpdate(p)(transition(p, A, B, -0.4, novel=True))
+    out = teseo(p)(transition(p, A, B, -0.4, novel=True))
     assert int(p.experts.count.sum()) == 0
     assert out["td_error"].tolist() == [0.0] and out["grown"].tolist() == [0]
 
@@ -270,7 +270,7 @@ def _step(update, taken: float) -> None:
 
 def test_action_replacement_only_after_a_better_successful_trial():
     p = _two_neurons()
-    update = TeseoUpdate(p)
+    update = teseo(p)
     bank, e, row = p.experts, _room(p), torch.tensor([0])
     _step(update, taken=-0.7)
     out = update.end_trial(row, torch.tensor([-5.0]), torch.tensor([False]))  # failed: nothing
@@ -298,7 +298,7 @@ def test_action_replacement_only_after_a_better_successful_trial():
 
 def test_no_replacement_when_switched_off_but_the_best_total_is_kept():
     p = _two_neurons("update.replace_actions=false")
-    update = TeseoUpdate(p)
+    update = teseo(p)
     _step(update, taken=-0.7)
     out = update.end_trial(torch.tensor([0]), torch.tensor([-10.0]), torch.tensor([True]))
     assert out["replaced"].tolist() == [0] and bool(out["improved"][0])
@@ -311,7 +311,7 @@ def test_end_trial_touches_only_the_robots_given():
     for b in (0, 1):
         place(p, A, action=0.2, utility=-1.0, row=b)
         place(p, B, utility=-0.5, row=b)
-    update = TeseoUpdate(p)
+    update = teseo(p)
     update(torch.cat([transition(p, A, B, -0.5, taken=-0.7, row=b) for b in (0, 1)], 0))
     out = update.end_trial(torch.tensor([1]), torch.tensor([-4.0]), torch.tensor([True]))
     e = _room(p)
@@ -331,14 +331,14 @@ def test_cooling_down_to_the_floor():
         "update.cooling=0.5",
         "update.temperature_min=0.05",
     )
-    update = TeseoUpdate(p)
+    update = teseo(p)
     temps = []
     for k in range(6):  # failed and successful trials cool alike
         update.end_trial(torch.tensor([0]), torch.tensor([-50.0]), torch.tensor([k % 2 == 0]))
         temps.append(float(p.progress.temperature[0]))
     assert temps == pytest.approx([0.15, 0.075, 0.05, 0.05, 0.05, 0.05])
     paper = policy("paper_map", seeds=(3,))
-    update = TeseoUpdate(paper)
+    update = teseo(paper)
     for _ in range(40):
         update.end_trial(torch.tensor([0]), torch.tensor([-50.0]), torch.tensor([False]))
     assert float(paper.progress.temperature[0]) == pytest.approx(0.1 * 0.85**40)  # floor 0
@@ -354,7 +354,7 @@ def _option_policy(*overrides: str):
 
 def _act(p, update, obs, nxt, reward):
     """The policy acts on ``obs``; the update learns from the transition to ``nxt``."""
-    td = p(obs.clone())
+    td = act(p, obs.clone())
     td["next"] = transition(p, obs, nxt, reward)["next"]
     update(td)
     return td
@@ -365,7 +365,7 @@ def _act(p, update, obs, nxt, reward):
 )
 def test_option_critic_steps_toward_the_return_to_go(critic, expected):
     p = _option_policy(f"option_critic.critic={critic}")
-    update = TeseoUpdate(p)
+    update = teseo(p)
     room = _room(p)
     rows = torch.tensor([0])
     got = []
@@ -384,7 +384,7 @@ def test_option_critic_steps_toward_the_return_to_go(critic, expected):
 
 def test_option_return_to_go_starts_at_each_regions_first_entry():
     p = _option_policy()
-    update = TeseoUpdate(p)
+    update = teseo(p)
     door_obs = observation(sonar=0.6, pose=POSES["door"])
     room, door = _room(p), p.region_names.index("door")
     _act(p, update, A, B, -1.0)
@@ -399,7 +399,7 @@ def test_option_return_to_go_starts_at_each_regions_first_entry():
 
 def test_end_trial_reports_the_temperature_the_trial_explored_with():
     p = policy("paper_literal", "update.temperature0=0.3", "update.cooling=0.5")
-    update = TeseoUpdate(p)
+    update = teseo(p)
     out = update.end_trial(torch.tensor([0]), torch.tensor([-50.0]), torch.tensor([False]))
     assert out["temperature"].tolist() == [0.3]  # the trial's, before the cooling at its end
     assert float(p.progress.temperature[0]) == 0.15
@@ -411,11 +411,13 @@ def test_the_update_is_a_plain_object_whose_state_is_the_trials_returns():
     from symrl.learner.loss import TeseoLoss
 
     p = _option_policy()
-    update = TeseoLoss(p)  # the former name is the same class
+    cfg = config_of(p)
+    update = TeseoLoss(p, cfg.update, cfg.trial_gradient, cfg.env.robot, cfg.env.max_actions)
+    assert TeseoLoss is TeseoUpdate  # the former name is the same class
     assert type(update) is TeseoUpdate and not isinstance(update, nn.Module)
     assert update.policy is p and update.experts is p.experts
     assert sorted(update.state_dict()) == ["entry_return", "trial_return"]
     _act(p, update, A, B, -1.0)
-    fresh = TeseoUpdate(p)
+    fresh = teseo(p)
     fresh.load_state_dict(update.state_dict())
     assert torch.equal(fresh.returns.trial_return, update.returns.trial_return)

@@ -9,12 +9,12 @@ import numpy as np
 import torch
 from shapely.geometry import Point, Polygon
 
+from symrl.assembly import build_policy
 from symrl.cli import main
 from symrl.knowledge.planner import shortest_path
 from symrl.knowledge.route import option_table
 from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import load_config
-from symrl.learner.policy import MixtureOfExpertsPolicy
 from symrl.studies.generalisation import (
     NOISE_LEVELS,
     OBSTACLE,
@@ -98,7 +98,7 @@ def test_the_new_obstacle_is_in_the_env_and_not_in_what_the_agent_knows():
     config = load_config("paper_map", [])  # told the map: its table, planner and walls
     world = load_map("hailu2001")
     blocked = world.with_obstacle(OBSTACLE)
-    state = MixtureOfExpertsPolicy(config, world, [0]).robot_state(0)
+    state = build_policy(config, world, [0]).robot_state(0)
     home = world_start(world)
     policy, env = evaluation_batch(config, world, [state], [home], [5], env_world=blocked)
     try:
@@ -154,7 +154,7 @@ def test_greedy_trials_count_their_steps_on_a_bar_and_drive_the_same_without_it(
     bar of the batch's steps on stderr, and the records are those driven without one."""
     config = load_config("paper", [])
     world = load_map("hailu2001")
-    state = MixtureOfExpertsPolicy(config, world, [0]).robot_state(0)
+    state = build_policy(config, world, [0]).robot_state(0)
     starts = [world_start(world), (1.0, -1.8, 0.0)]
     quiet = evaluate_states(config, world, [state, state], starts, [5, 6])
     assert capsys.readouterr().err == ""
