@@ -14,41 +14,64 @@ from typing import Any
 import numpy as np
 import torch
 
+from symrl.agent import no_extras
 from symrl.learner.config import RunConfig
+from symrl.loop import RobotTrials, TrainingLoop
+from symrl.recorder import TrialRecorder
 
-__all__ = ["rollout", "evaluate"]
+__all__ = ["GreedyDriver", "rollout", "evaluate"]
+
+
+class GreedyDriver:
+    """A controller driven greedily through the training loop: it learns nothing (the TD error
+    column is 0, as a learner's with nothing to correct) and adds no columns."""
+
+    def __init__(self, policy: Any) -> None:
+        self.policy = policy
+        self._zeros = torch.zeros(policy.batch)
+
+    def learn(self, td: Any) -> torch.Tensor:
+        return self._zeros
+
+    def end_trials(
+        self, rows: np.ndarray, records: list[dict[str, Any]], reached: np.ndarray
+    ) -> list[dict[str, Any]]:
+        return no_extras(rows)
+
+    def state_dict(self) -> dict[str, Any]:
+        return {}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Nothing is learned: nothing to load."""
 
 
 @torch.inference_mode()
 def rollout(policy: Any, env: Any, progress: str | None = None) -> list[dict[str, Any]]:
     """One greedy trial per robot of ``env`` (batch size = ``policy.batch``; for a learner's
     policy, an env with its perception transform: ``symrl.assembly.assemble_greedy``); their
-    records (inference mode: no op needs autograd, as in the training loop). ``progress``: the
-    label of a bar counting the batch's steps (on a big world these trials take minutes)."""
-    from torchrl.envs.utils import ExplorationType, set_exploration_type
+    records. The one training loop drives them (:class:`symrl.loop.TrainingLoop`, TorchRL's
+    DETERMINISTIC exploration type, a table of one trial per robot), in inference mode as a
+    training run. ``progress``: the label of a bar counting the batch's steps (on a big world
+    these trials take minutes)."""
+    from torchrl.envs.utils import ExplorationType
     from tqdm.auto import tqdm
 
-    from symrl.train import TrialRecorder
+    from symrl.collector import StepCollector
 
     batch = policy.batch
-    recorder = TrialRecorder(batch)
-    records: list[dict[str, Any] | None] = [None] * batch
     policy.begin_trial(torch.arange(batch))
-    bar = tqdm(desc=progress, unit="step", leave=False, disable=progress is None)
-    with set_exploration_type(ExplorationType.DETERMINISTIC), bar:
-        td = env.reset()
-        while any(r is None for r in records):
-            policy(td)
-            td, next_td = env.step_and_maybe_reset(td)
-            done = recorder.step(td, torch.zeros(batch))
-            for b in np.flatnonzero(done):
-                if records[b] is None:  # a robot's first trial is its evaluation
-                    record = recorder.finish(int(b))
-                    record["reached_goal"] = bool(recorder.reached[b])
-                    records[b] = record
-            td = next_td
-            bar.update()
-    return records  # type: ignore[return-value]
+    collector = StepCollector(env, policy, exploration_type=ExplorationType.DETERMINISTIC)
+    with tqdm(desc=progress, unit="step", leave=False, disable=progress is None) as bar:
+        loop = TrainingLoop(
+            collector,
+            GreedyDriver(policy),
+            RobotTrials(batch, 1),  # a robot's first trial is its evaluation
+            TrialRecorder(batch),
+            on_step=bar.update,
+            progress=False,
+        )
+        loop.run()
+    return [{k: v for k, v in rows[0].items() if k != "trial"} for rows in loop.table.rows]
 
 
 def evaluate(

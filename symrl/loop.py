@@ -166,9 +166,10 @@ class TrainingLoop:
 
     ``on_trial(robot, row)``: after every row added to the table (robot -1: a pending row
     taken on resume). ``on_boundary(added)``: after every step at which a trial ended, with
-    the ``(robot, row)`` pairs it added (checkpoints). ``stop()``: asked after every step; True
-    ends the loop there (:attr:`stopped`). ``frames``: robot-steps before this loop (resumed);
-    :attr:`frames` counts on. ``bar``: the progress bar's description and tqdm options.
+    the ``(robot, row)`` pairs it added (checkpoints). ``on_step()``: after every step (a bar
+    of steps). ``stop()``: asked after every step; True ends the loop there (:attr:`stopped`).
+    ``frames``: robot-steps before this loop (resumed); :attr:`frames` counts on. ``bar``: the
+    progress bar's description and tqdm options.
     """
 
     def __init__(
@@ -180,6 +181,7 @@ class TrainingLoop:
         *,
         on_trial: Callable[[int, dict[str, Any]], None] | None = None,
         on_boundary: Callable[[list[tuple[int, dict[str, Any]]]], None] | None = None,
+        on_step: Callable[[], object] | None = None,
         stop: Callable[[], bool] | None = None,
         progress: bool = True,
         bar: dict[str, Any] | None = None,
@@ -187,6 +189,7 @@ class TrainingLoop:
     ) -> None:
         self.collector, self.agent, self.table, self.recorder = collector, agent, table, recorder
         self.on_trial, self.on_boundary, self.stop = on_trial, on_boundary, stop
+        self.on_step = on_step
         self.progress, self.bar_options = progress, dict(bar or {})
         self.frames, self.stopped = frames, False
         self._bar: Any = None
@@ -197,7 +200,7 @@ class TrainingLoop:
         (its env) and the progress bar, also on an error."""
         from tqdm.auto import tqdm
 
-        collector, recorder, stop = self.collector, self.recorder, self.stop
+        collector, recorder, stop, on_step = self.collector, self.recorder, self.stop, self.on_step
         learn, batch = self.agent.learn, self.recorder.batch
         zeros = torch.zeros(batch)
         bar = tqdm(
@@ -220,6 +223,8 @@ class TrainingLoop:
                     td_error, self._td_column = zeros, False
                 self.frames += batch
                 done = recorder.step(td, td_error)
+                if on_step is not None:
+                    on_step()
                 if done.any():
                     added = self._end_trials(done)
                     if self.on_boundary is not None:

@@ -157,6 +157,36 @@ def test_stop_ends_the_loop_between_two_steps(config):
     assert agent.learned == 7 and loop.frames == 14
 
 
+def test_on_step_is_called_once_a_step(config):
+    steps: list[int] = []
+    agent = ConstantAgent()
+    loop = _loop(config, agent, RobotTrials(2, 1), [0, 1], on_step=lambda: steps.append(1))
+    loop.run()
+    # straight ahead into the 15-action budget: one trial of 15 steps per robot
+    assert len(steps) == agent.learned == 15 and loop.frames == 30
+
+
+def test_greedy_trials_of_a_learned_controller_are_driven_by_the_loop(config):
+    from symrl.assembly import assemble_greedy
+    from symrl.evaluate import GreedyDriver, rollout
+    from symrl.train import train
+
+    result = train(load_config("paper", ["run.trials=2", "run.seed=3"]), progress=False)
+    policy = result.policy
+    assert isinstance(GreedyDriver(policy), Agent)
+    copies, env = assemble_greedy(
+        result.config, policy.knowledge, [policy.state_dict()] * 2, [4, 4], result.world
+    )
+    first = rollout(copies, env)
+    copies, env = assemble_greedy(
+        result.config, policy.knowledge, [policy.state_dict()] * 2, [4, 4], result.world
+    )
+    again = rollout(copies, env)
+    # one record per robot, without a trial number; the same seed and controller: the same trial
+    assert len(first) == 2 and "trial" not in first[0]
+    assert first[0]["path"] == again[0]["path"] and first[0]["steps"] == again[0]["steps"]
+
+
 def test_the_paper_learner_through_the_loop_is_train_batch(config):
     from symrl.assembly import assemble
     from symrl.teseo import TeseoAgent
