@@ -61,17 +61,18 @@ def rollout(policy: Any, env: Any, progress: str | None = None) -> list[dict[str
     batch = policy.batch
     policy.begin_trial(torch.arange(batch))
     collector = StepCollector(env, policy, exploration_type=ExplorationType.DETERMINISTIC)
+    table = RobotTrials(batch, 1)  # a robot's first trial is its evaluation
     with tqdm(desc=progress, unit="step", leave=False, disable=progress is None) as bar:
         loop = TrainingLoop(
             collector,
             GreedyDriver(policy),
-            RobotTrials(batch, 1),  # a robot's first trial is its evaluation
+            table,
             TrialRecorder(batch),
             on_step=bar.update,
             progress=False,
         )
         loop.run()
-    return [{k: v for k, v in rows[0].items() if k != "trial"} for rows in loop.table.rows]
+    return [{k: v for k, v in rows[0].items() if k != "trial"} for rows in table.rows]
 
 
 def evaluate(
