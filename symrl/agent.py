@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 
-__all__ = ["Agent", "no_extras"]
+__all__ = ["Agent", "LearnsNothing", "no_extras"]
 
 
 @runtime_checkable
@@ -63,3 +63,27 @@ class Agent(Protocol):
 def no_extras(rows: np.ndarray) -> list[dict[str, Any]]:
     """No extra columns for the trials of ``rows`` (an agent's ``end_trials`` without any)."""
     return [{} for _ in range(len(rows))]
+
+
+class LearnsNothing:
+    """The three parts of an agent that learns nothing (the reflex alone, greedy trials): no
+    TD error column, no extra columns, no state. Subclasses set ``policy``."""
+
+    policy: Any
+
+    def learn(self, td: TensorDictBase) -> torch.Tensor | None:
+        """Nothing to learn."""
+        return None
+
+    def end_trials(
+        self, rows: np.ndarray, records: list[dict[str, Any]], reached: np.ndarray
+    ) -> list[dict[str, Any]]:
+        """Nothing to add to the base columns."""
+        return no_extras(rows)
+
+    def state_dict(self) -> dict[str, Any]:
+        """Nothing learnt."""
+        return {}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Nothing to load."""

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from symrl.agent import no_extras
+from symrl.agent import LearnsNothing
 from symrl.learner.config import RunConfig
 from symrl.loop import RobotTrials, TrainingLoop
 from symrl.recorder import TrialRecorder
@@ -22,8 +22,8 @@ from symrl.recorder import TrialRecorder
 __all__ = ["GreedyDriver", "rollout", "evaluate"]
 
 
-class GreedyDriver:
-    """A controller driven greedily through the training loop: it learns nothing (the TD error
+class GreedyDriver(LearnsNothing):
+    """A controller driven greedily through the training loop: it learns nothing (its TD error
     column is 0, as a learner's with nothing to correct) and adds no columns."""
 
     def __init__(self, policy: Any) -> None:
@@ -32,17 +32,6 @@ class GreedyDriver:
 
     def learn(self, td: Any) -> torch.Tensor:
         return self._zeros
-
-    def end_trials(
-        self, rows: np.ndarray, records: list[dict[str, Any]], reached: np.ndarray
-    ) -> list[dict[str, Any]]:
-        return no_extras(rows)
-
-    def state_dict(self) -> dict[str, Any]:
-        return {}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        """Nothing is learned: nothing to load."""
 
 
 @torch.inference_mode()

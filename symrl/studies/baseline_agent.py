@@ -11,7 +11,7 @@ import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
-from symrl.agent import no_extras
+from symrl.agent import LearnsNothing, no_extras
 from symrl.studies.priors import PriorAction
 
 __all__ = ["Algorithm", "BaselineAgent", "ReflexAgent", "algorithms"]
@@ -100,7 +100,7 @@ class _Reflex(TensorDictModuleBase):
         return self.to_action(td)
 
 
-class ReflexAgent:
+class ReflexAgent(LearnsNothing):
     """The paper's shielded fuzzy reflex alone, learning nothing, as an
     :class:`symrl.agent.Agent` (the residual baselines' base: ``to_action`` of residual
     priors; their env writes ``reflex_action``)."""
@@ -112,23 +112,6 @@ class ReflexAgent:
                 "only through residual priors"
             )
         self.policy = _Reflex(to_action)
-
-    def learn(self, td: TensorDictBase) -> torch.Tensor | None:
-        """Nothing to learn."""
-        return None
-
-    def end_trials(
-        self, rows: np.ndarray, records: list[dict[str, Any]], reached: np.ndarray
-    ) -> list[dict[str, Any]]:
-        """Nothing to add to the base columns."""
-        return no_extras(rows)
-
-    def state_dict(self) -> dict[str, Any]:
-        """Nothing learnt."""
-        return {}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        """Nothing to load."""
 
 
 def algorithms() -> dict[str, tuple[Any, Any]]:
