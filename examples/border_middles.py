@@ -1,4 +1,4 @@
-"""A knowledge source of your own: sub-goal options at the middle of each border
+r"""A knowledge source of your own: sub-goal options at the middle of each border
 (docs/how-to/add-a-knowledge-source.md).
 
 Told the region rules (``knowledge: regions``), a robot knows where two regions meet (the
@@ -9,7 +9,7 @@ middle: the middle of its stretch, ``DEPTH`` metres in from its one end where th
 on without end, level with the goal where it has no end at all. Importing the module registers
 the source ``middles``; a recipe or an override names it by the module's dotted path:
 
-    PYTHONPATH=. symrl train paper options.source=examples.border_middles:middles \\
+    PYTHONPATH=. symrl train paper options.source=examples.border_middles:middles \
         crossings.enabled=false
 
     python examples/border_middles.py   # the paper's world: each option, here and in ``rules``

@@ -131,8 +131,8 @@ def option_source(name: str) -> OptionSource:
 
 def option_table(knowledge: Knowledge, source: str) -> SubgoalTable:
     """The options a robot told ``knowledge`` chooses among per region, made by source
-    ``source`` (``options.source``); a source needing more than the robot is told is an error
-    naming both rungs."""
+    ``source`` (``options.source``); a source needing more than the robot is told, or a table
+    without a row of options for every region, is an error."""
     try:
         found = option_source(source)
     except ValueError as err:
@@ -142,7 +142,15 @@ def option_table(knowledge: Knowledge, source: str) -> SubgoalTable:
             f"options.source={source} needs knowledge={found.rung} or higher, but the robot is "
             f"told knowledge={knowledge.rung}"
         )
-    return found.table(knowledge)
+    table = found.table(knowledge)
+    names = tuple(knowledge.regions.names)
+    if tuple(table.region_names) != names or not bool(table.valid.any(dim=1).all()):
+        raise ValueError(
+            f"options.source={source}: its table must hold a row of one option or more for each "
+            f"region, in the order {', '.join(names)}; got rows for "
+            f"{', '.join(table.region_names)} with {table.counts.tolist()} options"
+        )
+    return table
 
 
 _add(OptionSource("rules", "regions", rule_options))
