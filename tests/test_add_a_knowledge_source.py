@@ -94,7 +94,7 @@ def test_a_table_without_a_row_for_every_region_is_refused():
 @pytest.mark.parametrize(
     ("value", "reason"),
     [
-        ("nope", r"unknown option source; the sources are .*map, .*passages, .*rules, .*test_walls"),
+        ("nope", r"unknown option source; the sources are .*map, .*passages, .*test_walls"),
         ("no_such_module:x", r"cannot import module 'no_such_module'"),
         ("os.path:rules", r"module 'os.path' registers no option source 'rules'"),
         (":rules", r"module.path:NAME"),
