@@ -189,3 +189,21 @@ def test_the_example_trains_and_moves_only_the_long_borders_options(monkeypatch)
         k = mine.labels[r].index(label)
         across = 0 if label.startswith(("l2", "l3")) else 1  # l2, l3: x = c; l1: y = c
         assert mine.points[r, k, across] == rules.points[r, k, across]
+
+
+def test_the_example_loaded_by_its_path_and_by_its_module_is_one_source(monkeypatch):
+    """A module imported twice (by its file, as a script does, and by its dotted name, as the
+    config does) registers one source, found either way."""
+    import importlib.util
+
+    monkeypatch.syspath_prepend(str(ROOT))
+    spec = importlib.util.spec_from_file_location("border_middles_by_path", EXAMPLE)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    by_path = option_source("middles")
+    by_module = option_source(MIDDLES)
+    assert by_module.rung == by_path.rung == "regions"
+    assert by_module.table.__code__.co_filename == str(EXAMPLE)
+    told = Knowledge.told(load_map("office"), "regions")
+    assert option_table(told, "middles").labels == option_table(told, MIDDLES).labels

@@ -99,7 +99,8 @@ def option_sources() -> Mapping[str, OptionSource]:
 
 def option_source(name: str) -> OptionSource:
     """The source ``name``: a registered name, or ``module.path:NAME`` (the module is imported,
-    and registers NAME). An unknown one is a one-line error listing the known names."""
+    and registers NAME, a function defined in it). An unknown one is a one-line error listing
+    the known names."""
     if not isinstance(name, str):
         raise ValueError(f"an option source is named by a string, got {type(name).__name__}")
     module, colon, short = name.rpartition(":")
@@ -107,14 +108,17 @@ def option_source(name: str) -> OptionSource:
         if not module or not short:
             raise ValueError("a source of a module is written module.path:NAME")
         try:
-            importlib.import_module(module)
+            imported = importlib.import_module(module)
         except ModuleNotFoundError as err:
             raise ValueError(
                 f"cannot import module {module!r} ({err}); it must be importable "
                 f"(PYTHONPATH) to register option source {short!r}"
             ) from None
         found = _SOURCES.get(short)
-        if found is None or getattr(found.table, "__module__", None) != module:
+        if found is None or module not in (
+            getattr(found.table, "__module__", None),  # defined there, or the file imported
+            imported.__name__ if _origin(found.table)[0] == imported.__file__ else None,
+        ):
             raise ValueError(
                 f"module {module!r} registers no option source {short!r} (registered: "
                 f"{', '.join(sorted(_SOURCES))})"
