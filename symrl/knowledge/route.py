@@ -8,9 +8,10 @@ nearest to it. When no point of the path between that nearest point and the aim 
 ``reach`` of the robot (the reflex's obstacle avoidance or a wrong turn has taken it off the
 path), the path is planned again from where the robot believes it is (its pose from map
 localisation). The same planner gives the studies their yardstick, from the world; here it
-only ever sees the robot's ``Knowledge``. :func:`option_table` is each region's row of options
-on every rung: the border or passage points (``symrl.knowledge.borders``), and at ``map`` the
-route first.
+only ever sees the robot's ``Knowledge``. The route is the first option of every region of the
+``map`` option source (``symrl.knowledge.option_tables``, labelled :data:`ROUTE`); the option
+tables of every source are made through ``symrl.knowledge.option_sources`` (its
+:func:`option_table` is importable from here too).
 """
 
 from __future__ import annotations
@@ -19,16 +20,12 @@ import math
 
 import numpy as np
 
-from symrl.knowledge.borders import border_subgoals
+from symrl.knowledge.option_sources import option_table
+from symrl.knowledge.option_tables import ROUTE
 from symrl.knowledge.planner import robot_clearances, shortest_path
-from symrl.knowledge.rungs import Knowledge
-from symrl.knowledge.subgoals import SubgoalTable
 from symrl.world.worldmap import WorldMap
 
 __all__ = ["ROUTE", "Route", "option_table"]
-
-ROUTE = "route"
-"""The route option's label in an option table."""
 
 _SPACING = 0.05
 """Metres between the points a path is resampled to (a quarter of an action)."""
@@ -106,29 +103,3 @@ def _resampled(points: np.ndarray) -> np.ndarray:
     n = max(1, math.ceil(float(s[-1]) / _SPACING))
     t = np.linspace(0.0, float(s[-1]), n + 1)
     return np.stack((np.interp(t, s, points[:, 0]), np.interp(t, s, points[:, 1])), axis=1)
-
-
-def option_table(knowledge: Knowledge, source: str) -> SubgoalTable:
-    """The options a robot told ``knowledge`` chooses among per region (``options.source``):
-    the border points of the region rules (``rules``) or of the passages it is told of
-    (``passages``); at ``map`` the passages' points behind a first option, the route (its
-    point, the goal here, moves with the robot: :class:`Route`). Below ``map`` the route is
-    an error naming the rung."""
-    told = knowledge.passages if source in ("passages", "map") else None
-    table = border_subgoals(knowledge.regions, knowledge.goal, told)
-    if source != "map":
-        return table
-    knowledge.geometry("the route option")
-    goal = (float(knowledge.goal.x), float(knowledge.goal.y))
-    per_region = [
-        [(goal, ROUTE)]
-        + [
-            ((float(x), float(y)), label)
-            for (x, y), label, ok in zip(
-                table.points[i].tolist(), labels, table.valid[i].tolist(), strict=False
-            )
-            if ok
-        ]
-        for i, labels in enumerate(table.labels)
-    ]
-    return SubgoalTable.of(table.region_names, per_region)

@@ -29,7 +29,8 @@ import torch
 from symrl.buffers import BufferViews
 from symrl.grad import no_grad
 from symrl.knowledge.borders import border_options, hops_from
-from symrl.knowledge.route import ROUTE, Route, option_table
+from symrl.knowledge.option_sources import ROUTE, option_table
+from symrl.knowledge.route import Route
 from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import CrossingsConfig, OptionCriticConfig, OptionsConfig

@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from symrl.knowledge.borders import Border, border_subgoals, region_borders, region_hops
+from symrl.knowledge.option_tables import map_options
 from symrl.knowledge.route import ROUTE, option_table
 from symrl.knowledge.rungs import Knowledge
 from symrl.learner.config import load_config
@@ -129,9 +130,12 @@ def test_below_the_map_nothing_builds_the_route():
         )
         opt = SubgoalOptions(told, 1, config.options, [0])
         assert opt.route is None and all(ROUTE not in row for row in opt.labels)
-        refused = f"route option needs knowledge=map .* knowledge={rung}$"
+        refused = f"options.source=map needs knowledge=map .* knowledge={rung}$"
         with pytest.raises(ValueError, match=refused):
             option_table(told, "map")
+        walls = f"route option needs knowledge=map .* knowledge={rung}$"
+        with pytest.raises(ValueError, match=walls):
+            map_options(told)  # the source itself asks for the walls
     mapped = option_table(Knowledge.told(world, "map"), "map")
     doors = option_table(Knowledge.told(world, "passages"), "passages")
     assert mapped.labels == [[ROUTE, *row] for row in doors.labels]

@@ -7,10 +7,10 @@ from typing import Any
 
 from pydantic import Field, model_validator
 
+from symrl.knowledge.option_sources import option_source
 from symrl.knowledge.reflex import ReflexConfig
 from symrl.knowledge.rungs import Rung, rung_at_least
 from symrl.learner.config.sections import (
-    SOURCE_RUNG,
     CrossingsConfig,
     EnvConfig,
     ExpertsConfig,
@@ -59,7 +59,7 @@ class RunConfig(Section):
         o = self.options
         for key, on, needed in (
             ("gate.partition", self.gate.partition, "regions"),
-            ("options.enabled", o.enabled, SOURCE_RUNG[o.source]),
+            ("options.enabled", o.enabled, option_source(o.source).rung),
             ("localize.enabled", self.localize.enabled, "map"),
         ):
             if on and not rung_at_least(self.knowledge, needed):

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, field_validator
 
+from symrl.knowledge.option_sources import option_source
 from symrl.world.robot import RobotConfig
 
 
@@ -140,14 +141,16 @@ class OptionsConfig(Section):
 
     enabled: StrictBool = False
     """False: the reflex always steers at the goal (the paper)."""
-    source: Literal["map", "passages", "rules"] = "map"
-    """What the options are made of. ``rules`` (needs ``knowledge: regions``): per region the
-    goal and a point of each border with a region no farther from the goal's
-    (``symrl.knowledge.borders``). ``passages`` (needs ``knowledge: passages``): the same from
-    the passages the robot is told of (where the regions really connect) instead of the rules'
-    borders. ``map`` (needs ``knowledge: map``): the passages' options and the route, a point
-    ``ahead`` metres along the shortest path re-planned from where the robot believes it is
-    (``symrl.knowledge.route``)."""
+    source: str = "map"
+    """What the options are made of: an option source (``symrl.knowledge.option_sources``).
+    ``rules`` (needs ``knowledge: regions``): per region the goal and a point of each border
+    with a region no farther from the goal's (``symrl.knowledge.borders``). ``passages`` (needs
+    ``knowledge: passages``): the same from the passages the robot is told of (where the regions
+    really connect) instead of the rules' borders. ``map`` (needs ``knowledge: map``): the
+    passages' options and the route, a point ``ahead`` metres along the shortest path
+    re-planned from where the robot believes it is (``symrl.knowledge.route``). A source of
+    your own: ``module.path:NAME``, a module that registers NAME when imported
+    (docs/how-to/add-a-knowledge-source.md)."""
     reach: float = Field(0.25, ge=0)
     """A sub-goal nearer than this (m, believed pose) is reached: aim at the goal for the visit.
     The route re-plans when no point of its path up to the aim lies this near."""
@@ -168,6 +171,13 @@ class OptionsConfig(Section):
     measured against the goal's bearing, so heading at the goal while the sub-goal is nearly in
     line earns it at little cost to the route. 0: at the sub-goal from the region's entry."""
 
+    @field_validator("source")
+    @classmethod
+    def _known_source(cls, value: str) -> str:
+        """A registered source, or ``module.path:NAME`` (imported here)."""
+        option_source(value)
+        return value
+
 
 class CrossingsConfig(Section):
     """Where each border can be crossed, learned by each robot from its own sonar readings,
@@ -179,10 +189,6 @@ class CrossingsConfig(Section):
     """False: a border option aims at one fixed point of it (``symrl.knowledge.borders``)."""
     resolution: float = Field(0.1, gt=0, le=1)
     """Bin width (m) of the evidence kept along each border's line."""
-
-
-SOURCE_RUNG = {"rules": "regions", "passages": "passages", "map": "map"}
-"""The knowledge each ``options.source`` needs."""
 
 
 class LocalizeSection(Section):
