@@ -10,12 +10,13 @@ sonar and IR reach) and asks a wall-query object (:class:`~symrl.world.geometry.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
 from symrl.world.exact_math import TWO_PI
+from symrl.world.geometry import Walls
 from symrl.world.robot import RobotConfig
+from symrl.world.spatial import CellWalls
 
 __all__ = ["Sensors"]
 
@@ -27,7 +28,7 @@ class Sensors:
     """The sonar and IR ring of a robot, read against ``walls`` (noise-free: the physics adds
     the sonar noise)."""
 
-    def __init__(self, walls: Any, robot: RobotConfig) -> None:
+    def __init__(self, walls: Walls | CellWalls, robot: RobotConfig) -> None:
         self.walls = walls
         self.robot = robot
         n = robot.n_sensors
