@@ -70,11 +70,12 @@ def test_plans_on_one_map_reuse_its_checks_and_give_the_same_plan_as_a_fresh_map
     """The checker of a map remembers its answers: a second plan from another start asks
     mostly the same questions again, and its plan is the one a fresh copy of the map gives."""
     from symrl.knowledge import planner
+    from symrl.knowledge.path_checks import path_checker
 
     world = load_map("hailu2001")
     shortest_path(world)
     radius, ir_distance, _ = planner.robot_clearances()
-    chk = planner._checker(world, float(radius + ir_distance))
+    chk = path_checker(world, float(radius + ir_distance))
     asked = len(chk.points_cache)
     second = shortest_path(world, start=(1.0, 1.5))
     new = len(chk.points_cache) - asked
@@ -82,4 +83,4 @@ def test_plans_on_one_map_reuse_its_checks_and_give_the_same_plan_as_a_fresh_map
     fresh = shortest_path(load_map("hailu2001"), start=(1.0, 1.5))
     assert second.length == fresh.length
     np.testing.assert_array_equal(second.points, fresh.points)
-    assert planner._checker(load_map("hailu2001"), chk.r) is not chk  # a map object of its own
+    assert path_checker(load_map("hailu2001"), chk.r) is not chk  # a map object of its own
