@@ -109,7 +109,9 @@ def shortest_path(
     rg = float(world.goal.radius)
     chk = path_checker(world, r)
     if not chk.point_ok(s):
-        raise ValueError(f"start {tuple(s)} is closer than {r:.3f} m to a wall or outside the map")
+        raise ValueError(
+            f"start {tuple(map(float, s))} is closer than {r:.3f} m to a wall or outside the map"
+        )
     if np.hypot(*(s - g)) <= rg:
         return Plan(0.0, 0, r, step, s[None, :], [tuple(s)])
     search: TangentGraph | LazySearch
