@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import weakref
+from collections.abc import Callable
 
 import numpy as np
 import shapely
@@ -54,6 +55,17 @@ class PathChecker:
         self.nodes_cache: dict[tuple[int, float], tuple[np.ndarray, object] | None] = {}
         self._tangents: dict[tuple[float, float, int], list[float]] = {}
         self._pairs: list[tuple[int, int, list[tuple[float, float]]]] | None = None
+        self._circle_bitangents: dict[int, tuple[np.ndarray, ...]] = {}
+
+    def circle_bitangents(
+        self, ci: int, make: Callable[[int], tuple[np.ndarray, ...]]
+    ) -> tuple[np.ndarray, ...]:
+        """``make(ci)``, the free bitangents of vertex ``ci``'s circle, remembered: they do not
+        depend on the start, and a route re-plans from every position the robot reaches."""
+        out = self._circle_bitangents.get(ci)
+        if out is None:
+            out = self._circle_bitangents[ci] = make(ci)
+        return out
 
     def tangent_node(self, ci: int, a: float) -> tuple[np.ndarray, object] | None:
         """The point at angle ``a`` on vertex ``ci``'s circle and its graph key, or None if it
@@ -140,6 +152,20 @@ class PathChecker:
             seg[rest], self.r - tol
         )
         self._segments.update(zip(todo, ok.tolist(), strict=True))
+
+    def segments_free(self, a: np.ndarray, b: np.ndarray, tol: float = 1e-7) -> np.ndarray:
+        """:meth:`segment_ok` of the segments ``a[k] -> b[k]`` (``(m, 2)`` each), not remembered:
+        the lazy search asks each circle's bitangents once."""
+        seg = np.concatenate([a, b], axis=1)
+        if len(seg) == 0:
+            return np.zeros(0, dtype=bool)
+        ok = shapely.contains_properly(self._free, shapely.linestrings(seg.reshape(-1, 2, 2)))
+        rest = np.flatnonzero(ok)
+        mid = 0.5 * (seg[rest, :2] + seg[rest, 2:])
+        ok[rest] = self.world.contains_xy(mid[:, 0], mid[:, 1]) & ~self.index.swept_contacts(
+            seg[rest], self.r - tol
+        )
+        return ok
 
     def points_ok(self, pts: np.ndarray, tol: float = _EPS) -> np.ndarray:
         """:meth:`point_ok` of many points ``(n, 2)`` at once."""
