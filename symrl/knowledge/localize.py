@@ -8,12 +8,14 @@ seeds 0-39, ``docs/journal/learning.md``). The map is knowledge the robot alread
 sonars see the walls to within a centimetre, so it can tell where it is.
 
 Each step, for every robot at once, the believed pose is the pose that best explains the
-sonar readings in the map, near the odometry pose (a maximum a posteriori estimate with the
-odometry as the prior): a few Gauss-Newton steps on
+sonar readings in the map, near a predicted pose (a maximum a posteriori estimate with the
+prediction as the prior): a few Gauss-Newton steps on
 
-    sum_k w_k (r_k(p) - m_k)^2 / s^2 + (p - p_odo)^T P^-1 (p - p_odo),
+    sum_k w_k (r_k(p) - m_k)^2 / s^2 + (p - p_pred)^T P^-1 (p - p_pred),
 
-r_k the sonar rim distance the map predicts from pose p (the ray cast of the physics), m_k the
+p_pred the prediction (:class:`PoseTracker`: the odometry pose at a trial's first
+observation, then the last belief moved by the odometry's increment), r_k the sonar rim
+distance the map predicts from pose p (the ray cast of the physics), m_k the
 reading, s the reading's noise, P the prior's spread. Its derivative is exact: a ray from
 (x, y) at angle phi hits a wall with direction d at distance t = (w x d) / (u x d), so
 dt/dx = -d_y / (u x d), dt/dy = d_x / (u x d), dt/dphi = t (u . d) / (u x d). Readings at the
@@ -23,8 +25,9 @@ moves the position by at most ``max_move`` (a trust region): where the walls pin
 across a corridor (one at 45 degrees, a long one), one ray mispredicted near a wall's end would
 otherwise throw the estimate metres along it.
 
-It is a function of one observation: no state, nothing to reset, and a mirrored world gives
-the mirrored pose. The reward is the env's and stays on the odometry (the paper's f2), so the
+:class:`MapLocalizer` is a function of one observation and its prediction: no state, and a
+mirrored world gives the mirrored pose; :class:`PoseTracker` carries each robot's belief
+along its trial. The reward is the env's and stays on the odometry (the paper's f2), so the
 correction only changes what the robot does, not how it is scored.
 
 Written by hand: one batched ray cast of the physics per Gauss-Newton step and (B, 3, 3)
@@ -228,11 +231,18 @@ class MapLocalizer:
 
 
 class PoseTracker:
-    """:class:`MapLocalizer` along each robot's trial, warm-started: a robot's first
-    observation of a trial takes the localiser's Gauss-Newton steps from the odometry pose;
-    every later one takes a single step from the odometry pose plus the correction of its last
-    observation (the drift changes by millimetres per action, so one step lands where three
-    from the odometry do, at a third of the cost). An observation seen before returns its
+    """:class:`MapLocalizer` along each robot's trial, as a tracker: a robot's first
+    observation of a trial takes the localiser's Gauss-Newton steps from the odometry pose,
+    with the odometry as the prior (a reset puts it on the true pose); every later one takes a
+    single step from its last belief moved by the odometry's increment (the odometry pose plus
+    the last correction), and that prediction is also the prior's centre. The raw odometry's
+    error grows without bound over a long trial (metres after a few hundred actions on a
+    building floor), while one action's adds millimetres: a prior held on the raw odometry
+    pulls the belief toward wherever it has drifted, and along a corridor, whose door gaps
+    repeat, the scans then lock onto the wrong gap (a 30 m x 50 m floor: 5 of 30 trials lost
+    with the belief a room's pitch off; 0 of 30 tracking the belief;
+    ``docs/journal/buildings.md``). On the paper's world and the ``check`` suite the two are
+    the same to within 0.001 of the optimum. An observation seen before returns its
     estimate again (the policy and the update ask for the same observations in turn). Per
     robot, so a robot's beliefs are the same alone or in a batch. :meth:`begin_trial` forgets
     the corrections of robots that start a new trial."""
@@ -270,7 +280,8 @@ class PoseTracker:
         if not match.any() and warm.all():  # the common step: every robot moved on
             pose = odometry.astype(np.float64)
             # every robot warm: the correction is the offset, no NaN to mask
-            estimate = self.localizer(pose, sonar, pose + self._offset()[0], 1)
+            predicted = pose + self._offset()[0]
+            estimate = self.localizer(predicted, sonar, predicted, 1)
             self._remember(slice(None), obs, estimate)
             return estimate
         last = match[0]
@@ -286,8 +297,8 @@ class PoseTracker:
             estimate = np.empty((len(new), 3))
             if not cold.all():
                 w = ~cold
-                start = self.correction[new[w]] + pose[w]
-                estimate[w] = self.localizer(pose[w], scan[w], start, 1)
+                predicted = self.correction[new[w]] + pose[w]
+                estimate[w] = self.localizer(predicted, scan[w], predicted, 1)
             if cold.any():
                 estimate[cold] = self.localizer(pose[cold], scan[cold])
             self._remember(new, obs[new], estimate)

@@ -193,20 +193,23 @@ class CrossingsConfig(Section):
 
 class LocalizeSection(Section):
     """Map localisation (``symrl.knowledge.localize``): the pose the robot steers by is the one
-    that best explains its sonar scan in the map, near its odometry pose, instead of the
-    odometry pose itself. The reward stays on the odometry (the paper's f2)."""
+    that best explains its sonar scan in the map, near its last belief moved by the odometry's
+    increment, instead of the odometry pose itself. The reward stays on the odometry (the
+    paper's f2)."""
 
     enabled: StrictBool = False
     """False: the robot believes its odometry (the paper)."""
     iterations: StrictInt = Field(2, ge=1, le=20)
     """Gauss-Newton steps from the odometry pose at a trial's first observation (a reset puts
     the odometry on the true pose, so few are needed; an odometry that starts off by decimetres
-    needs about 5); every later observation takes a single step from the odometry pose plus the
-    last correction (the drift changes by millimetres per action)."""
+    needs about 5); every later observation takes a single step from the last belief moved by
+    the odometry's increment (the drift changes by millimetres per action)."""
     prior_xy: float = Field(0.5, gt=0)
-    """Spread of the odometry's position error (m): how far a scan may move the pose."""
+    """Spread of the prior's position error (m): how far a scan may move the pose from the
+    prediction (the odometry at a trial's first observation, then the last belief moved by the
+    odometry's increment)."""
     prior_heading: float = Field(0.2, gt=0)
-    """Spread of the odometry's heading error (rad)."""
+    """Spread of the prior's heading error (rad)."""
     max_move: float = Field(0.1, gt=0)
     """The largest position change (m) of one Gauss-Newton step (a trust region: a larger step
     is scaled down to it, heading included). The drift moves the pose by millimetres per
