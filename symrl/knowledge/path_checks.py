@@ -198,9 +198,22 @@ class PathChecker:
             self.points_cache[key] = ok
         return ok
 
-    def segment_ok(self, a: np.ndarray, b: np.ndarray, tol: float = 1e-7) -> bool:
+    def segment_ok(
+        self,
+        a: np.ndarray,
+        b: np.ndarray,
+        tol: float = 1e-7,
+        near: list[np.ndarray] | None = None,
+    ) -> bool:
+        """Is the motion ``a -> b`` ``r - tol`` clear of every wall (remembered)? ``near``: rings
+        of walls (:meth:`WallIndex.near_rings`) whose crossing refuses it first, in numpy (the
+        start's for its long tangents: the full test of a long line was a tenth of a plan)."""
         key = (float(a[0]), float(a[1]), float(b[0]), float(b[1]), tol)
         ok = self._segments.get(key)
+        if ok is None and near is not None:
+            seg = np.array([key[:4]])
+            if any(self.index.crossings(seg, ring)[0] for ring in near):
+                ok = self._segments[key] = False
         if ok is None:
             mid = 0.5 * (a + b)
             ok = bool(self.world.contains_xy(mid[0], mid[1])) and not (

@@ -67,18 +67,22 @@ class WallIndex:
         return idx
 
     def near_vertex(self, ci: int) -> list[np.ndarray]:
-        """Walls near vertex ``ci`` (its room's, mostly) in rings: within the first of
-        :data:`NEAR_VERTEX` m, then within the second and not the first, and so on."""
+        """:meth:`near_rings` of vertex ``ci`` (its room's walls, mostly), remembered."""
         rings = self._near_vertex.get(ci)
         if rings is None:
-            v = shapely.points(*self.walls.vertices[ci])
-            seen: np.ndarray = np.zeros(0, dtype=np.intp)
-            rings = []
-            for dist in NEAR_VERTEX:
-                idx = np.sort(self.tree.query(v, predicate="dwithin", distance=dist))
-                rings.append(np.setdiff1d(idx, seen, assume_unique=True))
-                seen = idx
-            self._near_vertex[ci] = rings
+            rings = self._near_vertex[ci] = self.near_rings(self.walls.vertices[ci])
+        return rings
+
+    def near_rings(self, p: np.ndarray) -> list[np.ndarray]:
+        """Walls near point ``p`` in rings: within the first of :data:`NEAR_VERTEX` m, then
+        within the second and not the first, and so on."""
+        v = shapely.points(float(p[0]), float(p[1]))
+        seen: np.ndarray = np.zeros(0, dtype=np.intp)
+        rings = []
+        for dist in NEAR_VERTEX:
+            idx = np.sort(self.tree.query(v, predicate="dwithin", distance=dist))
+            rings.append(np.setdiff1d(idx, seen, assume_unique=True))
+            seen = idx
         return rings
 
     def crossings(self, seg: np.ndarray, idx: np.ndarray) -> np.ndarray:
