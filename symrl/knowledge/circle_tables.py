@@ -152,7 +152,7 @@ class CircleTables:
         mine, j, theirs = mine[far], j[far], theirs[far]
         a = c[ci] + r * np.stack([np.cos(mine), np.sin(mine)], axis=1)
         b = c[j] + r * np.stack([np.cos(theirs), np.sin(theirs)], axis=1)
-        free = self.chk.segments_free(a, b)
+        free = self.chk.segments_free(a, b, around=ci)
         return mine[free], j[free], theirs[free]
 
     def _build(self, ci: int) -> CircleTable:

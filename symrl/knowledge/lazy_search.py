@@ -60,6 +60,9 @@ class LazySearch:
         self.rims = chk.rim_targets(g, rg)
         self.ends = Ends.of(chk, s, g, self.rims)
         self.tables = CircleTables(chk, self.ends, self.rims)
+        # walls near the start and the goal: a segment from the start, or into the goal disc,
+        # that crosses one is refused before the full check
+        self._near = {"S": chk.index.near_rings(s), "G": chk.index.near_rings(g)}
         self.pos: dict[Node, np.ndarray] = {"S": s}
         self.closed: dict[Node, tuple[float, Node, Edge]] = {}
         self._heap: list = []
@@ -122,9 +125,12 @@ class LazySearch:
         their circle's table)."""
         if edge is None or edge[0] in ("arc", "free"):
             return True
+        near = self._near["S" if edge[1] is self.s else "G"]
         if edge[0] == "seg":
-            return self.chk.segment_ok(edge[1], edge[2])
-        return self.chk.point_ok(edge[2], tol=1e-7) and self.chk.segment_ok(edge[1], edge[2])
+            return self.chk.segment_ok(edge[1], edge[2], near=near)
+        return self.chk.point_ok(edge[2], tol=1e-7) and self.chk.segment_ok(
+            edge[1], edge[2], near=near
+        )
 
     # --- successors -----------------------------------------------------------------------------
 

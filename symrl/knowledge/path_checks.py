@@ -153,13 +153,26 @@ class PathChecker:
         )
         self._segments.update(zip(todo, ok.tolist(), strict=True))
 
-    def segments_free(self, a: np.ndarray, b: np.ndarray, tol: float = 1e-7) -> np.ndarray:
+    def segments_free(
+        self, a: np.ndarray, b: np.ndarray, tol: float = 1e-7, around: int | None = None
+    ) -> np.ndarray:
         """:meth:`segment_ok` of the segments ``a[k] -> b[k]`` (``(m, 2)`` each), not remembered:
-        the lazy search asks each circle's bitangents once."""
+        the lazy search asks each circle's bitangents once. With ``around`` (the vertex the
+        segments leave from) those crossing one of the vertex's near walls are refused first,
+        in numpy: most of a corner's long bitangents hit its own room's walls, and GEOS's
+        containment test of a long line was a third of a large floor's plan."""
         seg = np.concatenate([a, b], axis=1)
+        ok = np.zeros(len(seg), dtype=bool)
         if len(seg) == 0:
-            return np.zeros(0, dtype=bool)
-        ok = shapely.contains_properly(self._free, shapely.linestrings(seg.reshape(-1, 2, 2)))
+            return ok
+        live = np.arange(len(seg))
+        for ring in self.index.near_vertex(around) if around is not None else []:
+            live = live[~self.index.crossings(seg[live], ring)]
+        if len(live) == 0:
+            return ok
+        ok[live] = shapely.contains_properly(
+            self._free, shapely.linestrings(seg[live].reshape(-1, 2, 2))
+        )
         rest = np.flatnonzero(ok)
         mid = 0.5 * (seg[rest, :2] + seg[rest, 2:])
         ok[rest] = self.world.contains_xy(mid[:, 0], mid[:, 1]) & ~self.index.swept_contacts(
@@ -185,9 +198,22 @@ class PathChecker:
             self.points_cache[key] = ok
         return ok
 
-    def segment_ok(self, a: np.ndarray, b: np.ndarray, tol: float = 1e-7) -> bool:
+    def segment_ok(
+        self,
+        a: np.ndarray,
+        b: np.ndarray,
+        tol: float = 1e-7,
+        near: list[np.ndarray] | None = None,
+    ) -> bool:
+        """Is the motion ``a -> b`` ``r - tol`` clear of every wall (remembered)? ``near``: rings
+        of walls (:meth:`WallIndex.near_rings`) whose crossing refuses it first, in numpy (the
+        start's for its long tangents: the full test of a long line was a tenth of a plan)."""
         key = (float(a[0]), float(a[1]), float(b[0]), float(b[1]), tol)
         ok = self._segments.get(key)
+        if ok is None and near is not None:
+            seg = np.array([key[:4]])
+            if any(self.index.crossings(seg, ring)[0] for ring in near):
+                ok = self._segments[key] = False
         if ok is None:
             mid = 0.5 * (a + b)
             ok = bool(self.world.contains_xy(mid[0], mid[1])) and not (

@@ -36,13 +36,13 @@ BODY_RADIUS = 0.26
 """The B21's body radius (metres): the start must be this far from every wall and the goal
 reachable by a disc this size. ``RobotConfig.radius`` has the same default."""
 
-MAX_PLAN_CORNERS = 3000
+MAX_PLAN_CORNERS = 5500
 """Most wall corners (polygon vertices, two per thin wall) a map the planner and the sub-goal
 table work on may have. Above 100 corners the planner builds its graph only where its A* search
 reaches, so its time grows with the part of the map the path explores (office floors,
 ``benchmarks/bench_big_maps.py``, CPU seconds on a shared machine: 642 corners 0.3 s, 1,966
-corners 2.2 s, 2,742 corners 6.6 s, 5,230 corners 19 s): a floor of up to 3,000 corners is
-planned in about 10 s."""
+corners 1.8 s, 2,742 corners 2.5 s, 5,230 corners 7.6-8.3 s, 5,694 corners 10 s): a floor of up
+to 5,500 corners is planned in about 10 s."""
 MAX_PLAN_AREA = 250_000.0
 """Largest bounding box (m^2) of a map the sub-goal table works on: its look-out grid (one
 point per 0.2 m) grows with the area (a 400 m square: 1 s and 0.5 GB; 2 km: 32 s and 3.5 GB)."""

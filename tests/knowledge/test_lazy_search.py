@@ -1,5 +1,6 @@
 """The planner's lazy A* gives the whole graph's length on every shipped world and on random
-pillar halls, plans a floor of over 2,000 corners, and still refuses bad input in one line."""
+pillar halls, plans a floor of over 2,000 corners, screens long lines by the walls near their
+ends without changing an answer, and still refuses bad input in one line."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from symrl.knowledge.lazy_search import LazySearch
-from symrl.knowledge.path_checks import path_checker
+from symrl.knowledge.path_checks import PathChecker, path_checker
 from symrl.knowledge.planner import WHOLE_GRAPH_CORNERS, shortest_path
 from symrl.knowledge.tangent_graph import TangentGraph
 from symrl.world import load_map
@@ -144,3 +145,24 @@ def test_bad_input_on_a_big_map_still_gets_its_one_line_errors():
         ValueError, match=r"^start \(1\.0, 1\.0\) is closer than 0\.316 m to a wall"
     ):
         shortest_path(world, start=(1.0, 1.0))
+
+
+def test_the_near_walls_screen_refuses_only_what_the_full_check_refuses():
+    # random long motions from the corners of a pillar hall, checked with and without the
+    # screen (the walls near the corner, or near the start, crossed in numpy first)
+    world = load_map(_big_hall(8))
+    rng = np.random.default_rng(0)
+    full, screened = PathChecker(world, 0.316), PathChecker(world, 0.316)
+    corners = full.walls.vertices
+    refused = 0
+    for ci in rng.choice(len(corners), 40, replace=False).tolist():
+        ang = rng.uniform(-np.pi, np.pi, 60)
+        a = corners[ci] + 0.316 * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        b = rng.uniform(0.0, 40.0, (60, 2))
+        want = full.segments_free(a, b)
+        np.testing.assert_array_equal(screened.segments_free(a, b, around=ci), want)
+        refused += int((~want).sum())
+        near = screened.index.near_rings(a[0])
+        for k in range(0, 60, 6):
+            assert screened.segment_ok(a[k], b[k], near=near) == full.segment_ok(a[k], b[k])
+    assert refused > 1000  # most long motions hit a pillar: the screen had work to do
