@@ -75,14 +75,17 @@ def check_walk(world: WorldMap, poses: np.ndarray, body: float, clearance: float
 
 
 def replay_in_env(world_name: str, poses: np.ndarray, heading: float) -> dict | None:
-    """Drive the noise-free env through the walk's poses; None if the env is not available."""
+    """Drive the noise-free env through the walk's poses (its action budget the walk's length,
+    so a building's long walk is driven to its end); None if the env cannot be made."""
     try:
         import gymnasium
 
         import symrl  # noqa: F401  (registers the env)
 
-        env = gymnasium.make(symrl.ENV_ID, noise=False, map=world_name)
-    except Exception:  # the env is being written by another engineer; the replay is optional
+        env = gymnasium.make(
+            symrl.ENV_ID, noise=False, map=world_name, max_actions=max(len(poses), 200)
+        )
+    except Exception:  # the replay is a check of the walk, optional: the plan stands without it
         return None
     env.reset(seed=0, options={"pose": (float(poses[0][0]), float(poses[0][1]), heading)})
     h = heading
