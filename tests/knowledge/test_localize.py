@@ -213,6 +213,23 @@ def test_the_tracker_follows_the_true_pose_while_the_odometry_drifts():
     assert max(error) < 0.03 and np.mean(error) < 0.01
 
 
+def test_the_tracker_keeps_its_correction_through_scans_without_information():
+    # the prior is the last belief moved by the odometry's increment, not the raw odometry: a
+    # scan that says nothing (every reading at the range cap) leaves the belief where the
+    # odometry's increments carry the last one, the correction kept (a prior on the raw
+    # odometry would pull the belief back onto its drift)
+    tracker = PoseTracker(MapLocalizer(WALLS, ROBOT), 1)
+    true = free_pose(WORLD.start.x, WORLD.start.y, WORLD.start.heading)
+    first = tracker(true + np.array([[0.12, 0.0, 0.0]]), scan(WALLS, true).astype(np.float32))
+    correction = first - (true + np.array([[0.12, 0.0, 0.0]]))
+    assert correction[0, 0] < -0.1  # the scan put the belief back near the true pose
+    blind = np.ones((1, N), dtype=np.float32)
+    for k in range(1, 11):
+        odometry = true + np.array([[0.12 + 0.05 * k, 0.02 * k, 0.0]])
+        pose = tracker(odometry, blind)
+        np.testing.assert_allclose(pose - odometry, correction, atol=1e-6)  # float32 observations
+
+
 def test_a_robot_believes_the_same_alone_and_in_a_batch():
     steps = _drive(5, 25, seed=3)
     together = PoseTracker(MapLocalizer(WALLS, ROBOT), 5)
