@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 
-__all__ = ["Agent", "LearnsNothing", "no_extras"]
+__all__ = ["Agent", "LearnsNothing", "NoExtraColumns", "no_extras"]
 
 
 @runtime_checkable
@@ -65,21 +65,25 @@ def no_extras(rows: np.ndarray) -> list[dict[str, Any]]:
     return [{} for _ in range(len(rows))]
 
 
-class LearnsNothing:
-    """The three parts of an agent that learns nothing (the reflex alone, greedy trials): no
-    TD error column, no extra columns, no state. Subclasses set ``policy``."""
-
-    policy: Any
-
-    def learn(self, td: TensorDictBase) -> torch.Tensor | None:
-        """Nothing to learn."""
-        return None
+class NoExtraColumns:
+    """``end_trials`` of an agent that adds nothing to the trial table's base columns."""
 
     def end_trials(
         self, rows: np.ndarray, records: list[dict[str, Any]], reached: np.ndarray
     ) -> list[dict[str, Any]]:
         """Nothing to add to the base columns."""
         return no_extras(rows)
+
+
+class LearnsNothing(NoExtraColumns):
+    """The parts of an agent that learns nothing (the reflex alone, greedy trials): no TD error
+    column, no extra columns, no state. Subclasses set ``policy``."""
+
+    policy: Any
+
+    def learn(self, td: TensorDictBase) -> torch.Tensor | None:
+        """Nothing to learn."""
+        return None
 
     def state_dict(self) -> dict[str, Any]:
         """Nothing learnt."""

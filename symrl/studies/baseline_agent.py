@@ -6,12 +6,11 @@ from __future__ import annotations
 
 from typing import Any, Protocol
 
-import numpy as np
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
-from symrl.agent import LearnsNothing, no_extras
+from symrl.agent import LearnsNothing, NoExtraColumns
 from symrl.studies.priors import PriorAction
 
 __all__ = ["Algorithm", "BaselineAgent", "ReflexAgent", "algorithms"]
@@ -58,7 +57,7 @@ class _Acting(TensorDictModuleBase):
         return self.to_action(td)
 
 
-class BaselineAgent:
+class BaselineAgent(NoExtraColumns):
     """``algorithm`` (SAC or PPO) acting through ``to_action`` (its priors), as an
     :class:`symrl.agent.Agent`: no TD error column, no extra columns."""
 
@@ -70,12 +69,6 @@ class BaselineAgent:
         """The algorithm observes the transitions (and learns when its schedule says)."""
         self.algorithm.observe(td)
         return None
-
-    def end_trials(
-        self, rows: np.ndarray, records: list[dict[str, Any]], reached: np.ndarray
-    ) -> list[dict[str, Any]]:
-        """Nothing to add to the base columns."""
-        return no_extras(rows)
 
     def state_dict(self) -> dict[str, Any]:
         """The algorithm's state (networks, optimiser, data)."""

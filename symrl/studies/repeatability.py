@@ -26,6 +26,7 @@ from typing import Any
 from symrl.runs import write_trials_csv
 from symrl.studies.placement import OTHER_STARTS, study_starts
 from symrl.studies.runner import SetResult, curves, optimum, run_sets, start_summary, table1
+from symrl.studies.stats import TABLE_KEYS
 
 __all__ = [
     "PAPER_TABLE1",
@@ -43,15 +44,6 @@ PAPER_TABLE1 = {
     "total_reinforcement": {"mean": -6.24, "variance": 0.8752},
 }
 """Hailu (2001), Table 1: real robot, 10 sets x 20 trials, at the last trial."""
-
-TABLE_KEYS = (
-    "neurons",
-    "steps",
-    "total_reinforcement",
-    "collisions",
-    "reached_goal",
-    "path_length",
-)
 
 
 def table1_markdown(

@@ -26,17 +26,18 @@ def last_trial_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     return [last[s] for s in sorted(last)]
 
 
-def table1(
-    rows: Sequence[dict[str, Any]],
-    keys: Sequence[str] = (
-        "neurons",
-        "steps",
-        "total_reinforcement",
-        "collisions",
-        "reached_goal",
-        "path_length",
-    ),
-) -> dict[str, Any]:
+TABLE_KEYS = (
+    "neurons",
+    "steps",
+    "total_reinforcement",
+    "collisions",
+    "reached_goal",
+    "path_length",
+)
+"""The columns of the paper's Table 1."""
+
+
+def table1(rows: Sequence[dict[str, Any]], keys: Sequence[str] = TABLE_KEYS) -> dict[str, Any]:
     """Mean, sample variance (ddof 1), min and max over sets of each key at the last trial."""
     if not rows:
         raise ValueError("table1: no trial rows")
