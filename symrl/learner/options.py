@@ -129,9 +129,13 @@ class SubgoalOptions(BufferViews):
         # the same numbers as the same seed alone
         self.generators = [torch.Generator().manual_seed(int(s) + 7919) for s in seeds]
         # the timeout: an option is given up for the best one left after this many actions of
-        # a trial in its region (reset with every trial: not in the state dict)
+        # a trial in its region (reset with every trial: not in the state dict); with
+        # ``region_limit_scale``, more for an option whose aim lies farther off when chosen
         self._timeout = slack
         self._region_steps = np.zeros((batch, r), dtype=np.int64)
+        self._limit_scale = config.region_limit_scale
+        self._step_length = float((robot or RobotConfig()).step)
+        self._limit = np.full((batch, r), math.inf if slack is None else float(slack))
 
     def _init_crossings(
         self,
@@ -319,10 +323,11 @@ class SubgoalOptions(BufferViews):
         pose = odometry.numpy().astype(np.float64)
         xy = pose[:, :2]
         on_route = chosen == self._route_option[region_np]
+        late = self._zero_turn
         if self._timeout is not None:  # an option timed out gives way (the route re-plans)
             steps = self._region_steps
             steps[rows, region_np] += 1
-            late = (steps[rows, region_np] > self._timeout) & ~on_route
+            late = (steps[rows, region_np] > self._limit[rows, region_np]) & ~on_route
             for b in np.flatnonzero(late).tolist():
                 here = int(region_np[b])
                 self._stall(b, here, int(chosen[b]))
@@ -339,6 +344,9 @@ class SubgoalOptions(BufferViews):
         if self.route is not None and on_route.any():
             point[on_route] = self.route.aim(np.flatnonzero(on_route), xy[on_route])
         distance = torch.linalg.vector_norm(torch.from_numpy(point - xy), dim=-1).numpy()
+        if self._limit_scale is not None and self._timeout is not None:
+            chose = entered | late if self.crossings is None else entered | self._rechose
+            self._set_limit(rows[chose], region_np[chose], distance[chose])
         reached = (distance < self.config.reach) & ~on_route
         if self.crossings is not None:
             reached &= ~self._lining_up  # in front of a crossing is not past it
@@ -367,6 +375,15 @@ class SubgoalOptions(BufferViews):
             torch.from_numpy(aim),
             start_turn,
         )
+
+    def _set_limit(self, rows: np.ndarray, region: np.ndarray, distance: np.ndarray) -> None:
+        """The timeout of the options just chosen by robots ``rows`` in ``region``: the actions
+        the straight way to their aim (``distance`` m off) takes, times ``region_limit_scale``,
+        and at least ``region_limit`` (a constant limit gives up an option aimed across a large
+        region before the robot can get there)."""
+        assert self._limit_scale is not None and self._timeout is not None
+        need = self._limit_scale * distance / self._step_length
+        self._limit[rows, region] = np.maximum(float(self._timeout), need)
 
     def _choose(self, b: int, region: int, greedy: bool) -> int:
         """Controller ``b``'s option for ``region`` at its first entry in a trial (on Python
@@ -410,6 +427,8 @@ class SubgoalOptions(BufferViews):
         a["stage"][r] = _FIRST_STAGE
         a["visit"][r] = -1
         self._region_steps[r] = 0
+        if self._timeout is not None:
+            self._limit[r] = float(self._timeout)
         if self.route is not None:
             self.route.forget(r)
         if self.crossings is not None:  # what is found blocked, from the learned evidence

@@ -357,3 +357,39 @@ def test_on_the_route_the_start_turn_applies_at_every_step():
     opt.choice[0, WEST] = 1  # the goal, as the option of the region
     assert turn(math.pi) is True  # the trial's first step
     assert turn(math.pi) is False  # a later step: the reflex turns
+
+
+def _steps_on_each_option(opt: SubgoalOptions, steps: int) -> list[tuple[int, int]]:
+    """Robot 0 held at the origin in region 0 for ``steps`` actions: the options in force, in
+    order, with the actions each was in force."""
+    runs: list[tuple[int, int]] = []
+    for _ in range(steps):
+        _, option, _, _, _ = opt.steer(torch.tensor([0]), _odometry((0.0, 0.0, 0.0)), False)
+        o = int(option[0])
+        if runs and runs[-1][0] == o:
+            runs[-1] = (o, runs[-1][1] + 1)
+        else:
+            runs.append((o, 1))
+    return runs
+
+
+def test_a_timeout_scaled_by_the_aims_distance_gives_a_far_aim_the_actions_it_needs():
+    """region_limit_scale: an option is given up after scale x (the straight way to its aim
+    when chosen, over the step length) actions in its region, at least region_limit; without it,
+    after region_limit actions whatever the distance."""
+    step = 0.2  # the robot's step (m)
+    goal, s1 = math.hypot(4.0, -2.0), math.hypot(3.5, -0.5)  # option 0's and 1's aims from (0, 0)
+    scaled = _options(region_limit=3, region_limit_scale=1.5)
+    runs = _steps_on_each_option(scaled, 70)
+    # the option chosen at a timeout steers from that action on, then its own limit's actions
+    first, second = math.floor(1.5 * goal / step), 1 + math.floor(1.5 * s1 / step)
+    assert runs[:2] == [(0, first), (1, second)]
+    assert _steps_on_each_option(_options(region_limit=3), 8)[:2] == [(0, 3), (1, 4)]
+    # an aim nearer than region_limit's worth of actions keeps region_limit
+    near = _options(region_limit=40, region_limit_scale=1.5)
+    assert _steps_on_each_option(near, 45)[0] == (0, 40)
+
+
+def test_the_scaled_timeout_needs_the_timeout():
+    with pytest.raises(ValueError, match=r"options.region_limit_scale=1.5 .* options.region_limit"):
+        load_config("paper", ["options.region_limit_scale=1.5", "options.region_limit=null"])

@@ -78,6 +78,11 @@ class RunConfig(Section):
                 f"it needs options.source=rules, got options.source={o.source} "
                 "(or set crossings.enabled=false)"
             )
+        if o.region_limit_scale is not None and o.region_limit is None:
+            raise ValueError(
+                f"options.region_limit_scale={o.region_limit_scale} scales the timeout: it "
+                "needs options.region_limit (an integer), got null"
+            )
         if self.experts.residual and not self.experts.reflex:
             raise ValueError("experts.residual=true needs experts.reflex=true")
         robot = self.env.robot

@@ -160,6 +160,10 @@ class OptionsConfig(Section):
     """A timeout: an option in force for this many actions of a trial in its region (its
     visits added up) is given up for the best option left, and not chosen again (the route is
     re-planned instead). None: no limit (the paper has none)."""
+    region_limit_scale: float | None = Field(None, gt=0)
+    """With ``region_limit``: an option's limit is the actions the straight way from where the
+    robot chose it to its aim takes (the distance over the step length), times this, when that
+    is more than ``region_limit``. None: ``region_limit`` for every option."""
     start_turn_deg: float | None = Field(None, ge=0, le=180)
     """A trial's first action turns straight at its aim (up to 180 degrees, in place of the
     reflex) when the aim is more than this many degrees off the heading; null: the reflex
