@@ -350,7 +350,7 @@ _DISTINCT = [
     "reflex.near.FL=[0.1, 0.3]",
     "reflex.near.F=[0.2, 0.6]",
     "env.robot.radius=0.3",
-    "options.region_limit=null",
+    "options.region_limit=25",
     "run.seed=5",
 ]
 
