@@ -60,7 +60,9 @@ def run_recipe(
     )
 
 
-def load_run(run_dir: str | Path, adopt: bool = False) -> tuple[RunConfig, int, dict[str, Any], Any]:
+def load_run(
+    run_dir: str | Path, adopt: bool = False
+) -> tuple[RunConfig, int, dict[str, Any], Any]:
     """``(config, seed, state, world)`` of the run in folder ``run_dir`` to go on with it, the
     paper learner's (:func:`symrl.runs.load_resume`) or a baseline's
     (:func:`symrl.studies.baseline.load_baseline_resume`); every fault one line."""

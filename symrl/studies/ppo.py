@@ -2,10 +2,10 @@
 
 TorchRL's ``ClipPPOLoss`` with ``GAE`` advantages, CleanRL's continuous-control defaults
 (``ppo_continuous_action.py``; the config keys ``baseline.ppo.*``, none tuned on this task):
-2048 transitions per update, 10 epochs of 64-transition minibatches, a TanhNormal actor and a value critic, both 2x64 tanh
-MLPs. The transitions come from ``envs`` robots stepped together (on-policy data from parallel
-envs, as PPO is usually run): 8 robots x 256 steps make one 2048-transition batch. The loop,
-env and run folder are :mod:`symrl.studies.baseline`'s.
+2048 transitions per update, 10 epochs of 64-transition minibatches, a TanhNormal actor and a
+value critic, both 2x64 tanh MLPs. The transitions come from ``envs`` robots stepped together
+(on-policy data from parallel envs, as PPO is usually run): 8 robots x 256 steps make one
+2048-transition batch. The loop, env and run folder are :mod:`symrl.studies.baseline`'s.
 """
 
 from __future__ import annotations

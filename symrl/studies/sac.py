@@ -4,7 +4,8 @@ TorchRL's ``SACLoss`` (two Q-networks, target Q-networks by Polyak averaging wit
 ``SoftUpdate``, entropy temperature learned toward the target entropy -dim(A)), a uniform
 replay buffer, one gradient step per environment transition. The defaults (the config keys
 ``baseline.sac.*``) are the ones the field runs SAC with (Haarnoja et al. 2018, as
-Stable-Baselines3 ships them); none was tuned on this task. The loop, env and run folder are :mod:`symrl.studies.baseline`'s.
+Stable-Baselines3 ships them); none was tuned on this task. The loop, env and run folder are
+:mod:`symrl.studies.baseline`'s.
 """
 
 from __future__ import annotations
