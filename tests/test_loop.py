@@ -210,7 +210,11 @@ def test_a_baseline_is_an_agent_of_the_loop():
     from symrl.studies.priors import PriorAction, priors_of
     from symrl.studies.sac import SACAgent
 
-    sizes = ["baseline.sac.hidden=8", "baseline.sac.batch_size=8", "baseline.sac.learning_starts=10"]
+    sizes = [
+        "baseline.sac.hidden=8",
+        "baseline.sac.batch_size=8",
+        "baseline.sac.learning_starts=10",
+    ]
     config = load_config("sac", ["baseline.residual=true", *sizes])
     priors = priors_of(config)
     env = baseline_env(config, [3])

@@ -172,5 +172,5 @@ def paper_learner_only(config: Any, command: str) -> None:
         "and drives each set's final controller from other starts, and its Table 1 and Fig. 5 "
         "read the experts' neurons and ghosts, all of which only the paper's learner has; "
         f"train the seeds with `symrl baseline {algorithm} --seeds 100-109` or `symrl sweep "
-        f"--recipes {algorithm}`"
+        f"--recipes {algorithm} --seeds 100-109 --out DIR`"
     )

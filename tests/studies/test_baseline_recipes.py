@@ -67,9 +67,7 @@ def test_the_baseline_reads_the_regions_from_what_it_is_told():
     assert transform.regions.names == told.regions.names
     scratch = make_env(load_config("ppo"), [0]).transform
     assert scratch.regions is None  # a robot not told the rules gets no one-hot
-    assert env.observation_spec["observation"].shape[-1] == (
-        scratch.size + len(told.regions.names)
-    )
+    assert env.observation_spec["observation"].shape[-1] == (scratch.size + len(told.regions.names))
     env.close()
 
 

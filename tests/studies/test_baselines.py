@@ -142,7 +142,9 @@ def test_residual_observation_carries_the_reflex_action(config):
 def test_the_env_passes_torchrl_spec_checks(config):
     from torchrl.envs.utils import check_env_specs
 
-    told = load_config("sac", ["baseline.residual=true", "baseline.regions=true", "knowledge=regions"])
+    told = load_config(
+        "sac", ["baseline.residual=true", "baseline.regions=true", "knowledge=regions"]
+    )
     env = make_env(told, [0, 1])
     check_env_specs(env, seed=0)
     td = env.reset()
