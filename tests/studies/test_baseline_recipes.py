@@ -104,3 +104,13 @@ def test_a_study_of_a_baseline_is_refused_in_one_line(tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and "is a deep-RL baseline" in err, err
     assert not (tmp_path / "s").exists()
+
+
+def test_a_sweep_trains_a_baseline_recipe_and_keeps_it(tmp_path, capsys):
+    argv = ["sweep", "--recipes", "ppo", "--seeds", "1", "--trials", "1", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    (run,) = (tmp_path / "runs").iterdir()
+    assert len((run / "trials.csv").read_text().splitlines()) == 2
+    capsys.readouterr()
+    assert main(argv) == 0
+    assert "(0 trained, 1 already finished)" in capsys.readouterr().out
