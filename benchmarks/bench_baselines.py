@@ -42,21 +42,21 @@ def one(algorithm: str, residual: bool, episodes: int) -> dict[str, float | str]
     from torchrl.envs import TransformedEnv
 
     import symrl
+    from symrl.learner.config import load_config
     from symrl.studies import baseline
-    from symrl.studies.priors import Priors
+    from symrl.studies.baseline_agent import algorithms
 
-    agent_cls = baseline._algorithms()[algorithm][0]
+    agent_cls = algorithms()[algorithm]
     totals: dict[str, float] = defaultdict(float)
     _timed(agent_cls, "act", "act", totals)
     _timed(agent_cls, "observe", "observe", totals)
     _timed(TransformedEnv, "step_and_maybe_reset", "env", totals)
     torch.set_num_threads(1)
     t0 = time.process_time()
-    result = baseline.train_baseline(
-        algorithm, seed=0, episodes=episodes, priors=Priors(residual=residual), progress=False
-    )
+    overrides = ["run.seed=0", f"run.trials={episodes}", f"baseline.residual={residual}"]
+    result = baseline.train_baseline(load_config(algorithm, overrides), progress=False)
     cpu = time.process_time() - t0
-    frames = result["end"]["frames"]
+    frames = result.timings["frames"]
     out: dict[str, float | str] = {
         "source": str(Path(symrl.__file__).parent.parent),
         "frames": frames,

@@ -21,10 +21,10 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from symrl.collector import StepCollector
-from symrl.learner.config import RunConfig
+from symrl.learner.config import RunConfig, load_config
 from symrl.loop import RobotTrials, TrainingLoop
 from symrl.recorder import TrialRecorder
-from symrl.studies.baseline import make_env, robot_seeds, run_config
+from symrl.studies.baseline import make_env, robot_seeds
 from symrl.studies.priors import PriorAction, Priors
 
 PRIORS = Priors(residual=True)
@@ -93,10 +93,11 @@ class HillClimbingReflex:
 def train(
     trials: int = 20, seed: int = 0, robots: int = 1, progress: bool = True
 ) -> list[list[dict[str, Any]]]:
-    """``robots`` robots (world seeds as ``symrl baseline``'s) learn for ``trials`` trials
+    """``robots`` robots (world seeds as the baselines') learn for ``trials`` trials
     each; their trial tables."""
-    config = run_config(seed=seed, episodes=trials)
-    env = make_env(config, PRIORS, robot_seeds(seed, robots))
+    # the world of the baseline recipes (env, reflex, shield), seed and budget
+    config = load_config("sac", [f"run.seed={seed}", f"run.trials={trials}"])
+    env = make_env(config, robot_seeds(seed, robots), priors=PRIORS)
     agent = HillClimbingReflex(config, robots, seed)
     loop = TrainingLoop(
         StepCollector(env, agent.policy),

@@ -1,7 +1,7 @@
 """The one training loop: a collector's batches, an agent's learning, the trial table.
 
-Every learner trains here (``symrl train`` and ``symrl study``'s paper learner, ``symrl
-baseline``'s SAC and PPO, a learner of your own: docs/how-to/add-a-learner.md):
+Every learner trains here (``symrl train`` and ``symrl study``'s paper learner, the SAC and PPO
+recipes, a learner of your own: docs/how-to/add-a-learner.md):
 
     for batch in collector:                 one env step of the B robots (the agent's policy)
         td_error = agent.learn(batch)

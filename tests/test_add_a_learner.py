@@ -34,7 +34,7 @@ def test_the_example_learner_trains_through_the_loop():
     assert all(-1.0 <= r["correction"] <= 1.0 for robot in rows for r in robot)
     assert "mean_abs_td_error" not in rows[0][0]
     assert rows[0][0]["correction"] == 0.0  # the first trial drives the reflex alone
-    config = example.run_config(seed=0, episodes=2)
+    config = example.load_config("sac", ["run.trials=2"])
     assert isinstance(example.HillClimbingReflex(config, 2), Agent)
 
 
@@ -42,7 +42,9 @@ def test_the_example_learner_keeps_a_better_correction_and_goes_on_from_its_stat
     import numpy as np
 
     example = _example()
-    agent = example.HillClimbingReflex(example.run_config(episodes=2), robots=2, seed=1)
+    agent = example.HillClimbingReflex(
+        example.load_config("sac", ["run.trials=2"]), robots=2, seed=1
+    )
     rows = np.array([0, 1])
     agent.end_trials(rows, [{"total_reinforcement": -10.0}] * 2, np.array([True, True]))
     tried = agent.correction.clone()
@@ -52,7 +54,9 @@ def test_the_example_learner_keeps_a_better_correction_and_goes_on_from_its_stat
     )
     assert extras[0]["correction"] == round(float(tried[0]), 4)  # better: kept
     assert extras[1]["correction"] == 0.0  # worse: back to the best
-    again = example.HillClimbingReflex(example.run_config(episodes=2), robots=2, seed=1)
+    again = example.HillClimbingReflex(
+        example.load_config("sac", ["run.trials=2"]), robots=2, seed=1
+    )
     again.load_state_dict(state)
     assert (
         again.end_trials(

@@ -204,17 +204,22 @@ def test_the_paper_learner_through_the_loop_is_train_batch(config):
 
 
 def test_a_baseline_is_an_agent_of_the_loop():
+    from symrl.learner.config import load_config
     from symrl.studies.baseline import make_env as baseline_env
-    from symrl.studies.baseline import run_config
     from symrl.studies.baseline_agent import BaselineAgent
-    from symrl.studies.priors import PriorAction, Priors
-    from symrl.studies.sac import SACAgent, SACConfig
+    from symrl.studies.priors import PriorAction, priors_of
+    from symrl.studies.sac import SACAgent
 
-    config = run_config(seed=3, episodes=2)
-    priors = Priors(residual=True)
-    env = baseline_env(config, priors, [3])
+    sizes = [
+        "baseline.sac.hidden=8",
+        "baseline.sac.batch_size=8",
+        "baseline.sac.learning_starts=10",
+    ]
+    config = load_config("sac", ["baseline.residual=true", *sizes])
+    priors = priors_of(config)
+    env = baseline_env(config, [3])
     n_obs = env.observation_spec["observation"].shape[-1]
-    sac = SACAgent(SACConfig(hidden=8, batch_size=8, learning_starts=10), n_obs, 1)
+    sac = SACAgent(config.baseline.sac, n_obs, 1)
     agent = BaselineAgent(sac, PriorAction(priors, config))
     assert isinstance(agent, Agent)
     loop = TrainingLoop(
@@ -228,16 +233,17 @@ def test_a_baseline_is_an_agent_of_the_loop():
 
 
 def test_the_reflex_alone_is_an_agent_that_learns_nothing():
+    from symrl.learner.config import load_config
     from symrl.studies.baseline import make_env as baseline_env
-    from symrl.studies.baseline import robot_seeds, run_config
+    from symrl.studies.baseline import robot_seeds
     from symrl.studies.baseline_agent import ReflexAgent
     from symrl.studies.priors import PriorAction, Priors
 
-    config = run_config(seed=100, episodes=6)
+    config = load_config("sac", ["baseline.residual=true"])
     priors = Priors(residual=True)
     agent = ReflexAgent(PriorAction(priors, config))
     assert isinstance(agent, Agent)
-    env = baseline_env(config, priors, robot_seeds(100, 2))
+    env = baseline_env(config, robot_seeds(100, 2))
     loop = TrainingLoop(
         StepCollector(env, agent.policy), agent, SharedTrials(6), TrialRecorder(2), progress=False
     )

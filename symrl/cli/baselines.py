@@ -1,11 +1,12 @@
-"""``symrl baseline``: deep-RL baselines (SAC, PPO) on the same task, its arguments beside its
-handler."""
+"""``symrl baseline``: the deep-RL baseline recipes (``sac``, ``ppo``) trained on several seeds,
+its flags mapped onto their config keys (:mod:`symrl.studies.baseline_command`); its arguments
+beside its handler."""
 
 from __future__ import annotations
 
 import argparse
 
-from symrl.cli.errors import output_folder
+from symrl.cli.errors import at_least, output_folder
 from symrl.cli.stops import stoppable
 
 
@@ -14,14 +15,13 @@ def add_baseline(commands: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "baseline",
         help="deep-RL baselines (SAC, PPO from TorchRL) on the same task, optionally given the "
         "paper's prior knowledge",
-        description="Train SAC or PPO (TorchRL) on the paper's world, one run folder per seed "
-        "(OUT/seed-S: config.yaml, trials.csv, tb/, checkpoint.pt for `symrl evaluate`). "
-        "From scratch by default; --residual and --regions hand it the paper's priors. "
-        "SAC defaults (Stable-Baselines3 / Haarnoja et al. 2018): buffer 1e6, batch 256, "
-        "100 random steps first, Adam 3e-4, gamma 0.99, tau 0.005, 1 gradient step per "
-        "transition, learned temperature, 2x256 ReLU, 1 env. PPO defaults (CleanRL): 2048 "
-        "transitions per update from 8 envs, 10 epochs, minibatch 64, Adam 3e-4, gamma 0.99, "
-        "GAE 0.95, clip 0.2, 2x64 tanh.",
+        description="Train the recipe sac or ppo (SAC or PPO from TorchRL, the field's "
+        "default hyper-parameters) on each seed: the same runs as `symrl train ALGO --seed S "
+        "--trials E [key=value ...]` into OUT/seed-S (config.yaml, trials.csv, tb/, "
+        "checkpoint.pt for `symrl evaluate`), then a summary of the seeds. From scratch by "
+        "default; --residual (baseline.residual=true) and --regions (baseline.regions=true, "
+        "knowledge=regions) hand it the paper's priors. `symrl train sac --help-keys` lists "
+        "the hyper-parameters (baseline.sac.*, baseline.ppo.*).",
     )
     p.add_argument("algorithm", choices=["sac", "ppo"], help="sac or ppo")
     p.add_argument(
@@ -34,22 +34,27 @@ def add_baseline(commands: argparse._SubParsersAction[argparse.ArgumentParser]) 
     p.add_argument(
         "--residual",
         action="store_true",
-        help="act as the shielded fuzzy reflex (steering toward the goal) plus a "
-        "learned correction of at most --correction * pi",
+        help="baseline.residual=true: act as the shielded fuzzy reflex (steering toward the "
+        "goal) plus a learned correction of at most --correction * pi",
     )
     p.add_argument(
         "--correction",
         type=float,
         default=None,
-        help="largest residual correction as a fraction of pi (default 0.25: 45 deg)",
+        help="baseline.correction: largest residual correction as a fraction of pi (default "
+        "0.25: 45 deg)",
     )
     p.add_argument(
         "--regions",
         action="store_true",
-        help="append the region id (one-hot, from the odometry pose) to the observation",
+        help="baseline.regions=true and knowledge=regions: append the region id (one-hot, "
+        "from the odometry pose and the region rules) to the observation",
     )
     p.add_argument(
-        "--envs", type=int, default=None, help="robots stepped together (default: sac 1, ppo 8)"
+        "--envs",
+        type=int,
+        default=None,
+        help="baseline.envs: robots stepped together (default: sac 1, ppo 8)",
     )
     p.add_argument(
         "--workers", type=int, default=1, help="seeds trained in parallel processes (default 1)"
@@ -79,9 +84,17 @@ def add_baseline(commands: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def _baseline(args: argparse.Namespace) -> int:
-    """``symrl baseline`` (stoppable with one worker: see :func:`symrl.cli.stops.stoppable`)."""
+    """``symrl baseline``: the recipe ALGO trained on each seed (stoppable with one worker: see
+    :func:`symrl.cli.stops.stoppable`)."""
     from symrl.studies.baseline_command import baseline_command
 
+    at_least("--episodes", args.episodes, 1)
+    at_least("--workers", args.workers, 1)
+    at_least("--checkpoint-every", args.checkpoint_every, 1)
+    if args.resume and args.overwrite:
+        raise ValueError(
+            "--resume goes on with the runs in --out, --overwrite replaces them: give one"
+        )
     if args.out is not None:
         output_folder("--out", args.out)
     if args.workers != 1:  # worker processes keep their periodic checkpoints

@@ -158,3 +158,19 @@ def plannable(source: Any) -> None:
     note = planning_note(world)
     if note:
         print(f"symrl: note: {note}", file=sys.stderr)
+
+
+def paper_learner_only(config: Any, command: str) -> None:
+    """Refuse a baseline recipe (``baseline.algorithm`` set) in a command that studies the
+    paper's learner, in one line naming what it needs that a baseline has not."""
+    algorithm = config.baseline.algorithm
+    if algorithm is None:
+        return
+    raise ValueError(
+        f"recipe {config.recipe!r} is a deep-RL baseline (baseline.algorithm={algorithm}): "
+        f"`symrl {command}` trains its sets as one batch of robots each with its own table "
+        "and drives each set's final controller from other starts, and its Table 1 and Fig. 5 "
+        "read the experts' neurons and ghosts, all of which only the paper's learner has; "
+        f"train the seeds with `symrl baseline {algorithm} --seeds 100-109` or `symrl sweep "
+        f"--recipes {algorithm} --seeds 100-109 --out DIR`"
+    )

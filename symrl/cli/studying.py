@@ -11,6 +11,7 @@ from symrl.cli.errors import (
     at_least,
     check_overrides,
     output_folder,
+    paper_learner_only,
     plannable,
     recipe_argument,
 )
@@ -79,13 +80,12 @@ def _study(args: argparse.Namespace) -> int:
         raise ValueError(
             "--resume goes on with the stopped study in --out, --overwrite starts afresh: give one"
         )
-    output_folder("--out", args.out, ("table1.json",), args.overwrite, "study")
-    if args.map is None:
-        from symrl.learner.config import load_config
+    from symrl.learner.config import load_config
 
-        plannable(load_config(args.recipe, args.overrides).env.map)
-    else:
-        plannable(args.map)
+    config = load_config(args.recipe, args.overrides)
+    paper_learner_only(config, "study")
+    output_folder("--out", args.out, ("table1.json",), args.overwrite, "study")
+    plannable(config.env.map if args.map is None else args.map)
     from symrl.studies import checkpointing
 
     settings = {
@@ -171,6 +171,7 @@ def _ablate(args: argparse.Namespace) -> int:
         )
     args.base = args.base or "paper_literal"
     _recipe_list("--recipes", args.recipes)
+    _paper_learners("ablate", (args.recipes or "").split(",") + [args.changes_of or ""])
     output_folder("--out", args.out)
     if args.maps is not None:
         from symrl.studies.ladder_worlds import ladder_worlds_command, parse_maps
@@ -188,6 +189,15 @@ def _ablate(args: argparse.Namespace) -> int:
         raise ValueError(f"--resume: --out {args.out!r} does not exist; nothing to go on with")
     with holding(args.out, "--out"):
         return ablate_command(args)
+
+
+def _paper_learners(command: str, recipes: list[str]) -> None:
+    """None of ``recipes`` (names or files; empty ones skipped) is a baseline."""
+    from symrl.learner.config import load_config
+
+    for name in recipes:
+        if name.strip():
+            paper_learner_only(load_config(name.strip()), command)
 
 
 def _recipe_list(flag: str, value: str | None) -> None:
@@ -229,6 +239,7 @@ def _generalise(args: argparse.Namespace) -> int:
     from symrl.studies.generalisation import generalise_command
 
     sets_and_trials(args)
+    _paper_learners("generalise", [args.recipe])
     output_folder("--out", args.out, ("generalise.json",), args.overwrite, "generalise")
     plannable(args.map)
     with holding(args.out, "--out"):

@@ -16,7 +16,6 @@ import numpy as np
 
 from symrl.cli.errors import check_overrides, output_folder
 from symrl.learner.config import RunConfig, config_from_dict, config_to_dict, load_config
-from symrl.runs import load_checkpoint_world, load_resume
 from symrl.world.worldmap import WorldMap, load_map
 
 
@@ -50,7 +49,9 @@ def resumed(args: argparse.Namespace) -> TrainRun:
             f"--resume {args.resume!r}: a resumed run keeps its own config; drop "
             f"{', '.join(given)} (only --trials may extend the budget)"
         )
-    config, seed, state = load_resume(args.resume, adopt=args.adopt_checkpoint)
+    from symrl.studies.learners import load_run
+
+    config, seed, state, world = load_run(args.resume, adopt=args.adopt_checkpoint)
     if args.trials is not None:
         data = config_to_dict(config)
         data["run"]["trials"] = args.trials
@@ -61,7 +62,6 @@ def resumed(args: argparse.Namespace) -> TrainRun:
             f"--resume {args.resume!r}: the run has done {done} of {config.run.trials} "
             "trials; pass a larger --trials to go on"
         )
-    world = load_checkpoint_world(os.path.join(args.resume, "checkpoint.pt"))[2]
     return TrainRun(config, seed, world, args.resume, state)
 
 
@@ -113,11 +113,12 @@ def summary_lines(run: TrainRun, result: Any) -> str:
     """The finished run in two lines: its last trials, and what it wrote."""
     trials = result.trials
     last = trials[-5:]
+    neurons = f", {trials[-1]['neurons']} neurons" if "neurons" in trials[-1] else ""
     return (
         f"{run.config.recipe} (seed {run.seed}): {len(trials)} trials, "
         f"{result.timings['steps_per_second']:.0f} steps/s; last trial {trials[-1]['steps']} "
-        f"actions, total {trials[-1]['total_reinforcement']:.2f}, {trials[-1]['neurons']} "
-        f"neurons; last-{len(last)} mean {np.mean([t['steps'] for t in last]):.1f} actions, "
+        f"actions, total {trials[-1]['total_reinforcement']:.2f}{neurons}; "
+        f"last-{len(last)} mean {np.mean([t['steps'] for t in last]):.1f} actions, "
         f"total {np.mean([t['total_reinforcement'] for t in last]):.2f}, "
         f"goal {sum(t['reached_goal'] for t in trials)}/{len(trials)}\n"
         f"wrote {run.logdir}/ (config.yaml, trials.csv, checkpoint.pt, trajectory.png, tb/)"

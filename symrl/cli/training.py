@@ -34,10 +34,10 @@ def add_train(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
     p.add_argument(
         "--checkpoint-every",
         type=int,
-        default=1,
+        default=None,
         metavar="N",
-        help="write the resumable checkpoint every N trials (default 1; always at "
-        "the end and when stopped by Ctrl-C or SIGTERM)",
+        help="write the resumable checkpoint every N trials (default 1; a baseline's, which "
+        "holds its replay buffer, 50; always at the end and when stopped by Ctrl-C or SIGTERM)",
     )
     p.add_argument(
         "--adopt-checkpoint",
@@ -63,7 +63,7 @@ def _train(args: argparse.Namespace) -> int:
 def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
     from symrl.cli.train_setup import fresh, resumed, stopped_line, summary_lines
     from symrl.learner.config import describe_keys, load_config
-    from symrl.runs import run_one
+    from symrl.studies.learners import run_recipe
 
     recipe_argument(args.recipe)
     if args.help_keys:  # with a RECIPE (and key=value), that recipe's values
@@ -77,14 +77,14 @@ def _train_run(args: argparse.Namespace, signalled: list[int]) -> int:
     run = resumed(args) if args.resume is not None else fresh(args)
     if run.config.options.enabled:
         plannable(run.world)
-    result = run_one(
+    result = run_recipe(
         run.config,
         run.logdir,
         world=run.world,
         overwrite=args.overwrite,
         resume=run.state,
         seed=run.seed,
-        checkpoint_every=args.checkpoint_every or 1,
+        checkpoint_every=args.checkpoint_every,
         stop=lambda: bool(signalled),
     )
     if result.timings.get("stopped"):

@@ -13,6 +13,7 @@ import torch
 import yaml
 
 from symrl.learner.config import ConfigError, RunConfig, config_from_dict, config_to_dict
+from symrl.learner.config.baselines import used_settings
 from symrl.runs.policy_check import check_policy_state
 from symrl.runs.tables import flat
 
@@ -106,13 +107,14 @@ def load_resume(run_dir: str | Path, adopt: bool = False) -> tuple[RunConfig, in
         )
     seed = int(data["seed"])
     if not adopt:
-        _check_same_run(folder, config, seed)
+        check_same_run(folder, config, seed)
     return config, seed, state
 
 
-def _check_same_run(folder: Path, config: RunConfig, seed: int) -> None:
+def check_same_run(folder: Path, config: RunConfig, seed: int) -> None:
     """The checkpoint of ``folder`` belongs to the run its ``config.yaml`` records: the same
-    settings (the trial budget aside, which ``--trials`` may extend) and seed."""
+    settings its learner reads (the trial budget aside, which ``--trials`` may extend) and
+    seed; else a one-line :class:`CheckpointError`."""
     recorded_file = folder / "config.yaml"
     if not recorded_file.is_file():
         return
@@ -125,7 +127,7 @@ def _check_same_run(folder: Path, config: RunConfig, seed: int) -> None:
             f"--resume {str(folder)!r}: config.yaml is not readable, so checkpoint.pt cannot be "
             "checked against it; pass --adopt-checkpoint to go on with the checkpoint's config"
         )
-    saved = flat(config_to_dict(config))
+    saved = flat(used_settings(config, config_to_dict(config)))
     saved["run.seed"] = seed
     have = flat({k: v for k, v in recorded.items() if k != "provenance"})
     for key in ("recipe", "run.seed", "env.map", *sorted(set(saved) | set(have))):

@@ -13,6 +13,7 @@ import numpy as np
 import yaml
 
 from symrl.learner.config import RunConfig, config_to_dict
+from symrl.learner.config.baselines import used_settings
 from symrl.learner.experts import expert_names
 from symrl.runs.checkpoint import save_checkpoint
 from symrl.runs.tables import flat, fmt, trial_columns
@@ -54,8 +55,8 @@ class RunWriter:
         """``resume_rows``: go on with the run already in ``logdir`` whose finished trials are
         these rows (the trial table is rewritten with them, then appended to). ``columns``: the
         trial table's columns (default :func:`trial_columns`); ``settings``: what
-        ``config.yaml``, the TensorBoard text and HParams record (default the whole config) --
-        a learner other than the paper's (the baselines) names only the settings it uses.
+        ``config.yaml``, the TensorBoard text and HParams record (default: the config's settings
+        its learner reads, :func:`symrl.learner.config.baselines.used_settings`).
         ``flag``: the command's flag naming the folder, in the refusal when another process
         writes it."""
         from torchrl.record.loggers import TensorboardLogger
@@ -93,7 +94,8 @@ class RunWriter:
         self.world = world
         self.expert_names = expert_names(config, world)
         self.provenance = provenance()
-        self.settings = config_to_dict(config) if settings is None else settings
+        tree = config_to_dict(config)
+        self.settings = used_settings(config, tree) if settings is None else settings
         meta = {**self.settings, "provenance": self.provenance}
         (self.dir / "config.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
         self.columns = trial_columns(config, world) if columns is None else list(columns)

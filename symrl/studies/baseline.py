@@ -1,30 +1,32 @@
-"""One baseline run (``symrl baseline {ppo,sac}``; the command is
-:mod:`symrl.studies.baseline_command`): its env, agent and run folder around the one training
-loop, :class:`symrl.loop.TrainingLoop`.
+"""One baseline run (the recipes ``sac`` and ``ppo``, trained by ``symrl train``): its env,
+agent and run folder around the one training loop, :class:`symrl.loop.TrainingLoop`.
 
 A baseline is an *algorithm* (:mod:`symrl.studies.sac`, :mod:`symrl.studies.ppo`): a TorchRL
 actor that writes ``control`` in [-1, 1] and an update that learns from batches of transitions,
 made an :class:`symrl.agent.Agent` with the priors' action
-(:class:`symrl.studies.baseline_agent.BaselineAgent`). Everything else is shared and is
+(:class:`symrl.studies.baseline_agent.BaselineAgent`). The config's ``baseline`` section
+names the algorithm, its priors and hyper-parameters; everything else is shared and is
 symrl's own:
 
     env       = TransformedEnv(BatchedWorldEnv(B robots), PriorObservation)  observation [+priors]
     collector = StepCollector(env, agent.policy)     act: control -> action (residual: reflex + c)
-    TrainingLoop(collector, agent, SharedTrials(episodes), TrialRecorder(B)).run()
+    TrainingLoop(collector, agent, SharedTrials(run.trials), TrialRecorder(B)).run()
         every step: agent.learn (observe); the trial table; ended trials -> RunWriter.trial
         (trials.csv, TensorBoard); checkpoints every ``checkpoint_every`` trials
 
-The world is the paper's (``paper`` recipe's env, reflex and shield sections: the same robot,
-noise on, 200-action trials, reward f1 + f2). A *trial* is one episode; with B robots the
-trials are numbered in the order they end (robots in index order within a step). A run is
-deterministic given its seed: robot k's world draws from ``seed`` (k = 0) or ``seed * 1000 + k``,
-the networks and their sampling from ``torch.manual_seed(seed)``. A run of N trials is the
-first N trials of a longer run with the same seed (nothing depends on the budget).
+The world is the recipe's (``env``, and with the residual ``reflex`` and ``shield.margin``),
+cut to what the recipe tells the robot (``knowledge``: the region one-hot needs the region
+rules). A *trial* is one episode; with B robots the trials are numbered in the order they end
+(robots in index order within a step). A run is deterministic given its seed: robot k's world
+draws from ``seed`` (k = 0) or ``seed * 1000 + k``, the networks and their sampling from
+``torch.manual_seed(seed)``. A run of N trials is the first N trials of a longer run with the
+same seed (nothing depends on the budget).
 
 A run folder is a symrl run folder (:class:`symrl.runs.RunWriter`): ``config.yaml`` (the
-settings the baseline uses), ``trials.csv`` (the trial table's base columns; the paper
+settings the baseline reads), ``trials.csv`` (the trial table's base columns; the paper
 learner's own ones -- neurons, temperature, ... -- stay empty), ``tb/`` and ``checkpoint.pt``,
-which ``symrl evaluate`` drives (:func:`load_baseline`).
+which ``symrl evaluate`` drives (:func:`load_baseline`) and ``symrl train --resume`` goes on
+from (:func:`load_baseline_resume`).
 """
 
 from __future__ import annotations
@@ -32,40 +34,36 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
 
+from symrl.learner.config import RunConfig
 from symrl.studies.baseline_agent import Algorithm, BaselineAgent, algorithms
 from symrl.studies.baseline_checkpoint import (
     CHECKPOINT_KIND,
     SNAPSHOT_FORMAT,
     BaselineController,
-    knowledge_of,
     load_baseline,
-    load_run_state,
+    load_baseline_resume,
     save_baseline,
 )
-from symrl.studies.baseline_env import make_env, robot_seeds, run_config
-from symrl.studies.priors import PriorAction, Priors
+from symrl.studies.baseline_env import make_env, robot_seeds
+from symrl.studies.priors import PriorAction, priors_of
 
 __all__ = [
     "Algorithm",
     "make_env",
-    "run_config",
     "robot_seeds",
     "train_baseline",
     "summarise",
     "first_reliable",
     "BaselineController",
     "load_baseline",
-    "load_run_state",
+    "load_baseline_resume",
     "save_baseline",
-    "knowledge_of",
-    "baseline_settings",
     "parse_seeds",
     "CHECKPOINT_KIND",
     "SNAPSHOT_FORMAT",
@@ -116,90 +114,62 @@ def summarise(rows: Sequence[dict[str, Any]], budget: int) -> dict[str, Any]:
 
 
 def train_baseline(
-    algorithm: str,
-    seed: int = 100,
-    episodes: int = 20,
-    priors: Priors | None = None,
-    map: str = "hailu2001",
-    envs: int | None = None,
+    config: RunConfig,
     logdir: str | Path | None = None,
-    progress: bool = True,
+    *,
+    world: Any = None,
     overwrite: bool = False,
-    resume: bool = False,
+    resume: dict[str, Any] | None = None,
     checkpoint_every: int = 50,
+    progress: bool = True,
     stop: Callable[[], bool] | None = None,
-    **settings: Any,
-) -> dict[str, Any]:
-    """Train one baseline for ``episodes`` trials; write its run folder ``logdir`` (if given).
+) -> Any:
+    """Train the baseline of ``config`` (``baseline.algorithm``) for ``run.trials`` trials with
+    seed ``run.seed``; write its run folder ``logdir`` (if given).
 
-    ``settings`` override the algorithm's defaults (``SACConfig`` / ``PPOConfig`` fields).
     The checkpoint holds the whole run state, written every ``checkpoint_every`` trials, when
     ``stop()`` turns true (checked between two steps: the run stops there) and at the end;
-    ``resume`` goes on from the run in ``logdir`` (to a budget at least its own), and the
-    trial table is the uninterrupted run's. Returns the trial rows, the summaries at 20 trials
-    and at the end, and timings. Runs on one torch thread (small networks: as fast, and it
+    ``resume`` (the state :func:`load_baseline_resume` read from ``logdir``) goes on from it,
+    and the trial table is the uninterrupted run's. Returns a :class:`symrl.train.TrainResult`
+    (no policy: the controller is in the checkpoint) whose timings hold the wall time and
+    robot-steps at the 20th trial too. Runs on one torch thread (small networks: as fast, and it
     shares the machine)."""
+    if config.baseline.algorithm is None:
+        raise ValueError(
+            f"recipe {config.recipe!r}: baseline.algorithm is null; train_baseline trains a "
+            "baseline (the recipes sac and ppo)"
+        )
+    if resume is not None and logdir is None:
+        raise ValueError("resume: needs the run folder (logdir)")
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
         return _train_baseline(
-            algorithm,
-            seed,
-            episodes,
-            priors,
-            map,
-            envs,
-            logdir,
-            progress,
-            overwrite,
-            resume,
-            checkpoint_every,
-            stop,
-            settings,
+            config, logdir, world, overwrite, resume, max(1, int(checkpoint_every)), progress, stop
         )
     finally:
         torch.set_num_threads(threads)
 
 
 def _train_baseline(
-    algorithm: str,
-    seed: int,
-    episodes: int,
-    priors: Priors | None,
-    map: str,
-    envs: int | None,
+    config: RunConfig,
     logdir: str | Path | None,
-    progress: bool,
+    world: Any,
     overwrite: bool,
-    resume: bool,
+    state: dict[str, Any] | None,
     checkpoint_every: int,
+    progress: bool,
     stop: Callable[[], bool] | None,
-    settings: dict[str, Any],
-) -> dict[str, Any]:
+) -> Any:
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
     from symrl.loop import TrainingLoop
 
-    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise ValueError(f"--episodes {episodes!r}: must be an integer >= 1")
-    if checkpoint_every < 1:
-        raise ValueError(f"--checkpoint-every {checkpoint_every!r}: must be >= 1")
-    priors = priors or Priors()
-    algorithm_cls, cfg_cls = algorithms()[algorithm]
-    cfg = cfg_cls(**settings)
-    envs = cfg.envs if envs is None else envs
-    if isinstance(envs, bool) or not isinstance(envs, int) or envs < 1:
-        raise ValueError(f"--envs {envs!r}: must be an integer >= 1")
-    run_settings = baseline_settings(algorithm, priors, seed, envs, cfg)
-    config = run_config(map, seed, episodes)
-    state = None
-    if resume:
-        if logdir is None:
-            raise ValueError("resume: needs the run folder (logdir)")
-        state = load_run_state(logdir, run_settings, episodes, knowledge_of(config, priors))
+    seed = config.run.seed
     torch.manual_seed(seed)
-    run = _Run(algorithm, algorithm_cls, cfg, priors, config, seed, envs, state)
-    run.open(logdir, overwrite, run_settings, checkpoint_every)
+    run = _Run(config, world, state)
+    run.open(logdir, overwrite, checkpoint_every)
+    label = f"{config.baseline.algorithm} {priors_of(config).label()} seed {seed}"
     run.loop = TrainingLoop(
         run.collector,
         run.agent,
@@ -209,7 +179,7 @@ def _train_baseline(
         on_boundary=run.boundary,
         stop=stop,
         progress=progress,
-        bar={"desc": f"{algorithm} {priors.label()} seed {seed}", "mininterval": 5},
+        bar={"desc": label, "mininterval": 5},
         frames=int(state["frames"]) if state is not None else 0,
     )
     try:
@@ -220,10 +190,7 @@ def _train_baseline(
             run.writer.finish(None, seed)
     finally:
         run.close()
-    return _result(algorithm, priors, seed, map, envs, cfg, run, stopped)
-
-
-_algorithms = algorithms  # the name benchmarks/bench_baselines.py uses
+    return run.result(stopped)
 
 
 class _Run:
@@ -231,17 +198,7 @@ class _Run:
     from ``state``), the run folder's writer and checkpoints, its clock and the time and
     robot-steps at its 20th trial."""
 
-    def __init__(
-        self,
-        algorithm: str,
-        algorithm_cls: Any,
-        cfg: Any,
-        priors: Priors,
-        config: Any,
-        seed: int,
-        envs: int,
-        state: dict[str, Any] | None,
-    ) -> None:
+    def __init__(self, config: RunConfig, world: Any, state: dict[str, Any] | None) -> None:
         from torchrl.envs.utils import ExplorationType
 
         from symrl.collector import StepCollector
@@ -249,14 +206,17 @@ class _Run:
         from symrl.recorder import TrialRecorder
         from symrl.world.worldmap import load_map
 
-        self.algorithm, self.priors, self.config, self.seed = algorithm, priors, config, seed
-        self.state = state
+        b = config.baseline
+        assert b.algorithm is not None
+        self.config, self.state = config, state
         self.t0, self.cpu0 = time.perf_counter(), time.process_time()
-        self.world = load_map(config.env.map)
-        env = make_env(config, priors, robot_seeds(seed, envs), self.world)
+        self.world = world if world is not None else load_map(config.env.map)
+        envs = b.robots
+        env = make_env(config, robot_seeds(config.run.seed, envs), self.world)
         self.n_obs = env.observation_spec["observation"].shape[-1]
+        algorithm_cls = algorithms()[b.algorithm]
         self.agent = BaselineAgent(
-            algorithm_cls(cfg, self.n_obs, envs), PriorAction(priors, config)
+            algorithm_cls(b.hyper(), self.n_obs, envs), PriorAction(priors_of(config), config)
         )
         self.collector = StepCollector(
             env, self.agent.policy, exploration_type=ExplorationType.RANDOM
@@ -267,27 +227,21 @@ class _Run:
         self.loop: Any = None
         self.at20: tuple[float, int] | None = None
 
-    def open(
-        self,
-        logdir: str | Path | None,
-        overwrite: bool,
-        run_settings: dict[str, Any],
-        checkpoint_every: int,
-    ) -> None:
+    def open(self, logdir: str | Path | None, overwrite: bool, checkpoint_every: int) -> None:
         """The run folder (if any), then the parts put into the resumed state."""
         from symrl.runs import BASE_COLUMNS, RunWriter
 
         state, episodes = self.state, self.table.total
-        self.run_settings, self.every = run_settings, checkpoint_every
+        self.every = checkpoint_every
         if logdir is not None:
             self.writer = RunWriter(
                 logdir,
                 self.config,
                 self.world,
                 overwrite=overwrite,
-                resume_rows=state["rows"] if state is not None else None,
+                resume_rows=state["trials"] if state is not None else None,
                 columns=list(BASE_COLUMNS),
-                settings={**run_settings, "episodes": episodes, **knowledge_of(self.config)},
+                flag="--resume" if state is not None else "--logdir",
             )
         if state is not None:
             self.table = _restore(state, self.agent, self.collector, self.recorder, episodes)
@@ -322,7 +276,6 @@ class _Run:
         wall, cpu = self.elapsed()
         run_state = {
             "format": SNAPSHOT_FORMAT,
-            "settings": self.run_settings,
             **_loop_state(self.agent, self.collector, self.recorder, self.table),
             "frames": self.loop.frames,
             "wall_s": wall,
@@ -331,12 +284,9 @@ class _Run:
         }
         save_baseline(
             self.writer.dir / "checkpoint.pt",
-            self.algorithm,
             self.agent.algorithm,
-            self.priors,
             self.config,
             self.world,
-            self.seed,
             self.n_obs,
             resume=run_state,
         )
@@ -348,6 +298,27 @@ class _Run:
             self.writer.close()
             self.writer.release()  # the loop and the run refer to each other: not left to gc
 
+    def result(self, stopped: bool) -> Any:
+        """The run as a :class:`symrl.train.TrainResult` (no policy)."""
+        from symrl.train import TrainResult
+
+        wall, cpu = self.elapsed()
+        frames = self.loop.frames
+        at20 = self.at20
+        timings = {
+            "seconds": wall,
+            "cpu_seconds": cpu,
+            "frames": frames,
+            "robots": self.recorder.batch,
+            "steps_per_second": frames / max(wall, 1e-9),
+            "stopped": int(stopped),
+            "at20_seconds": at20[0] if at20 else math.nan,
+            "at20_frames": at20[1] if at20 else math.nan,
+        }
+        return TrainResult(
+            self.config, self.config.run.seed, self.table.rows, None, timings, self.world
+        )
+
 
 def _loop_state(agent: BaselineAgent, collector: Any, recorder: Any, table: Any) -> dict[str, Any]:
     """The run state's entries of the loop's parts: trial rows (taken and pending), the
@@ -355,7 +326,7 @@ def _loop_state(agent: BaselineAgent, collector: Any, recorder: Any, table: Any)
     progress, torch's generator."""
     collected = collector.state_dict()
     return {
-        "rows": table.rows,
+        "trials": table.rows,
         "pending": table.pending,
         "agent": agent.state_dict(),
         "env": collected["env_state_dict"],
@@ -377,48 +348,11 @@ def _restore(
     )
     recorder.load_state(state["recorder"])
     torch.set_rng_state(state["torch_rng"])
-    return SharedTrials(episodes, state["rows"], state["pending"])
-
-
-def _result(
-    algorithm: str,
-    priors: Priors,
-    seed: int,
-    map: str,
-    envs: int,
-    cfg: Any,
-    run: _Run,
-    stopped: bool,
-) -> dict[str, Any]:
-    """What :func:`train_baseline` returns."""
-    wall, cpu = run.elapsed()
-    rows, at20 = run.table.rows, run.at20
-    return {
-        "algorithm": algorithm,
-        "variant": priors.label(),
-        "priors": asdict(priors),
-        "seed": seed,
-        "map": map,
-        "envs": envs,
-        "settings": asdict(cfg),
-        "rows": rows,
-        "stopped": stopped,
-        "at20": {
-            **summarise(rows, 20),
-            "wall_time_s": at20[0] if at20 else None,
-            "frames": at20[1] if at20 else None,
-        },
-        "end": {
-            **summarise(rows, run.table.total),
-            "wall_time_s": round(wall, 1),
-            "frames": run.loop.frames,
-        },
-        "cpu_time_s": round(cpu, 1),
-    }
+    return SharedTrials(episodes, state["trials"], state["pending"])
 
 
 # ---------------------------------------------------------------------------------------------
-# The command
+# Seeds of ``symrl baseline``
 
 
 MAX_SEEDS = 10_000
@@ -449,16 +383,3 @@ def parse_seeds(text: str) -> list[int]:
     if not seeds or min(seeds) < 0:
         raise ValueError(f"--seeds {text!r}: give at least one seed, each >= 0")
     return seeds
-
-
-def baseline_settings(
-    algorithm: str, priors: Priors, seed: int, envs: int, cfg: Any
-) -> dict[str, Any]:
-    """What a run records as its settings (``config.yaml``; checked on ``--resume``)."""
-    return {
-        "baseline": algorithm,
-        "priors": asdict(priors),
-        "seed": seed,
-        "envs": envs,
-        algorithm: asdict(cfg),
-    }

@@ -107,9 +107,11 @@ class ReflexAgent(LearnsNothing):
         self.policy = _Reflex(to_action)
 
 
-def algorithms() -> dict[str, tuple[Any, Any]]:
-    """The algorithms by name: their class and their settings' dataclass."""
-    from symrl.studies.ppo import PPOAgent, PPOConfig
-    from symrl.studies.sac import SACAgent, SACConfig
+def algorithms() -> dict[str, Any]:
+    """The algorithms' classes by name (``baseline.algorithm``); each is built from its
+    hyper-parameters (``baseline.sac`` / ``baseline.ppo``), the observation size and the
+    number of robots."""
+    from symrl.studies.ppo import PPOAgent
+    from symrl.studies.sac import SACAgent
 
-    return {"sac": (SACAgent, SACConfig), "ppo": (PPOAgent, PPOConfig)}
+    return {"sac": SACAgent, "ppo": PPOAgent}

@@ -1,17 +1,16 @@
-"""A baseline's checkpoint: the trained actor (a self-contained controller that ``symrl
-evaluate`` drives, :func:`load_baseline`) and the run state ``symrl baseline --resume`` goes on
-from (:func:`load_run_state`, checked against the run's settings and knowledge)."""
+"""A baseline's checkpoint: the trained actor with the run's config and map (a self-contained
+controller that ``symrl evaluate`` drives, :func:`load_baseline`) and the run state ``symrl
+train --resume`` goes on from (:func:`load_baseline_resume`, checked against the folder's
+``config.yaml``)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
-import yaml
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
@@ -19,37 +18,35 @@ from symrl.learner.config import RunConfig, config_to_dict
 from symrl.studies.actor import make_actor
 from symrl.studies.baseline_agent import Algorithm
 from symrl.studies.baseline_env import make_env
-from symrl.studies.priors import PriorAction, Priors
+from symrl.studies.priors import PriorAction, Priors, priors_of
 
 __all__ = [
     "CHECKPOINT_KIND",
     "SNAPSHOT_FORMAT",
     "save_baseline",
-    "load_run_state",
-    "knowledge_of",
+    "is_baseline_checkpoint",
+    "load_baseline_resume",
     "BaselineController",
     "load_baseline",
 ]
 
 CHECKPOINT_KIND = "baseline"
-SNAPSHOT_FORMAT = 1
-"""Format of the run state a baseline checkpoint holds (``symrl baseline ... --resume``)."""
+SNAPSHOT_FORMAT = 2
+"""Format of the run state a baseline checkpoint holds (2: the run's whole config, the trial
+rows under ``trials``)."""
 
 
 def save_baseline(
     path: Path,
-    algorithm: str,
     agent: Algorithm,
-    priors: Priors,
     config: RunConfig,
     world: Any,
-    seed: int,
     n_obs: int,
     resume: dict[str, Any] | None = None,
 ) -> None:
-    """The actor, how to rebuild it, the priors, config and map content: self-contained; with
-    ``resume`` also the run state to go on from (:func:`load_run_state`). Written atomically: a
-    crash leaves the previous file."""
+    """The actor, how to rebuild it, the config and the map's content: self-contained; with
+    ``resume`` also the run state to go on from (:func:`load_baseline_resume`). Written
+    atomically: a crash leaves the previous file."""
     from symrl.about import provenance
     from symrl.runs import CHECKPOINT_FORMAT, atomic_save, map_content
 
@@ -58,97 +55,56 @@ def save_baseline(
             **({"resume": resume} if resume is not None else {}),
             "format": CHECKPOINT_FORMAT,
             "kind": CHECKPOINT_KIND,
-            "algorithm": algorithm,
+            "algorithm": config.baseline.algorithm,
             "provenance": provenance(),
-            "priors": asdict(priors),
             "actor_spec": {"n_obs": n_obs, **agent.actor_spec},
             "config": config_to_dict(config),
             "map": map_content(world),
-            "seed": int(seed),
+            "seed": int(config.run.seed),
             "actor": agent.actor.state_dict(),
         },
         path,
     )
 
 
-def load_run_state(
-    logdir: str | Path,
-    settings: dict[str, Any],
-    episodes: int,
-    knowledge: dict[str, Any] | None = None,
-) -> dict[str, Any]:
-    """The run state in ``logdir/checkpoint.pt`` to go on to ``episodes`` trials, checked
-    against this run's ``settings`` (algorithm, priors, seed, robots, hyper-parameters) and
-    ``knowledge`` (the ``env``, ``reflex`` and ``shield`` sections it would use, checked against
-    the run's ``config.yaml``: a recipe changed since the run started must not go on silently
-    with another reflex). Every fault is one line naming the folder: no run there, no run
-    state, another format, other settings or knowledge, a budget below what is done."""
-    from symrl.runs import CheckpointError, read_checkpoint_file
+def is_baseline_checkpoint(path: str | Path) -> bool:
+    """Whether the file ``path`` is a baseline's checkpoint (False for anything else, an
+    unreadable file included: the paper learner's loader reports those)."""
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception:  # noqa: BLE001 - the other loader names the fault
+        return False
+    return isinstance(data, dict) and data.get("kind") == CHECKPOINT_KIND
 
-    folder = Path(logdir)
-    path = folder / "checkpoint.pt"
-    if not path.is_file():
-        raise CheckpointError(f"--resume {str(folder)!r}: no checkpoint.pt in it")
-    data = read_checkpoint_file(path, f"--resume {str(folder)!r}")
-    state = data.get("resume") if isinstance(data, dict) else None
-    if not isinstance(data, dict) or data.get("kind") != CHECKPOINT_KIND:
-        raise CheckpointError(f"--resume {str(folder)!r}: not a baseline run")
+
+def load_baseline_resume(
+    run_dir: str | Path, adopt: bool = False
+) -> tuple[RunConfig, int, dict[str, Any], Any]:
+    """``(config, seed, state, world)`` of the baseline run in folder ``run_dir`` to go on with
+    it; every fault (no run state, another format, a checkpoint whose settings differ from the
+    folder's ``config.yaml`` unless ``adopt``) is a one-line CheckpointError."""
+    from symrl.runs import CheckpointError, check_same_run, read_checkpoint_file
+
+    folder = Path(run_dir)
+    name = f"--resume {str(folder)!r}"
+    controller = load_baseline(folder / "checkpoint.pt")
+    if controller is None:
+        raise CheckpointError(f"{name}: not a baseline run")
+    data = read_checkpoint_file(folder / "checkpoint.pt", name)
+    state = data.get("resume")
     if not isinstance(state, dict):
         raise CheckpointError(
-            f"--resume {str(folder)!r}: the checkpoint holds the actor only, "
-            "no run state to go on from"
+            f"{name}: the checkpoint holds the actor only, no run state to go on from"
         )
     if state.get("format") != SNAPSHOT_FORMAT:
         raise CheckpointError(
-            f"--resume {str(folder)!r}: run state format {state.get('format')!r}, this symrl "
-            f"resumes format {SNAPSHOT_FORMAT}"
+            f"{name}: run state format {state.get('format')!r}, this symrl resumes format "
+            f"{SNAPSHOT_FORMAT}"
         )
-    saved, given = _flat(state.get("settings", {})), _flat(settings)
-    if knowledge is not None:
-        recorded = _config_yaml(folder)
-        saved.update(_flat({k: recorded.get(k) for k in knowledge}))
-        given.update(_flat(yaml.safe_load(yaml.safe_dump(knowledge))))  # as config.yaml has it
-    for key in sorted(set(saved) | set(given)):
-        if saved.get(key) != given.get(key):
-            raise CheckpointError(
-                f"--resume {str(folder)!r}: the run has {key} {saved.get(key)!r}, this command "
-                f"{given.get(key)!r}"
-            )
-    done = len(state["rows"])
-    if episodes < done:
-        raise ValueError(
-            f"--episodes {episodes}: the run in {str(folder)!r} has done {done} trials already"
-        )
-    return state
-
-
-def _config_yaml(folder: Path) -> dict[str, Any]:
-    """The run's ``config.yaml`` as written at its start (empty if missing or unreadable)."""
-    try:
-        doc = yaml.safe_load((folder / "config.yaml").read_text())
-    except (OSError, yaml.YAMLError):
-        return {}
-    return doc if isinstance(doc, dict) else {}
-
-
-def knowledge_of(config: RunConfig, priors: Priors | None = None) -> dict[str, Any]:
-    """The world and knowledge sections of ``config``: ``env``, ``reflex`` and ``shield``;
-    with ``priors`` only those a run with them uses (the reflex and the shield act only in a
-    residual run)."""
-    tree = config_to_dict(config)
-    used = ("env", "reflex", "shield") if priors is None or priors.residual else ("env",)
-    return {key: tree[key] for key in used}
-
-
-def _flat(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """Nested settings as ``{"ppo.hidden": 64, ...}`` (an error names the one that differs)."""
-    out: dict[str, Any] = {}
-    for key, value in tree.items():
-        if isinstance(value, dict):
-            out.update(_flat(value, f"{prefix}{key}."))
-        else:
-            out[f"{prefix}{key}"] = value
-    return out
+    config = controller.config
+    if not adopt:
+        check_same_run(folder, config, config.run.seed)
+    return config, config.run.seed, state, controller.world
 
 
 class BaselineController(TensorDictModuleBase):
@@ -158,19 +114,12 @@ class BaselineController(TensorDictModuleBase):
     ``begin_trial``); greedy under TorchRL's DETERMINISTIC exploration type (the actor's mode).
     """
 
-    def __init__(
-        self,
-        actor: Any,
-        priors: Priors,
-        config: RunConfig,
-        world: Any,
-        algorithm: str,
-        batch: int = 1,
-    ) -> None:
+    def __init__(self, actor: Any, config: RunConfig, world: Any, batch: int = 1) -> None:
         super().__init__()
-        self.actor, self.priors, self.config, self.world = actor, priors, config, world
-        self.algorithm, self.batch = algorithm, batch
-        self.to_action = PriorAction(priors, config)
+        self.actor, self.config, self.world, self.batch = actor, config, world, batch
+        self.priors: Priors = priors_of(config)
+        self.algorithm = config.baseline.algorithm
+        self.to_action = PriorAction(self.priors, config)
         self.in_keys = ["observation", *self.to_action.in_keys[1:]]
         self.out_keys = ["control", "action", "shielded"]
 
@@ -195,7 +144,7 @@ class BaselineController(TensorDictModuleBase):
                 f"--map {world.name}: {len(world.regions.names)} regions, the controller was "
                 f"trained with a one-hot of {len(self.world.regions.names)}"
             )
-        env = make_env(self.config, self.priors, [seed + k for k in range(len(starts))], world)
+        env = make_env(self.config, [seed + k for k in range(len(starts))], world)
         if any(s is not None for s in starts):
             home = (world.start.x, world.start.y, world.start.heading)
             env.base_env.set_starts(np.array([s if s is not None else home for s in starts]))
@@ -213,16 +162,14 @@ def load_baseline(path: str | Path) -> BaselineController | None:
     from symrl.runs import CheckpointError
     from symrl.world.worldmap import MapError, load_map
 
-    try:
-        data = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception:  # noqa: BLE001 - load_checkpoint reports unreadable files
+    if not is_baseline_checkpoint(path):
         return None
-    if not isinstance(data, dict) or data.get("kind") != CHECKPOINT_KIND:
-        return None
+    data = torch.load(path, map_location="cpu", weights_only=True)
     try:
-        config = config_from_dict(dict(data["config"]), recipe="paper_map")
+        config = config_from_dict(dict(data["config"]))
+        if config.baseline.algorithm is None:
+            raise KeyError("baseline.algorithm")
         world = load_map(data["map"]) if data.get("map") else load_map(config.env.map)
-        priors = Priors(**data["priors"])
         spec = dict(data["actor_spec"])
         actor = make_actor(int(spec["n_obs"]), spec["cells"], spec["activation"])
         actor.load_state_dict(data["actor"])
@@ -233,4 +180,4 @@ def load_baseline(path: str | Path) -> BaselineController | None:
         raise CheckpointError(
             f"checkpoint {str(path)!r}: not a usable baseline ({detail})"
         ) from None
-    return BaselineController(actor, priors, config, world, str(data.get("algorithm")))
+    return BaselineController(actor, config, world)

@@ -1,24 +1,24 @@
-"""`symrl baseline ppo`: Proximal Policy Optimisation from TorchRL on the paper's task.
+"""Proximal Policy Optimisation from TorchRL on the paper's task (the recipe ``ppo``).
 
 TorchRL's ``ClipPPOLoss`` with ``GAE`` advantages, CleanRL's continuous-control defaults
-(``ppo_continuous_action.py``, below; none tuned on this task): 2048 transitions per update,
-10 epochs of 64-transition minibatches, a TanhNormal actor and a value critic, both 2x64 tanh
-MLPs. The transitions come from ``envs`` robots stepped together (on-policy data from parallel
-envs, as PPO is usually run): 8 robots x 256 steps make one 2048-transition batch. The loop,
-env and run folder are :mod:`symrl.studies.baseline`'s.
+(``ppo_continuous_action.py``; the config keys ``baseline.ppo.*``, none tuned on this task):
+2048 transitions per update, 10 epochs of 64-transition minibatches, a TanhNormal actor and a
+value critic, both 2x64 tanh MLPs. The transitions come from ``envs`` robots stepped together
+(on-policy data from parallel envs, as PPO is usually run): 8 robots x 256 steps make one
+2048-transition batch. The loop, env and run folder are :mod:`symrl.studies.baseline`'s.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import torch
 from tensordict import TensorDictBase
 
+from symrl.learner.config.baselines import PPOSection
 from symrl.studies.actor import make_actor
 
-__all__ = ["PPOConfig", "PPOAgent"]
+__all__ = ["PPOAgent"]
 
 _KEYS = (
     "observation",
@@ -31,41 +31,11 @@ _KEYS = (
 )
 
 
-@dataclass
-class PPOConfig:
-    """PPO hyper-parameters (CleanRL ``ppo_continuous_action.py`` defaults unless noted)."""
-
-    envs: int = 8
-    """Robots stepped together; ``frames_per_batch / envs`` steps each per update."""
-    frames_per_batch: int = 2048
-    """Env transitions per PPO update (CleanRL num_envs x num_steps)."""
-    epochs: int = 10
-    """Passes over each batch (update_epochs)."""
-    minibatch: int = 64
-    """Transitions per gradient step (2048 / 32 minibatches)."""
-    lr: float = 3e-4
-    """Adam learning rate (constant; CleanRL anneals it over a fixed total budget)."""
-    gamma: float = 0.99
-    """Discount."""
-    lmbda: float = 0.95
-    """GAE lambda."""
-    clip: float = 0.2
-    """PPO clip epsilon."""
-    entropy_coef: float = 0.0
-    """Entropy bonus (CleanRL: 0)."""
-    critic_coef: float = 0.5
-    """Value-loss weight."""
-    max_grad_norm: float = 0.5
-    """Gradient clipping."""
-    hidden: int = 64
-    """Units per hidden layer (2 layers, tanh)."""
-
-
 class PPOAgent:
     """Acts with the TanhNormal actor; every ``frames_per_batch`` transitions, GAE and
     ``epochs`` passes of clipped-PPO minibatch steps."""
 
-    def __init__(self, cfg: PPOConfig, n_obs: int, envs: int) -> None:
+    def __init__(self, cfg: PPOSection, n_obs: int, envs: int) -> None:
         from torch import nn
         from torchrl.modules import MLP, ValueOperator
         from torchrl.objectives import ClipPPOLoss

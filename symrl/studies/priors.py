@@ -42,7 +42,7 @@ from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.learner.config import RunConfig
 
-__all__ = ["Priors", "PriorObservation", "PriorAction", "observation_size"]
+__all__ = ["Priors", "PriorObservation", "PriorAction", "observation_size", "priors_of"]
 
 _GOAL_SCALE = 5.0
 """Metres that normalise the goal distance (the sonar range)."""
@@ -73,21 +73,29 @@ class Priors:
         return "+".join(parts) or "scratch"
 
 
+def priors_of(config: RunConfig) -> Priors:
+    """The priors ``config``'s ``baseline`` section hands its baseline."""
+    b = config.baseline
+    return Priors(residual=b.residual, regions=b.regions, correction=b.bound)
+
+
 def observation_size(priors: Priors, sensors: int, regions: int) -> int:
     """Length of the ``observation`` vector."""
     return sensors + 2 + (regions if priors.regions else 0) + (1 if priors.residual else 0)
 
 
 class PriorObservation(Transform):
-    """Writes ``observation`` (and ``reflex_action`` with the residual) from the raw keys."""
+    """Writes ``observation`` (and ``reflex_action`` with the residual) from the raw keys;
+    the region one-hot from the region rules of ``told`` (what the robot is told, a
+    :class:`symrl.knowledge.rungs.Knowledge`, or a whole map)."""
 
-    def __init__(self, priors: Priors, config: RunConfig, world: Any) -> None:
+    def __init__(self, priors: Priors, config: RunConfig, told: Any) -> None:
         out = ["observation"] + (["reflex_action"] if priors.residual else [])
         super().__init__(in_keys=["sonar", "goal", "odometry"], out_keys=out)
         self.priors = priors
         self.reflex = FuzzyReflex(config.reflex) if priors.residual else None
-        self.regions = RegionMapper.from_map(world) if priors.regions else None
-        self.n_regions = len(world.regions.names)
+        self.regions = RegionMapper(told.regions) if priors.regions else None
+        self.n_regions = len(told.regions.names)
         self.size = observation_size(priors, config.env.robot.n_sensors, self.n_regions)
 
     def _features(self, td: TensorDictBase) -> TensorDictBase:

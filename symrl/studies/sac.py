@@ -1,23 +1,24 @@
-"""`symrl baseline sac`: Soft Actor-Critic from TorchRL on the paper's task.
+"""Soft Actor-Critic from TorchRL on the paper's task (the recipe ``sac``).
 
 TorchRL's ``SACLoss`` (two Q-networks, target Q-networks by Polyak averaging with
 ``SoftUpdate``, entropy temperature learned toward the target entropy -dim(A)), a uniform
-replay buffer, one gradient step per environment transition. The defaults are the ones the
-field runs SAC with (Haarnoja et al. 2018, as Stable-Baselines3 ships them): below. None was
-tuned on this task. The loop, env and run folder are :mod:`symrl.studies.baseline`'s.
+replay buffer, one gradient step per environment transition. The defaults (the config keys
+``baseline.sac.*``) are the ones the field runs SAC with (Haarnoja et al. 2018, as
+Stable-Baselines3 ships them); none was tuned on this task. The loop, env and run folder are
+:mod:`symrl.studies.baseline`'s.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import torch
 from tensordict import TensorDictBase
 
+from symrl.learner.config.baselines import SACSection
 from symrl.studies.actor import make_actor
 
-__all__ = ["SACConfig", "SACAgent"]
+__all__ = ["SACAgent"]
 
 _KEYS = (
     "observation",
@@ -29,39 +30,11 @@ _KEYS = (
 )
 
 
-@dataclass
-class SACConfig:
-    """SAC hyper-parameters: Stable-Baselines3 ``SAC`` defaults (the values of Haarnoja et al.
-    2018), except ``learning_starts`` as there (100 random transitions before learning)."""
-
-    envs: int = 1
-    """Robots stepped together (SB3 default: one env). Each transition still gets
-    ``updates_per_step`` gradient steps, so more robots only save env overhead."""
-    buffer_size: int = 1_000_000
-    """Replay buffer capacity (transitions)."""
-    batch_size: int = 256
-    """Transitions per gradient step."""
-    learning_starts: int = 100
-    """Transitions with uniformly random control before the first update."""
-    lr: float = 3e-4
-    """Adam learning rate of actor, critics and temperature."""
-    gamma: float = 0.99
-    """Discount."""
-    tau: float = 0.005
-    """Polyak factor of the target Q-networks."""
-    updates_per_step: int = 1
-    """Gradient steps per environment transition (update-to-data ratio)."""
-    hidden: int = 256
-    """Units per hidden layer (2 layers, ReLU) of actor and critics."""
-    alpha_init: float = 1.0
-    """Initial entropy temperature (learned; target entropy -1 = -dim(action))."""
-
-
 class SACAgent:
     """Acts with the TanhNormal actor (uniform control for the first ``learning_starts``
     transitions), learns with ``SACLoss`` from the replay buffer."""
 
-    def __init__(self, cfg: SACConfig, n_obs: int, envs: int) -> None:
+    def __init__(self, cfg: SACSection, n_obs: int, envs: int) -> None:
         from torch import nn
         from torchrl.data import Bounded, LazyTensorStorage, ReplayBuffer
         from torchrl.modules import MLP, ValueOperator

@@ -85,7 +85,8 @@ def mean_std(values: Sequence[float]) -> dict[str, Any]:
 def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any]:
     """The summary of one recipe's sets: first success, success rate over the last ``last``
     trials, their mean actions and total reinforcement (per set, then mean, sd and a 95 %
-    bootstrap interval over sets), neurons and collisions at the last trial, all collisions."""
+    bootstrap interval over sets), neurons (a learner that has them) and collisions at the
+    last trial, all collisions."""
     if not rows:
         raise ValueError("summarise: no trial rows")
     by_set: dict[int, list[dict[str, Any]]] = {}
@@ -106,12 +107,13 @@ def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any
         success += [float(bool(r["reached_goal"])) for r in tail]
         steps.append(float(np.mean([float(r["steps"]) for r in tail])))
         reinf.append(float(np.mean([float(r["total_reinforcement"]) for r in tail])))
-        neurons.append(float(trials[-1]["neurons"]))
+        if "neurons" in trials[-1]:  # the baselines grow no neurons
+            neurons.append(float(trials[-1]["neurons"]))
         coll_last.append(float(trials[-1]["collisions"]))
         coll_all.append(sum(float(r["collisions"]) for r in trials))
         coll_tail += int(sum(float(r["collisions"]) for r in tail))
         opening.append(float(trials[0]["total_reinforcement"]))
-    return {
+    out = {
         "sets": len(by_set),
         "trials": max(int(r["trial"]) for r in rows),
         "first_success": {**mean_std(firsts), "never": never},
@@ -124,6 +126,9 @@ def summarise(rows: Sequence[dict[str, Any]], last: int = LAST) -> dict[str, Any
         f"collisions_last{last}_sum": coll_tail,
         "total_reinforcement_first": mean_std(opening),
     }
+    if not neurons:
+        del out["neurons_last"]
+    return out
 
 
 def start_summary(results: Sequence[SetResult]) -> list[dict[str, Any]]:

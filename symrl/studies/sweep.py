@@ -1,7 +1,8 @@
 """``symrl sweep``: a grid of runs (recipes x seeds x maps, the same overrides for all), each a
 normal run folder, then one merged table and one figure.
 
-Every run is written by :func:`symrl.runs.run_one`, the code path of ``symrl train``, into
+Every run is written by :func:`symrl.studies.learners.run_recipe`, the code path of ``symrl
+train`` (the paper's learner or a baseline recipe), into
 ``OUT/runs/<recipe>__<map>__s<seed>/``: its ``trials.csv`` is the one ``symrl train RECIPE
 --seed SEED --map MAP`` writes alone. A run folder that already holds the finished run (its
 config and the full number of trials) is kept, not run again, so a stopped sweep re-run into
@@ -150,7 +151,11 @@ def _is_done(run: SweepRun) -> bool:
     if not isinstance(saved, dict):
         return False
     saved.pop("provenance", None)
-    return bool(saved == yaml.safe_load(yaml.safe_dump(run.config, sort_keys=False)))
+    from symrl.learner.config import config_from_dict
+    from symrl.learner.config.baselines import used_settings
+
+    recorded = used_settings(config_from_dict(run.config), run.config)  # what config.yaml holds
+    return bool(saved == yaml.safe_load(yaml.safe_dump(recorded, sort_keys=False)))
 
 
 def train_run(config: dict[str, Any], logdir: str, resume: bool = False) -> list[dict[str, Any]]:
@@ -160,15 +165,16 @@ def train_run(config: dict[str, Any], logdir: str, resume: bool = False) -> list
     import torch
 
     from symrl.learner.config import config_from_dict
-    from symrl.runs import read_trials_csv, run_one
+    from symrl.runs import read_trials_csv
+    from symrl.studies.learners import run_recipe
 
     torch.set_num_threads(1)
     cfg = config_from_dict(config, recipe=str(config.get("recipe", "sweep")))
     state = _stopped_state(cfg, logdir) if resume else None
     if state is not None:
-        run_one(cfg, logdir, resume=state, seed=cfg.run.seed, progress=False)
+        run_recipe(cfg, logdir, resume=state, seed=cfg.run.seed, progress=False)
     else:
-        run_one(cfg, logdir, overwrite=True, progress=False)
+        run_recipe(cfg, logdir, overwrite=True, progress=False)
     return read_trials_csv(Path(logdir) / "trials.csv")
 
 
@@ -176,12 +182,13 @@ def _stopped_state(config: Any, logdir: str) -> dict[str, Any] | None:
     """The run state of a stopped run of ``config`` in ``logdir`` (None: nothing to go on
     with there: no run, another config, or a checkpoint without run state)."""
     from symrl.learner.config import config_to_dict
-    from symrl.runs import CheckpointError, load_resume
+    from symrl.runs import CheckpointError
+    from symrl.studies.learners import load_run
 
     if not (Path(logdir) / "checkpoint.pt").is_file():
         return None
     try:
-        saved, seed, state = load_resume(logdir)
+        saved, seed, state, _ = load_run(logdir)
     except (CheckpointError, ValueError, OSError):
         return None
     same = config_to_dict(saved) == config_to_dict(config) and seed == config.run.seed

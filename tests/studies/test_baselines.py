@@ -16,7 +16,6 @@ from symrl.studies.baseline import (
     load_baseline,
     make_env,
     parse_seeds,
-    run_config,
     summarise,
     train_baseline,
 )
@@ -25,14 +24,32 @@ from symrl.world.worldmap import load_map
 
 # tiny networks and budgets: these tests check the plumbing, not the learning
 TINY = {
-    "sac": {"hidden": 16, "batch_size": 16, "learning_starts": 20, "buffer_size": 1000},
-    "ppo": {"hidden": 16, "frames_per_batch": 32, "minibatch": 16, "epochs": 1, "envs": 2},
+    "sac": [
+        "baseline.sac.hidden=16",
+        "baseline.sac.batch_size=16",
+        "baseline.sac.learning_starts=20",
+        "baseline.sac.buffer_size=1000",
+    ],
+    "ppo": [
+        "baseline.ppo.hidden=16",
+        "baseline.ppo.frames_per_batch=32",
+        "baseline.ppo.minibatch=16",
+        "baseline.ppo.epochs=1",
+        "baseline.envs=2",
+    ],
 }
+
+
+def tiny(algorithm, seed, trials, *extra):
+    """The recipe ``algorithm`` with tiny networks, ``seed`` and ``trials``."""
+    return load_config(
+        algorithm, [*TINY[algorithm], f"run.seed={seed}", f"run.trials={trials}", *extra]
+    )
 
 
 @pytest.fixture(scope="module")
 def config():
-    return load_config("paper_map")
+    return load_config("sac")
 
 
 def _td(control, reflex=None, ir=None):
@@ -125,7 +142,10 @@ def test_residual_observation_carries_the_reflex_action(config):
 def test_the_env_passes_torchrl_spec_checks(config):
     from torchrl.envs.utils import check_env_specs
 
-    env = make_env(run_config(), Priors(residual=True, regions=True), [0, 1])
+    told = load_config(
+        "sac", ["baseline.residual=true", "baseline.regions=true", "knowledge=regions"]
+    )
+    env = make_env(told, [0, 1])
     check_env_specs(env, seed=0)
     td = env.reset()
     assert td["observation"].shape == (2, env.observation_spec["observation"].shape[-1])
@@ -161,18 +181,17 @@ def test_parse_seeds():
 @pytest.mark.parametrize("algorithm", ["sac", "ppo"])
 def test_a_tiny_baseline_writes_a_symrl_run_folder(algorithm, tmp_path, capsys):
     priors = Priors(residual=True, regions=True)
+    told = ["baseline.residual=true", "baseline.regions=true", "knowledge=regions"]
     run = tmp_path / "run"
-    result = train_baseline(
-        algorithm, seed=3, episodes=2, priors=priors, logdir=run, progress=False, **TINY[algorithm]
-    )
+    result = train_baseline(tiny(algorithm, 3, 2, *told), run, progress=False)
     assert {"config.yaml", "trials.csv", "tb", "checkpoint.pt"} <= {p.name for p in run.iterdir()}
     rows = read_trials_csv(run / "trials.csv")
     assert len(rows) == 2 and "neurons" not in rows[0]  # the paper learner's columns stay empty
     header = (run / "trials.csv").read_text().splitlines()[0].split(",")
     assert header == list(BASE_COLUMNS)
     assert [r["trial"] for r in rows] == [1, 2]
-    assert [r["steps"] for r in rows] == [r["steps"] for r in result["rows"]]
-    assert result["end"]["env_steps"] == sum(r["steps"] for r in rows)
+    assert [r["steps"] for r in rows] == [r["steps"] for r in result.trials]
+    assert result.timings["frames"] >= sum(r["steps"] for r in rows)
     assert any(p.name.startswith("events") for p in (run / "tb").rglob("*"))
     controller = load_baseline(run / "checkpoint.pt")
     assert controller is not None and controller.priors == priors
@@ -186,15 +205,7 @@ def test_a_tiny_baseline_writes_a_symrl_run_folder(algorithm, tmp_path, capsys):
 def test_tensorboard_gets_the_trial_scalars(tmp_path):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    train_baseline(
-        "ppo",
-        seed=1,
-        episodes=2,
-        priors=Priors(residual=True),
-        logdir=tmp_path,
-        progress=False,
-        **TINY["ppo"],
-    )
+    train_baseline(tiny("ppo", 1, 2, "baseline.residual=true"), tmp_path, progress=False)
     events = EventAccumulator(str(tmp_path / "tb"))
     events.Reload()
     tags = set(events.Tags()["scalars"])
@@ -210,15 +221,8 @@ def test_tensorboard_gets_the_trial_scalars(tmp_path):
 @pytest.mark.parametrize("algorithm", ["sac", "ppo"])
 def test_a_run_is_deterministic_and_a_prefix_of_a_longer_one(algorithm):
     def rows(n):
-        out = train_baseline(
-            algorithm,
-            seed=5,
-            episodes=n,
-            priors=Priors(residual=True),
-            progress=False,
-            **TINY[algorithm],
-        )
-        return [(r["steps"], r["total_reinforcement"], r["collisions"]) for r in out["rows"]]
+        out = train_baseline(tiny(algorithm, 5, n, "baseline.residual=true"), progress=False)
+        return [(r["steps"], r["total_reinforcement"], r["collisions"]) for r in out.trials]
 
     assert rows(3)[:2] == rows(2)  # same seed, same trials; the budget changes nothing before
 
@@ -240,8 +244,9 @@ def test_a_paper_checkpoint_is_not_a_baseline(tmp_path):
     [
         (["--episodes", "0"], "--episodes 0"),
         (["--seeds", "a,b"], "--seeds"),
-        (["--residual", "--correction", "1.5"], "--correction"),
-        (["--envs", "0"], "--envs 0"),
+        (["--residual", "--correction", "1.5"], "baseline.correction=1.5"),
+        (["--correction", "0.1"], "only with baseline.residual=true"),
+        (["--envs", "0"], "baseline.envs=0"),
         (["--workers", "0"], "--workers 0"),
     ],
 )
@@ -278,15 +283,8 @@ def test_a_run_folder_is_never_overwritten_silently(tmp_path, capsys):
 def test_the_report_compares_every_learner_it_finds(tmp_path):
     from symrl.studies.report import baseline_table
 
-    train_baseline(
-        "ppo",
-        seed=2,
-        episodes=3,
-        priors=Priors(residual=True),
-        progress=False,
-        logdir=tmp_path / "ppo-residual" / "seed-2",
-        **TINY["ppo"],
-    )
+    config = tiny("ppo", 2, 3, "baseline.residual=true")
+    train_baseline(config, tmp_path / "ppo-residual" / "seed-2", progress=False)
     table, curves = baseline_table(tmp_path)
     row = next(line for line in table.splitlines() if line.startswith("| PPO residual |"))
     assert "| 3 | 1 |" in row  # 3 trials, 1 seed
@@ -296,56 +294,55 @@ def test_the_report_compares_every_learner_it_finds(tmp_path):
 
 @pytest.mark.parametrize("algorithm", ["sac", "ppo"])
 def test_a_resumed_run_is_the_uninterrupted_run(algorithm, tmp_path):
-    kwargs = {"seed": 4, "priors": Priors(residual=True), "progress": False, **TINY[algorithm]}
-    train_baseline(algorithm, episodes=4, logdir=tmp_path / "whole", **kwargs)
+    from symrl.studies.learners import load_run
+
+    def config(trials):
+        return tiny(algorithm, 4, trials, "baseline.residual=true")
+
+    train_baseline(config(4), tmp_path / "whole", progress=False)
     # stopped from outside in the middle of a trial (and, for PPO, of a batch), then resumed
     calls = iter(range(10_000))
     stopped = train_baseline(
-        algorithm, episodes=4, logdir=tmp_path / "parts", stop=lambda: next(calls) >= 37, **kwargs
+        config(4), tmp_path / "parts", progress=False, stop=lambda: next(calls) >= 37
     )
-    assert stopped["stopped"] and len(stopped["rows"]) < 4
-    # a finished run extended to a larger budget is also the same run
-    train_baseline(
-        algorithm,
-        episodes=len(stopped["rows"]) + 1,
-        logdir=tmp_path / "parts",
-        resume=True,
-        **kwargs,
-    )
-    train_baseline(algorithm, episodes=4, logdir=tmp_path / "parts", resume=True, **kwargs)
+    assert stopped.timings["stopped"] and len(stopped.trials) < 4
+    # a stopped run goes on to a budget one trial larger, then that finished run to 4
+    for trials in (len(stopped.trials) + 1, 4):
+        saved, seed, state, world = load_run(tmp_path / "parts")
+        assert seed == 4 and saved.baseline == config(4).baseline
+        train_baseline(
+            config(trials), tmp_path / "parts", world=world, resume=state, progress=False
+        )
     whole = (tmp_path / "whole" / "trials.csv").read_text()
     assert (tmp_path / "parts" / "trials.csv").read_text() == whole
     assert len(whole.splitlines()) == 5
 
 
-def test_periodic_checkpoints_hold_the_run_state(tmp_path):
-    from symrl.studies.baseline import load_run_state
+def test_train_resume_of_a_baseline_recipe_is_the_uninterrupted_run(tmp_path, capsys):
+    argv = ["train", "ppo", "--seed", "3", *TINY["ppo"], "baseline.residual=true"]
+    assert main([*argv, "--trials", "3", "--logdir", str(tmp_path / "whole")]) == 0
+    assert main([*argv, "--trials", "1", "--logdir", str(tmp_path / "parts")]) == 0
+    assert main(["train", "--resume", str(tmp_path / "parts"), "--trials", "2"]) == 0
+    assert main(["train", "--resume", str(tmp_path / "parts"), "--trials", "3"]) == 0
+    whole = (tmp_path / "whole" / "trials.csv").read_bytes()
+    assert (tmp_path / "parts" / "trials.csv").read_bytes() == whole
+    assert len(whole.splitlines()) == 4
+    capsys.readouterr()
+    # a checkpoint that is not the folder's run (config.yaml says another hidden size)
+    recorded = tmp_path / "parts" / "config.yaml"
+    recorded.write_text(recorded.read_text().replace("hidden: 16", "hidden: 64"))
+    assert main(["train", "--resume", str(tmp_path / "parts"), "--trials", "4"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "baseline.ppo.hidden" in err, err
 
+
+def test_periodic_checkpoints_hold_the_run_state(tmp_path):
     train_baseline(
-        "ppo",
-        seed=6,
-        episodes=3,
-        priors=Priors(residual=True),
-        progress=False,
-        logdir=tmp_path,
-        checkpoint_every=1,
-        **TINY["ppo"],
+        tiny("ppo", 6, 3, "baseline.residual=true"), tmp_path, progress=False, checkpoint_every=1
     )
     state = torch.load(tmp_path / "checkpoint.pt", weights_only=True)["resume"]
-    assert load_run_state(tmp_path, state["settings"], 3)["rows"] == state["rows"]
-    other = {**state["settings"], "ppo": {**state["settings"]["ppo"], "hidden": 64}}
-    with pytest.raises(ValueError, match="the run has ppo.hidden 16, this command 64$"):
-        load_run_state(tmp_path, other, 3)
-    # a recipe whose reflex changed since the run started: refused, naming the value
-    from symrl.studies.baseline import knowledge_of, run_config
-
-    knowledge = knowledge_of(run_config("hailu2001", 6, 3), Priors(residual=True))
-    assert load_run_state(tmp_path, state["settings"], 3, knowledge)["rows"] == state["rows"]
-    changed = {**knowledge, "reflex": {**knowledge["reflex"], "d_a": 0.9}}
-    with pytest.raises(ValueError, match=r"the run has reflex.d_a 0.\d+, this command 0.9$"):
-        load_run_state(tmp_path, state["settings"], 3, changed)
-    assert [r["trial"] for r in state["rows"]] == [1, 2, 3]
-    assert state["frames"] == sum(r["steps"] for r in state["rows"]) + int(
+    assert [r["trial"] for r in state["trials"]] == [1, 2, 3]
+    assert state["frames"] == sum(r["steps"] for r in state["trials"]) + int(
         state["recorder"]["steps"].sum()
     )  # the robots still in a trial are part of the state
 
@@ -357,7 +354,7 @@ def test_resume_from_the_command_line(tmp_path, capsys):
     assert len(read_trials_csv(tmp_path / "seed-0" / "trials.csv")) == 2
     capsys.readouterr()
     for extra, message in (
-        (["--episodes", "2", "--resume", "--regions"], "the run has priors.regions False"),
+        (["--episodes", "2", "--resume", "--regions"], "the run has baseline.regions False"),
         (["--episodes", "1", "--resume"], "has done 2 trials already"),
         (["--episodes", "3", "--resume", "--overwrite"], "give one"),
     ):
@@ -372,18 +369,10 @@ def test_resume_from_the_command_line(tmp_path, capsys):
 
 
 def test_the_sac_checkpoint_holds_only_the_transitions_collected(tmp_path):
-    train_baseline(
-        "sac",
-        seed=2,
-        episodes=1,
-        priors=Priors(residual=True),
-        progress=False,
-        logdir=tmp_path,
-        **TINY["sac"],
-    )
+    train_baseline(tiny("sac", 2, 1, "baseline.residual=true"), tmp_path, progress=False)
     state = torch.load(tmp_path / "checkpoint.pt", weights_only=True)["resume"]
     buffer = state["agent"]["buffer"]
-    assert buffer["observation"].shape[0] == state["frames"] == state["rows"][0]["steps"]
+    assert buffer["observation"].shape[0] == state["frames"] == state["trials"][0]["steps"]
     assert buffer["observation"].untyped_storage().nbytes() == buffer["observation"].nbytes
 
 

@@ -201,14 +201,14 @@ def test_generalise_takes_a_map(tmp_path):
 
 def test_baseline_and_generalise_parsers_take_a_map():
     from symrl.cli import build_parser
-    from symrl.studies.baseline import make_env, run_config
-    from symrl.studies.priors import Priors
+    from symrl.learner.config import load_config
+    from symrl.studies.baseline import make_env
 
     parser = build_parser()
     for argv in (["baseline", "ppo"], ["generalise"], ["ablate"]):
         assert parser.parse_args(argv).map == "hailu2001"
         assert parser.parse_args([*argv, "--map", "maze"]).map == "maze"
-    env = make_env(run_config("two_doors"), Priors(), [0])  # the baselines' env: its map
+    env = make_env(load_config("ppo", ["env.map=two_doors"]), [0])  # the baselines' env: its map
     try:
         assert env.base_env.world.name == "two_doors"
     finally:

@@ -10,6 +10,7 @@ from pydantic import Field, model_validator
 from symrl.knowledge.option_sources import option_source
 from symrl.knowledge.reflex import ReflexConfig
 from symrl.knowledge.rungs import Rung, rung_at_least
+from symrl.learner.config.baselines import BaselineSection, baseline_fault
 from symrl.learner.config.sections import (
     CrossingsConfig,
     EnvConfig,
@@ -52,10 +53,14 @@ class RunConfig(Section):
     reflex: ReflexConfig = Field(default_factory=ReflexConfig)
     """The fuzzy reflex: any ``ReflexConfig`` field; ``near``/``sectors`` entries merge."""
     shield: ShieldSection = Field(default_factory=ShieldSection)
+    baseline: BaselineSection = Field(default_factory=BaselineSection)
     run: RunSection = Field(default_factory=RunSection)
 
     @model_validator(mode="after")
     def _consistent(self) -> RunConfig:
+        fault = baseline_fault(self)
+        if fault is not None:
+            raise ValueError(fault)
         o = self.options
         for key, on, needed in (
             ("gate.partition", self.gate.partition, "regions"),
