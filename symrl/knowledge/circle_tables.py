@@ -56,12 +56,24 @@ class Ends:
     """(n, targets) the rim target lies on the circle."""
 
     @classmethod
-    def of(cls, chk: PathChecker, s: np.ndarray, g: np.ndarray, rims: list[np.ndarray]) -> Ends:
+    def of(
+        cls,
+        chk: PathChecker,
+        s: np.ndarray,
+        g: np.ndarray,
+        rims: list[np.ndarray],
+        among: np.ndarray | None = None,
+    ) -> Ends:
+        """With ``among``: the other circles' tangents are all refused."""
         c, r, n = chk.walls.vertices, chk.r, len(chk.walls.vertices)
         idx = np.arange(n)[:, None]
+        allowed = np.ones((n, 1), bool)
+        if among is not None:
+            allowed[:] = False
+            allowed[among] = True
 
         def cone(angles: np.ndarray, ok: np.ndarray) -> np.ndarray:
-            return ok & chk.index.cone_ok(np.broadcast_to(idx, angles.shape), angles)
+            return ok & allowed & chk.index.cone_ok(np.broadcast_to(idx, angles.shape), angles)
 
         sa, sok = point_tangents(s, c, r)
         ga, gok = point_tangents(g, c, r)
@@ -110,11 +122,20 @@ class CircleTable:
 
 
 class CircleTables:
-    """:class:`CircleTable` of each circle, made when first asked for."""
+    """:class:`CircleTable` of each circle, made when first asked for. With ``among`` (sorted
+    vertex indices) the bitangents join those circles only (not remembered by the checker:
+    they are not the circle's whole table)."""
 
-    def __init__(self, chk: PathChecker, ends: Ends, rims: list[np.ndarray]) -> None:
+    def __init__(
+        self,
+        chk: PathChecker,
+        ends: Ends,
+        rims: list[np.ndarray],
+        among: np.ndarray | None = None,
+    ) -> None:
         self.chk, self.ends, self.rims = chk, ends, rims
         self.c = chk.walls.vertices
+        self.among = among
         self.tables: dict[int, CircleTable] = {}
 
     def __getitem__(self, ci: int) -> CircleTable:
@@ -127,7 +148,7 @@ class CircleTables:
         """(angle on ci, partner, angle on the partner) of every bitangent kept by the cone
         test at both ends; each pair's floats computed as for (lower index, higher index)."""
         c, r, n = self.c, self.chk.r, len(self.c)
-        j = np.delete(np.arange(n), ci)
+        j = np.delete(np.arange(n), ci) if self.among is None else self.among[self.among != ci]
         low = j < ci
         v = np.where(low[:, None], c[ci] - c[j], c[j] - c[ci])
         d = np.hypot(v[:, 0], v[:, 1])
@@ -157,7 +178,10 @@ class CircleTables:
 
     def _build(self, ci: int) -> CircleTable:
         e = self.ends
-        ang, partner, p_ang = self.chk.circle_bitangents(ci, self._bitangents)
+        if self.among is None:
+            ang, partner, p_ang = self.chk.circle_bitangents(ci, self._bitangents)
+        else:
+            ang, partner, p_ang = self._bitangents(ci)
         parts = [(ang, np.full(len(ang), BITANGENT), partner, p_ang, np.full(len(ang), -1))]
         ends = ((e.start[ci], e.start_ok[ci], NONE), (e.goal[ci], e.goal_ok[ci], LEG))
         for angles, ok, end_kind in ends:
