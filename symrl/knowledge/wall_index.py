@@ -40,12 +40,16 @@ NEAR_VERTEX = (3.0, 5.0, 8.0)
 class WallIndex:
     """Exact clearance, free-cone and swept-disc queries on a :class:`Walls`, walls near first."""
 
-    def __init__(self, walls: Walls, r: float) -> None:
+    def __init__(
+        self, walls: Walls, r: float, near_vertex: dict[int, list[np.ndarray]] | None = None
+    ) -> None:
+        """``near_vertex``: :meth:`near_vertex`'s answers to share with the indexes of the same
+        walls at other clearances (they do not depend on it)."""
         self.walls = walls
         self.r = r
         self.tree = shapely.STRtree(shapely.linestrings(walls.segments.reshape(-1, 2, 2)))
         self._near_circle: dict[int, np.ndarray] = {}
-        self._near_vertex: dict[int, list[np.ndarray]] = {}
+        self._near_vertex = {} if near_vertex is None else near_vertex
         self._cones = self._cone_directions() if r >= 0.01 else None
 
     # --- candidates ---------------------------------------------------------------------------

@@ -74,17 +74,16 @@ def check_walk(world: WorldMap, poses: np.ndarray, body: float, clearance: float
     }
 
 
-def replay_in_env(world_name: str, poses: np.ndarray, heading: float) -> dict | None:
+def replay_in_env(world: str | WorldMap, poses: np.ndarray, heading: float) -> dict | None:
     """Drive the noise-free env through the walk's poses (its action budget the walk's length,
-    so a building's long walk is driven to its end); None if the env cannot be made."""
+    so a building's long walk is driven to its end); None if the env cannot be made. ``world``:
+    a map name or file, or the map already loaded (not loaded and checked again)."""
     try:
         import gymnasium
 
         import symrl  # noqa: F401  (registers the env)
 
-        env = gymnasium.make(
-            symrl.ENV_ID, noise=False, map=world_name, max_actions=max(len(poses), 200)
-        )
+        env = gymnasium.make(symrl.ENV_ID, noise=False, map=world, max_actions=max(len(poses), 200))
     except Exception:  # the replay is a check of the walk, optional: the plan stands without it
         return None
     env.reset(seed=0, options={"pose": (float(poses[0][0]), float(poses[0][1]), heading)})
@@ -142,7 +141,7 @@ def plan_command(args: argparse.Namespace, world: WorldMap | None = None) -> int
     margin = walk_path(world, start, plan)
     walk = chord_walk(margin.points, step, (world.goal.x, world.goal.y), world.goal.radius)
     walk_check = check_walk(world, walk, body, plan.clearance)
-    replay = replay_in_env(args.map, walk, float(start[2]))
+    replay = replay_in_env(world, walk, float(start[2]))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     result = {
