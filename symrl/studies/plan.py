@@ -109,7 +109,9 @@ def replay_in_env(world: str | WorldMap, poses: np.ndarray, heading: float) -> d
     }
 
 
-def walk_path(world: WorldMap, start: tuple[float, ...], plan: Plan) -> Plan:
+def walk_path(
+    world: WorldMap, start: tuple[float, float] | tuple[float, float, float], plan: Plan
+) -> Plan:
     """The path the walk follows: 2 mm further out than ``plan``, so float error never reads
     as a virtual collision.
 

@@ -85,7 +85,7 @@ def draw_world(ax: Any, world: WorldMap, regions: bool = True, goal: bool = True
     seg = world.segments
     ax.add_collection(
         LineCollection(
-            seg.reshape(-1, 2, 2),
+            list(seg.reshape(-1, 2, 2)),
             colors=WALL_COLOR,
             linewidths=1.5,
             capstyle="round",
