@@ -73,7 +73,8 @@ def draw_world(ax: Any, world: WorldMap, regions: bool = True, goal: bool = True
         for poly in world.obstacles:
             q = np.asarray(poly, dtype=float)
             turn = np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1])
-            parts.append(MplPath(q if turn >= 0 else q[::-1], closed=True))
+            q = q if turn >= 0 else q[::-1]
+            parts.append(MplPath(np.vstack([q, q[:1]]), closed=True))  # the last: CLOSEPOLY
         ax.add_patch(
             PathPatch(
                 MplPath.make_compound_path(*parts),
