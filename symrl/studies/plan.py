@@ -5,6 +5,8 @@ least ``ceil(L / step)`` actions. ``chord_walk`` builds a walk of that many 0.20
 end points lie on the path (so their clearance is ``R``) and checks every move with the env's own
 swept-disc test; the lower bound repeated with the body radius alone (0.26 m, a sweep may pass
 closer than an end pose) says whether the count is also the optimum under the env's rules.
+Two whole searches (the optimum and the bound); the walk's path, 2 mm further out, is re-planned
+among the optimum's own corners on a map planned lazily (:func:`walk_path`).
 """
 
 from __future__ import annotations
