@@ -135,7 +135,7 @@ def test_resume_adopts_a_foreign_checkpoint_only_when_asked(tmp_path, capsys):
 def test_ctrl_c_in_a_command_is_one_line(monkeypatch, capsys, tmp_path):
     import symrl.studies.plan
 
-    def interrupted(args):
+    def interrupted(args, world=None):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(symrl.studies.plan, "plan_command", interrupted)

@@ -51,6 +51,7 @@ def add_plan(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 
 def _plan(args: argparse.Namespace) -> int:
     from symrl.studies.plan import plan_command
+    from symrl.world import load_map
 
     for flag, value, low in (("--beam", args.beam, 1), ("--headings", args.headings, 4)):
         if not low <= value <= 100_000:
@@ -59,6 +60,7 @@ def _plan(args: argparse.Namespace) -> int:
     if args.reward:
         results += ("reward_optimum.json", "reward_optimum.png")
     output_folder("--out", args.out, results, args.overwrite, "plan")
-    plannable(args.map)
+    world = load_map(args.map)
+    plannable(world)
     with holding(args.out, "--out"), naming_start(args.start):
-        return plan_command(args)
+        return plan_command(args, world)

@@ -56,12 +56,24 @@ class Ends:
     """(n, targets) the rim target lies on the circle."""
 
     @classmethod
-    def of(cls, chk: PathChecker, s: np.ndarray, g: np.ndarray, rims: list[np.ndarray]) -> Ends:
+    def of(
+        cls,
+        chk: PathChecker,
+        s: np.ndarray,
+        g: np.ndarray,
+        rims: list[np.ndarray],
+        among: np.ndarray | None = None,
+    ) -> Ends:
+        """With ``among``: the other circles' tangents are all refused."""
         c, r, n = chk.walls.vertices, chk.r, len(chk.walls.vertices)
         idx = np.arange(n)[:, None]
+        allowed = np.ones((n, 1), bool)
+        if among is not None:
+            allowed[:] = False
+            allowed[among] = True
 
         def cone(angles: np.ndarray, ok: np.ndarray) -> np.ndarray:
-            return ok & chk.index.cone_ok(np.broadcast_to(idx, angles.shape), angles)
+            return ok & allowed & chk.index.cone_ok(np.broadcast_to(idx, angles.shape), angles)
 
         sa, sok = point_tangents(s, c, r)
         ga, gok = point_tangents(g, c, r)
@@ -110,11 +122,20 @@ class CircleTable:
 
 
 class CircleTables:
-    """:class:`CircleTable` of each circle, made when first asked for."""
+    """:class:`CircleTable` of each circle, made when first asked for. With ``among`` (sorted
+    vertex indices) the bitangents join those circles only (not remembered by the checker:
+    they are not the circle's whole table)."""
 
-    def __init__(self, chk: PathChecker, ends: Ends, rims: list[np.ndarray]) -> None:
+    def __init__(
+        self,
+        chk: PathChecker,
+        ends: Ends,
+        rims: list[np.ndarray],
+        among: np.ndarray | None = None,
+    ) -> None:
         self.chk, self.ends, self.rims = chk, ends, rims
         self.c = chk.walls.vertices
+        self.among = among
         self.tables: dict[int, CircleTable] = {}
 
     def __getitem__(self, ci: int) -> CircleTable:
@@ -127,12 +148,13 @@ class CircleTables:
         """(angle on ci, partner, angle on the partner) of every bitangent kept by the cone
         test at both ends; each pair's floats computed as for (lower index, higher index)."""
         c, r, n = self.c, self.chk.r, len(self.c)
-        j = np.delete(np.arange(n), ci)
+        j = np.delete(np.arange(n), ci) if self.among is None else self.among[self.among != ci]
         low = j < ci
         v = np.where(low[:, None], c[ci] - c[j], c[j] - c[ci])
         d = np.hypot(v[:, 0], v[:, 1])
         base = np.arctan2(v[:, 1], v[:, 0])
-        off = np.arccos(np.minimum(1.0, 2 * r / np.maximum(d, 1e-300)))
+        ratio = np.minimum(1.0, 2 * r / np.maximum(d, 1e-300))
+        off = np.arccos(ratio)
         half = math.pi / 2
         first = np.stack([base + half, base - half, base + off, base - off], axis=1)
         second = np.stack(
@@ -140,15 +162,28 @@ class CircleTables:
         )
         mine = np.where(low[:, None], second, first)
         theirs = np.where(low[:, None], first, second)
+        # the cone tests take the directions' cosines and sines from the centres' offset (no
+        # trigonometry on four angles a partner: a third of a table's time)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cb, sb = v[:, 0] / d, v[:, 1] / d
+        so = np.sqrt(1.0 - ratio * ratio)
+        cos_first = np.stack([-sb, sb, cb * ratio - sb * so, cb * ratio + sb * so], axis=1)
+        sin_first = np.stack([cb, -cb, sb * ratio + cb * so, sb * ratio - cb * so], axis=1)
+        flip = np.array([1.0, 1.0, -1.0, -1.0])  # the second circle's inner points: + pi
+        lows = low[:, None]
+        cos_mine = np.where(lows, cos_first * flip, cos_first)
+        sin_mine = np.where(lows, sin_first * flip, sin_first)
         index = self.chk.index
-        keep = index.cone_ok(
-            np.asarray(ci), mine
-        )  # this end first (one vertex's walls), then the far ends
+        keep = index.cone_ok_cs(np.asarray(ci), cos_mine, sin_mine)  # one vertex's walls first
         keep[:, 2:] &= (d > 2 * r)[:, None]
         keep &= (d >= 1e-12)[:, None]
         rows, cols = np.nonzero(keep)
         mine, j, theirs = mine[rows, cols], j[rows], theirs[rows, cols]
-        far = index.cone_ok(j, theirs)
+        ct, st = cos_first[rows, cols], sin_first[rows, cols]
+        theirs_flip = ~low[rows] & (cols >= 2)
+        ct = np.where(theirs_flip, -ct, ct)
+        st = np.where(theirs_flip, -st, st)
+        far = index.cone_ok_cs(j, ct, st)
         mine, j, theirs = mine[far], j[far], theirs[far]
         a = c[ci] + r * np.stack([np.cos(mine), np.sin(mine)], axis=1)
         b = c[j] + r * np.stack([np.cos(theirs), np.sin(theirs)], axis=1)
@@ -157,7 +192,10 @@ class CircleTables:
 
     def _build(self, ci: int) -> CircleTable:
         e = self.ends
-        ang, partner, p_ang = self.chk.circle_bitangents(ci, self._bitangents)
+        if self.among is None:
+            ang, partner, p_ang = self.chk.circle_bitangents(ci, self._bitangents)
+        else:
+            ang, partner, p_ang = self._bitangents(ci)
         parts = [(ang, np.full(len(ang), BITANGENT), partner, p_ang, np.full(len(ang), -1))]
         ends = ((e.start[ci], e.start_ok[ci], NONE), (e.goal[ci], e.goal_ok[ci], LEG))
         for angles, ok, end_kind in ends:

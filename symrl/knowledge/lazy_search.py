@@ -51,15 +51,24 @@ class LazySearch:
     """One search from ``s`` into the goal disc ``(g, rg)``: :meth:`run` gives the length and
     the route; :meth:`polyline` its geometry. Nodes: ``"S"``, ``("C", circle, k)`` (k-th
     tangent point of the circle's table), ``("T", t)`` rim targets, ``("L", ...)`` the rim cut
-    of a leg that points at the goal centre, ``"GOAL"``."""
+    of a leg that points at the goal centre, ``"GOAL"``. With ``among`` (sorted vertex
+    indices) the path may touch those corners' circles only: the shortest such path, every
+    edge still checked against every wall."""
 
-    def __init__(self, chk: PathChecker, s: np.ndarray, g: np.ndarray, rg: float) -> None:
+    def __init__(
+        self,
+        chk: PathChecker,
+        s: np.ndarray,
+        g: np.ndarray,
+        rg: float,
+        among: np.ndarray | None = None,
+    ) -> None:
         self.chk, self.r = chk, chk.r
         self.s, self.g, self.rg = s, g, rg
         self.c = chk.walls.vertices
         self.rims = chk.rim_targets(g, rg)
-        self.ends = Ends.of(chk, s, g, self.rims)
-        self.tables = CircleTables(chk, self.ends, self.rims)
+        self.ends = Ends.of(chk, s, g, self.rims, among)
+        self.tables = CircleTables(chk, self.ends, self.rims, among)
         # walls near the start and the goal: a segment from the start, or into the goal disc,
         # that crosses one is refused before the full check
         self._near = {"S": chk.index.near_rings(s), "G": chk.index.near_rings(g)}

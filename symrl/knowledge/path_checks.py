@@ -40,11 +40,14 @@ class PathChecker:
     105 -> 45 ms).
     """
 
-    def __init__(self, world: WorldMap, r: float) -> None:
+    def __init__(
+        self, world: WorldMap, r: float, near_vertex: dict[int, list[np.ndarray]] | None = None
+    ) -> None:
+        """``near_vertex``: the walls near each corner, shared by the checkers of one map."""
         self.world = world
         self.walls = Walls(world.segments)
         self.r = r
-        self.index = WallIndex(self.walls, r)
+        self.index = WallIndex(self.walls, r, near_vertex)
         self._cones = self.index.cone_lists()
         self._free = world.free_polygon
         shapely.prepare(self._free)
@@ -333,9 +336,10 @@ def prefetch_start_and_goal(chk: PathChecker, s: np.ndarray, g: np.ndarray, rg: 
     chk.prefetch_segments(ends)
 
 
-_CHECKERS: dict[int, tuple[weakref.ref, dict[float, PathChecker]]] = {}
+_CHECKERS: dict[int, tuple[weakref.ref, dict[float, PathChecker], dict]] = {}
 """The checkers of the maps planned on in this process, by the map object's id (a WorldMap is
-frozen; the weak reference tells a reused id from the same map)."""
+frozen; the weak reference tells a reused id from the same map), and the walls near each corner,
+which the checkers of one map share (``symrl plan`` plans at two clearances)."""
 
 
 def path_checker(world: WorldMap, r: float) -> PathChecker:
@@ -344,10 +348,10 @@ def path_checker(world: WorldMap, r: float) -> PathChecker:
     if entry is None or entry[0]() is not world:
         if len(_CHECKERS) >= 16:
             _CHECKERS.clear()
-        entry = _CHECKERS[id(world)] = (weakref.ref(world), {})
+        entry = _CHECKERS[id(world)] = (weakref.ref(world), {}, {})
     chk = entry[1].get(r)
     if chk is None:
-        chk = entry[1][r] = PathChecker(world, r)
+        chk = entry[1][r] = PathChecker(world, r, entry[2])
     return chk
 
 

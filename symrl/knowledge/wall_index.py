@@ -40,12 +40,16 @@ NEAR_VERTEX = (3.0, 5.0, 8.0)
 class WallIndex:
     """Exact clearance, free-cone and swept-disc queries on a :class:`Walls`, walls near first."""
 
-    def __init__(self, walls: Walls, r: float) -> None:
+    def __init__(
+        self, walls: Walls, r: float, near_vertex: dict[int, list[np.ndarray]] | None = None
+    ) -> None:
+        """``near_vertex``: :meth:`near_vertex`'s answers to share with the indexes of the same
+        walls at other clearances (they do not depend on it)."""
         self.walls = walls
         self.r = r
         self.tree = shapely.STRtree(shapely.linestrings(walls.segments.reshape(-1, 2, 2)))
         self._near_circle: dict[int, np.ndarray] = {}
-        self._near_vertex: dict[int, list[np.ndarray]] = {}
+        self._near_vertex = {} if near_vertex is None else near_vertex
         self._cones = self._cone_directions() if r >= 0.01 else None
 
     # --- candidates ---------------------------------------------------------------------------
@@ -297,16 +301,23 @@ class WallIndex:
         ``sqrt(r^2 - L (2 r cos(phi) - L)) < r - L sin(0.01) / 2``. Both are below ``r - 1e-7``
         for ``r >= 0.01`` and ``L >= 1e-4``; the test is skipped for smaller clearances.
         """
-        ci = np.asarray(ci)
         angle = np.asarray(angle, dtype=float)
+        return self.cone_ok_cs(ci, np.cos(angle), np.sin(angle))
+
+    def cone_ok_cs(self, ci: np.ndarray, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
+        """:meth:`cone_ok` of the points whose direction from the vertex is ``(ca, sa)``: the
+        cosine and sine of the angle, however computed (a difference of an ulp moves only
+        points at the cone's edge, and those are closer than ``r - 1e-7`` to the wall either
+        way, so every check answers the same)."""
+        ci = np.asarray(ci)
+        shape = np.broadcast(ci, ca).shape
         if self._cones is None:
-            return np.ones(np.broadcast(ci, angle).shape, dtype=bool)
+            return np.ones(shape, dtype=bool)
         d = self._cones[ci]  # (..., k, 2)
-        ca, sa = np.cos(angle), np.sin(angle)
         ok = d[..., 0, 0] * ca + d[..., 0, 1] * sa <= CONE_LIMIT
         for k in range(1, d.shape[-2]):  # one wall direction at a time: no (..., k) temporaries
             ok &= d[..., k, 0] * ca + d[..., k, 1] * sa <= CONE_LIMIT
-        return np.broadcast_to(ok, np.broadcast(ci, angle).shape).copy()
+        return np.broadcast_to(ok, shape).copy()
 
     def cone_lists(self) -> list[list[tuple[float, float]]]:
         """The cone test's wall directions per vertex as lists (empty: no test)."""

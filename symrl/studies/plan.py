@@ -5,6 +5,8 @@ least ``ceil(L / step)`` actions. ``chord_walk`` builds a walk of that many 0.20
 end points lie on the path (so their clearance is ``R``) and checks every move with the env's own
 swept-disc test; the lower bound repeated with the body radius alone (0.26 m, a sweep may pass
 closer than an end pose) says whether the count is also the optimum under the env's rules.
+Two whole searches (the optimum and the bound); the walk's path, 2 mm further out, is re-planned
+among the optimum's own corners on a map planned lazily (:func:`walk_path`).
 """
 
 from __future__ import annotations
@@ -17,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from symrl.knowledge.planner import robot_clearances, shortest_path
+from symrl.knowledge.planner import Plan, robot_clearances, shortest_path
 from symrl.world import WorldMap, load_map
 from symrl.world.geometry import Walls
 
-__all__ = ["chord_walk", "check_walk", "plan_command"]
+__all__ = ["chord_walk", "check_walk", "plan_command", "walk_path"]
 
 WALK_MARGIN = 0.002  # metres added to the clearance of the path the 0.20 m walk follows
 
@@ -74,17 +76,16 @@ def check_walk(world: WorldMap, poses: np.ndarray, body: float, clearance: float
     }
 
 
-def replay_in_env(world_name: str, poses: np.ndarray, heading: float) -> dict | None:
+def replay_in_env(world: str | WorldMap, poses: np.ndarray, heading: float) -> dict | None:
     """Drive the noise-free env through the walk's poses (its action budget the walk's length,
-    so a building's long walk is driven to its end); None if the env cannot be made."""
+    so a building's long walk is driven to its end); None if the env cannot be made. ``world``:
+    a map name or file, or the map already loaded (not loaded and checked again)."""
     try:
         import gymnasium
 
         import symrl  # noqa: F401  (registers the env)
 
-        env = gymnasium.make(
-            symrl.ENV_ID, noise=False, map=world_name, max_actions=max(len(poses), 200)
-        )
+        env = gymnasium.make(symrl.ENV_ID, noise=False, map=world, max_actions=max(len(poses), 200))
     except Exception:  # the replay is a check of the walk, optional: the plan stands without it
         return None
     env.reset(seed=0, options={"pose": (float(poses[0][0]), float(poses[0][1]), heading)})
@@ -110,21 +111,41 @@ def replay_in_env(world_name: str, poses: np.ndarray, heading: float) -> dict | 
     }
 
 
-def plan_command(args: argparse.Namespace) -> int:
-    """`symrl plan`: print the optimum, save ``plan.json`` and ``plan.png`` in ``--out``."""
+def walk_path(
+    world: WorldMap, start: tuple[float, float] | tuple[float, float, float], plan: Plan
+) -> Plan:
+    """The path the walk follows: 2 mm further out than ``plan``, so float error never reads
+    as a virtual collision.
+
+    On a map the whole graph plans, the shortest path at that clearance; on a larger one the
+    shortest path bending round the optimum's own corners only (milliseconds instead of a
+    second whole search; the whole search when that finds none). The walk proves what it
+    proves whichever path it follows: each of its moves is checked with the env's own tests.
+    """
+    clearance = plan.clearance + WALK_MARGIN
+    if plan.corners and plan.method != Plan.method:  # not the whole graph's plan
+        try:
+            return shortest_path(world, start, clearance=clearance, among=plan.corners)
+        except ValueError:
+            pass
+    return shortest_path(world, start, clearance=clearance)
+
+
+def plan_command(args: argparse.Namespace, world: WorldMap | None = None) -> int:
+    """`symrl plan`: print the optimum, save ``plan.json`` and ``plan.png`` in ``--out``
+    (``world``: ``--map`` already loaded)."""
     from symrl.figures import plot_plan
 
     t0 = time.perf_counter()
-    world = load_map(args.map)
+    world = load_map(args.map) if world is None else world
     start = args.start or (world.start.x, world.start.y, world.start.heading)
     body, ir_dist, step = robot_clearances()
     plan = shortest_path(world, start)
     bound = shortest_path(world, start, clearance=body)
-    # the walk follows a path 2 mm further out, so float error never reads as a virtual collision
-    margin = shortest_path(world, start, clearance=plan.clearance + WALK_MARGIN)
+    margin = walk_path(world, start, plan)
     walk = chord_walk(margin.points, step, (world.goal.x, world.goal.y), world.goal.radius)
     walk_check = check_walk(world, walk, body, plan.clearance)
-    replay = replay_in_env(args.map, walk, float(start[2]))
+    replay = replay_in_env(world, walk, float(start[2]))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     result = {

@@ -64,3 +64,34 @@ def test_rgb_array_frames_have_even_width_and_height(world):
     height, width, channels = env.render().shape
     assert height % 2 == 0 and width % 2 == 0 and channels == 3
     env.close()
+
+
+@pytest.mark.parametrize("clockwise", [False, True])
+def test_every_obstacle_is_filled_whatever_its_corners_and_winding(clockwise):
+    """A triangle and a square, either winding: each drawn solid at its centroid."""
+    triangle = [[1.0, 1.0], [3.0, 1.0], [1.0, 3.0]]
+    square = [[5.0, 5.0], [7.0, 5.0], [7.0, 7.0], [5.0, 7.0]]
+    if clockwise:
+        triangle, square = triangle[::-1], square[::-1]
+    world = load_map(
+        {
+            "name": "solids",
+            "boundary": [[0, 0], [8, 0], [8, 8], [0, 8]],
+            "obstacles": [triangle, square],
+            "start": {"x": 0.5, "y": 7.0, "heading": 0.0},
+            "goal": {"x": 7.0, "y": 1.0, "radius": 0.4},
+        }
+    )
+    fig = Figure(figsize=(4, 4), dpi=50)
+    canvas = FigureCanvasAgg(fig)
+    ax = fig.add_axes((0, 0, 1, 1))
+    draw_world(ax, world, regions=False, goal=False)
+    canvas.draw()
+    pixels = np.asarray(canvas.buffer_rgba())[..., :3]
+    to_pixel = ax.transData.transform
+    height = pixels.shape[0]
+    for x, y in ((5 / 3, 5 / 3), (6.0, 6.0), (4.0, 2.0)):
+        px, py = to_pixel((x, y))
+        shade = pixels[int(height - py), int(px)]
+        solid = (x, y) != (4.0, 2.0)
+        assert (tuple(shade) == (204, 204, 204)) == solid, (x, y, shade)
