@@ -15,7 +15,9 @@ import csv
 import subprocess
 import sys
 import tempfile
+from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -24,15 +26,25 @@ from symrl.world.rasterize import save_occupancy
 from symrl.world.worldmap import SUITES, WorldMap, builtin_maps, load_map, suite_maps
 
 
-def round_trip(world: WorldMap, folder: Path) -> Path:
-    """The world saved at 5 cm and a symrl map naming it (same start and goal)."""
+def shipped_regions(name: str) -> Any:
+    """A shipped world's hand regions as its map file writes them (None: found from the walls)."""
+    text = (resources.files("symrl.world") / "maps" / f"{name}.yaml").read_text()
+    return yaml.safe_load(text).get("regions")
+
+
+def round_trip(world: WorldMap, folder: Path, regions: Any = None) -> Path:
+    """The world saved at 5 cm and a symrl map naming it (same start and goal, and the same
+    hand ``regions``: without them the map's regions would be found from the traced walls, and
+    the learners would be compared on other region rules as well as on other walls)."""
     save_occupancy(world, folder / "map.yaml", 0.05)
-    doc = {
+    doc: dict[str, Any] = {
         "name": f"{world.name.replace('/', '_')}_ros",
         "occupancy": "map.yaml",
         "start": {"x": world.start.x, "y": world.start.y, "heading": world.start.heading},
         "goal": {"x": world.goal.x, "y": world.goal.y, "radius": world.goal.radius},
     }
+    if regions is not None:
+        doc["regions"] = regions
     path = folder / "world.yaml"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path
@@ -85,7 +97,7 @@ def main() -> None:
             world = load_map(name)
             folder = Path(tmp) / name.replace("/", "_")
             folder.mkdir()
-            back = load_map(round_trip(world, folder))
+            back = load_map(round_trip(world, folder, shipped_regions(name)))
             a, b = shortest_path(world).actions, shortest_path(back).actions
             worst = max(worst, abs(a - b))
             print(
@@ -98,7 +110,7 @@ def main() -> None:
             world = load_map(name)
             folder = Path(tmp) / f"learn_{name}"
             folder.mkdir()
-            path = round_trip(world, folder)
+            path = round_trip(world, folder, shipped_regions(name))
             optimum = shortest_path(world).actions
             back_optimum = shortest_path(load_map(path)).actions
             r0 = learned_ratio(name, optimum, args.sets, args.trials, folder / "polygons")
