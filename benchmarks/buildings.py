@@ -12,7 +12,7 @@ naming it with ``occupancy:``.
 
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -149,7 +149,20 @@ def write_ros(
     return path
 
 
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument(
+        "out", nargs="?", default="/tmp/symrl-building", help="folder for the ROS map files"
+    )
+    parser.add_argument(
+        "clutter", nargs="?", type=int, default=1, help="desks and cabinets per room (default 1)"
+    )
+    args = parser.parse_args()
+    if args.clutter < 0:
+        parser.error(f"clutter {args.clutter}: must be 0 or more")
+    doc = office_floor(clutter=args.clutter)
+    print(write_ros(load_map(doc), Path(args.out), regions=doc["regions"]))
+
+
 if __name__ == "__main__":
-    out = Path(sys.argv[1] if len(sys.argv) > 1 else "/tmp/symrl-building")
-    doc = office_floor(clutter=int(sys.argv[2]) if len(sys.argv) > 2 else 1)
-    print(write_ros(load_map(doc), out, regions=doc["regions"]))
+    main()
