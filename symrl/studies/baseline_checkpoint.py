@@ -155,6 +155,30 @@ class BaselineController(TensorDictModuleBase):
             env.close()
 
 
+def earlier_format(data: dict[str, Any]) -> dict[str, Any]:
+    """The run config of a baseline checkpoint, also of one written before baselines were
+    recipes: that kept the algorithm and its priors beside the map rung's whole config, whose
+    env, reflex and shield the controller was trained with. Its ``baseline`` section is rebuilt
+    from them, told what its priors used (the regions rung with the one-hot, else the sensors),
+    with nothing of the paper's learner switched on."""
+    config = dict(data["config"])
+    if "baseline" in config or "algorithm" not in data or "priors" not in data:
+        return config
+    priors = dict(data["priors"])
+    residual, regions = bool(priors.get("residual")), bool(priors.get("regions"))
+    section: dict[str, Any] = {"algorithm": data["algorithm"], "residual": residual}
+    section["regions"] = regions
+    if residual:
+        section["correction"] = priors.get("correction")
+    config["baseline"] = section
+    config["knowledge"] = "regions" if regions else "sensors"
+    config["gate"] = {**dict(config.get("gate", {})), "partition": False}
+    for switched in ("options", "localize", "crossings"):
+        config[switched] = {**dict(config.get(switched, {})), "enabled": False}
+    config["recipe"] = str(data["algorithm"])
+    return config
+
+
 def load_baseline(path: str | Path) -> BaselineController | None:
     """The controller in a baseline checkpoint; None if the file is another kind (the paper
     learner's, read by :func:`symrl.runs.load_checkpoint`). Faults: one-line CheckpointError."""
@@ -166,7 +190,7 @@ def load_baseline(path: str | Path) -> BaselineController | None:
         return None
     data = torch.load(path, map_location="cpu", weights_only=True)
     try:
-        config = config_from_dict(dict(data["config"]))
+        config = config_from_dict(earlier_format(data))
         if config.baseline.algorithm is None:
             raise KeyError("baseline.algorithm")
         world = load_map(data["map"]) if data.get("map") else load_map(config.env.map)

@@ -114,3 +114,23 @@ def test_a_sweep_trains_a_baseline_recipe_and_keeps_it(tmp_path, capsys):
     capsys.readouterr()
     assert main(argv) == 0
     assert "(0 trained, 1 already finished)" in capsys.readouterr().out
+
+
+def test_a_baseline_checkpoint_of_the_earlier_format_still_drives():
+    """A PPO controller (residual, regions one-hot) saved before baselines were recipes: its
+    algorithm and priors beside the map rung's config. It loads as a baseline told the regions
+    rung and drives the greedy trial the code that wrote it drove (40 actions, -20.43)."""
+    from pathlib import Path
+
+    from symrl.studies.baseline_checkpoint import load_baseline
+
+    path = Path(__file__).parent / "data" / "ppo_residual_regions_earlier.pt"
+    controller = load_baseline(path)
+    assert controller is not None
+    config = controller.config
+    assert config.baseline.algorithm == "ppo" and config.baseline.residual
+    assert config.baseline.regions and config.knowledge == "regions"
+    assert not (config.options.enabled or config.localize.enabled or config.gate.partition)
+    (trial,) = controller.evaluate()
+    assert trial["reached_goal"] and trial["steps"] == 40
+    assert trial["total_reinforcement"] == pytest.approx(-20.43, abs=0.005)
