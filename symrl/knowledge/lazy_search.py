@@ -35,6 +35,7 @@ from symrl.knowledge.circle_tables import (
     CircleTables,
     Ends,
 )
+from symrl.knowledge.grid_bound import GridBound
 from symrl.knowledge.path_checks import PathChecker
 from symrl.knowledge.tangents import on_circle
 
@@ -45,6 +46,9 @@ Node = Any
 Edge = tuple[Any, ...] | None
 
 _NO_PATH = "no collision-free path from the start to the goal disc"
+REOPEN = 1e-9
+"""Metres by which a node reached again must be shorter to be expanded again (with a
+:class:`GridBound`, which is not consistent, a node may first be reached by a longer way)."""
 
 
 class LazySearch:
@@ -62,8 +66,10 @@ class LazySearch:
         g: np.ndarray,
         rg: float,
         among: np.ndarray | None = None,
+        bound: GridBound | None = None,
     ) -> None:
         self.chk, self.r = chk, chk.r
+        self.bound = bound
         self.s, self.g, self.rg = s, g, rg
         self.c = chk.walls.vertices
         self.rims = chk.rim_targets(g, rg)
@@ -89,11 +95,12 @@ class LazySearch:
         edge: Edge,
     ) -> None:
         g1 = g0 + cost
-        h = (
-            0.0
-            if end is None
-            else max(0.0, math.hypot(end[0] - self.g[0], end[1] - self.g[1]) - self.rg)
-        )
+        h = 0.0
+        if end is not None:
+            x, y = float(end[0]), float(end[1])
+            h = max(0.0, math.hypot(x - self.g[0], y - self.g[1]) - self.rg)
+            if self.bound is not None:
+                h = max(h, self.bound.at(x, y))
         heapq.heappush(self._heap, (g1 + h, g1, next(self._seq), ref, parent, edge))
 
     def run(self) -> tuple[float, list]:
@@ -105,7 +112,10 @@ class LazySearch:
             if not self._edge_free(edge):  # first: a blocked edge builds no circle's table
                 continue
             node = self._resolve(ref)
-            if node is None or node in closed or not self._node_free(node):
+            if node is None or not self._node_free(node):
+                continue
+            seen = closed.get(node)
+            if seen is not None and g1 >= seen[0] - REOPEN:
                 continue
             closed[node] = (g1, parent, edge)
             if node == "GOAL":

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from symrl.knowledge.grid_bound import grid_bound
 from symrl.knowledge.lazy_search import LazySearch
 from symrl.knowledge.path_checks import path_checker
 from symrl.knowledge.tangent_graph import TangentGraph
@@ -125,7 +126,8 @@ def shortest_path(
         length, route = search.run()
         method = "tangent visibility graph among the given corners (exact segments and arcs) + A*"
     elif len(chk.walls.vertices) > WHOLE_GRAPH_CORNERS:
-        search = LazySearch(chk, s, g, rg)
+        # the bound's grid at the body radius (or less) serves both plans of `symrl plan`
+        search = LazySearch(chk, s, g, rg, bound=grid_bound(world, min(r, radius), g, rg))
         length, route = search.run()
         method = "tangent visibility graph built as searched (exact segments and arcs) + A*"
     else:
