@@ -91,7 +91,7 @@ class GridBound:
         row = np.clip(((py - self.y0) / cell).astype(np.int64), 0, self.ny - 1)
         marked[row, col] = True
         d = ndimage.distance_transform_edt(~marked) * cell
-        return np.asarray(d >= self.r - math.sqrt(2.0) * cell)
+        return np.asarray(d >= self.r - math.sqrt(2.0) * cell - 1e-6)
 
     def _goal_cells(self, g: np.ndarray, rg: float) -> np.ndarray:
         """Flat indices of the cells that may hold a point of the goal disc."""
