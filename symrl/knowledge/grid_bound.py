@@ -15,10 +15,12 @@ Every other cell is open (outside the map too: the walls close the inside off). 
 inside the open cells, so a path there is a path through open cells.
 
 Distances. Dijkstra (scipy) on the open cells joined to their 16 nearest neighbours (king and
-knight moves), from every open cell that may hold a point of the goal disc. A straight segment
-crosses cells that such moves join at most ``KNIGHT_EXCESS`` times its length, plus about a
-cell at each end; the bound divides by that and takes a slack per bend (:data:`SLACK_CELLS`
-cells, and :data:`SLACK_SHARE` of the length for the corners a long way turns round).
+knight moves), from every open cell that may hold a point of the goal disc. Along a straight
+segment such moves cover the cells it crosses in at most ``KNIGHT_EXCESS`` times its length,
+plus about a cell at each end; the bound divides by that and gives up a slack for the bends
+(:data:`SLACK_SHARE` of the length) and the ends (:data:`SLACK_CELLS` cells). That is an
+argument, not a proof; measured, the bound is at least 7 % below the true length from random
+free points of the benchmark floors (``docs/journal/buildings.md``).
 """
 
 from __future__ import annotations
