@@ -7,7 +7,8 @@ made of straight segments tangent to circles of radius ``R`` around wall vertice
 circles. The graph's nodes are the start, the tangent points (start-to-circle, circle-to-circle,
 goal-to-circle) and the target points; every edge is checked against the walls, and Dijkstra
 (networkx) picks the shortest. On maps of more than :data:`WHOLE_GRAPH_CORNERS` corners the same
-graph is built only where an A* search reaches (:mod:`symrl.knowledge.lazy_search`).
+graph is built only where an A* search reaches (:mod:`symrl.knowledge.lazy_search`), guided by a
+lower bound of the way left that knows the walls (:mod:`symrl.knowledge.grid_bound`).
 
 The target is the goal disc (the trial ends when the centre is within ``goal.radius``). A shortest
 path first touches that disc either on an open arc of its rim, where its last leg points at the
@@ -28,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from symrl.knowledge.grid_bound import grid_bound
 from symrl.knowledge.lazy_search import LazySearch
 from symrl.knowledge.path_checks import path_checker
 from symrl.knowledge.tangent_graph import TangentGraph
@@ -125,7 +127,8 @@ def shortest_path(
         length, route = search.run()
         method = "tangent visibility graph among the given corners (exact segments and arcs) + A*"
     elif len(chk.walls.vertices) > WHOLE_GRAPH_CORNERS:
-        search = LazySearch(chk, s, g, rg)
+        # the bound's grid at the body radius (or less) serves both plans of `symrl plan`
+        search = LazySearch(chk, s, g, rg, bound=grid_bound(world, min(r, radius), g, rg))
         length, route = search.run()
         method = "tangent visibility graph built as searched (exact segments and arcs) + A*"
     else:

@@ -151,10 +151,11 @@ def check_plannable(world: WorldMap) -> None:
 def planning_note(world: WorldMap) -> str | None:
     """One line saying that preparing ``world`` for the planner and the sub-goal table will
     take more than a second (an estimate from the corners and the area, fitted to the
-    planner's CPU times on the benchmark floors: 0.5 s at 1,028 corners, 1.8 s at 1,966, 2.5 s
-    at 2,742, 8 s at 5,230; ``benchmarks/bench_big_maps.py``), else None."""
+    planner's CPU times on the benchmark floors, its grid bound included: 0.14 s at 642
+    corners, 0.75 s at 1,966, 1.3 s at 2,742, 3 s at 5,230; ``benchmarks/bench_big_maps.py``;
+    the grid's cells, and so its time, stop growing at 20,000 m^2), else None."""
     corners, area = _corners_and_area(world)
-    seconds = 0.3 * (corners / 1000) ** 2 + area / 160_000
+    seconds = 0.1 * (corners / 1000) ** 2 + min(area, 20_000.0) / 15_000
     if seconds <= 1.0:
         return None
     return (
