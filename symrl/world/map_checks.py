@@ -39,10 +39,11 @@ reachable by a disc this size. ``RobotConfig.radius`` has the same default."""
 MAX_PLAN_CORNERS = 5500
 """Most wall corners (polygon vertices, two per thin wall) a map the planner and the sub-goal
 table work on may have. Above 100 corners the planner builds its graph only where its A* search
-reaches, so its time grows with the part of the map the path explores (office floors,
-``benchmarks/bench_big_maps.py``, CPU seconds on a shared machine: 642 corners 0.3 s, 1,966
-corners 1.8 s, 2,742 corners 2.5 s, 5,230 corners 7.6-8.3 s, 5,694 corners 10 s): a floor of up
-to 5,500 corners is planned in about 10 s."""
+reaches, guided by a grid bound that knows the walls (``symrl.knowledge.grid_bound``), so its
+time grows with the part of the map the path explores (office floors, one plan in a fresh
+process, CPU seconds on a shared machine: 642 corners 0.14 s, 1,966 corners 0.75 s, 2,742
+corners 1.3 s, 5,230 corners 3.1 s, the grid included; ``symrl plan``, two plans and a replay,
+6.5-7 s there). Larger maps have not been measured with the grid bound."""
 MAX_PLAN_AREA = 250_000.0
 """Largest bounding box (m^2) of a map the sub-goal table works on: its look-out grid (one
 point per 0.2 m) grows with the area (a 400 m square: 1 s and 0.5 GB; 2 km: 32 s and 3.5 GB)."""
@@ -137,7 +138,7 @@ def check_plannable(world: WorldMap) -> None:
     if corners > MAX_PLAN_CORNERS:
         raise MapError(
             f"map {world.name!r}: {corners} wall corners, more than the {MAX_PLAN_CORNERS} the "
-            "planner and the sub-goal table work on (beyond, a plan takes more than about 10 s); "
+            "planner and the sub-goal table work on (measured up to 5,230: a plan in about 3 s); "
             "simplify the walls"
         )
     if area > MAX_PLAN_AREA:
