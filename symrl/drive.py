@@ -12,7 +12,7 @@ import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import gymnasium
 import numpy as np
@@ -22,6 +22,9 @@ from symrl import ENV_ID
 from symrl.knowledge.reflex import FuzzyReflex, ReflexConfig
 from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.world.worldmap import WorldMap
+
+if TYPE_CHECKING:
+    from symrl.world.env import Hailu2001Env
 
 __all__ = ["drive", "drive_command"]
 
@@ -46,12 +49,12 @@ def drive(
     """
     reflex = FuzzyReflex(reflex_config)
     env = gymnasium.make(ENV_ID, map=map, noise=noise, max_actions=max_actions)
-    guard = None if shield is None else IRShield(shield, env.unwrapped.robot)
+    base = cast("Hailu2001Env", env.unwrapped)
+    guard = None if shield is None else IRShield(shield, base.robot)
     shielded = 0
     try:
         options = None if start is None else {"pose": tuple(float(v) for v in start)}
         obs, _ = env.reset(seed=seed, options=options)
-        base = env.unwrapped
         start_pose = [float(v) for v in base.true_pose]
         total, collisions, reached = 0.0, 0, False
         actions: list[float] = []

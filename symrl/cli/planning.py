@@ -56,7 +56,7 @@ def _plan(args: argparse.Namespace) -> int:
     for flag, value, low in (("--beam", args.beam, 1), ("--headings", args.headings, 4)):
         if not low <= value <= 100_000:
             raise ValueError(f"{flag} {value}: must be an integer from {low} to 100000")
-    results = ("plan.json", "plan.png")
+    results: tuple[str, ...] = ("plan.json", "plan.png")
     if args.reward:
         results += ("reward_optimum.json", "reward_optimum.png")
     output_folder("--out", args.out, results, args.overwrite, "plan")

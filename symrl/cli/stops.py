@@ -66,6 +66,8 @@ def signals_stop(on: bool) -> Iterator[None]:
         if os.getpid() != main_pid:  # a worker forked with this handler: the command reports
             os._exit(128 + signum)  # the stop; its progress is in the files it saved
         for child in multiprocessing.active_children():
+            if child.pid is None:  # not started
+                continue
             with contextlib.suppress(OSError):
                 os.kill(child.pid, signal.SIGINT)
         raise Stopped(signum)

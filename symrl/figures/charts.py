@@ -213,7 +213,7 @@ def _log_binned(values: np.ndarray, exact: int = 20, ratio: float = 1.3):
 
 
 def plot_learning_curves(
-    curves: dict[str, Sequence[Sequence[dict[str, Any]]]],
+    curves: Mapping[str, Sequence[Sequence[dict[str, Any]]]],
     path: Path | str,
     title: str = "",
     optimum: float | None = None,

@@ -47,11 +47,11 @@ PAPER_TABLE1 = {
 
 
 def table1_markdown(
-    recipe: str, table: dict[str, Any], opt: dict[str, Any] | None, paper: bool = True
+    recipe: str, table: dict[str, Any], opt: dict[str, Any] | None, on_paper_world: bool = True
 ) -> str:
     """Table 1 beside the paper's numbers (``paper``: only meaningful on its world) and the
     optimum, as Markdown."""
-    if not paper:
+    if not on_paper_world:
         return _table_own_world(recipe, table, opt)
     lines = [
         f"Table 1 - `{recipe}`{_told(table)}: {table['sets']} sets, last trial "
@@ -194,7 +194,8 @@ def write_study(study: StudyResult, figures: bool = True) -> None:
     if own:
         study.table["map"] = study.world.name
     (out / "table1.json").write_text(json.dumps(study.table, indent=2) + "\n")
-    md = table1_markdown(study.recipe, study.table, study.table.get("optimum"), paper=not own)
+    optimum = study.table.get("optimum")
+    md = table1_markdown(study.recipe, study.table, optimum, on_paper_world=not own)
     starts = study.table.get("other_starts", [])
     if starts:
         md += (
@@ -242,7 +243,7 @@ def write_figures(study: StudyResult) -> None:
     s0 = study.sets[0]
     trials = sorted(s0.paths)
     first, last = trials[0], trials[-1]
-    first_last = [
+    first_last: list[tuple[str, list[Any], list[Any]]] = [
         (f"set 0, trial {first} (first)", [s0.paths[first]], []),
         (f"set 0, trial {last} (final)", [s0.paths[last]], []),
     ]
