@@ -35,6 +35,7 @@ from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import CrossingsConfig, OptionCriticConfig, OptionsConfig
 from symrl.learner.crossings import CrossingMap
+from symrl.learner.remembered_way import RememberedWay
 from symrl.learner.option_critic import OptionCritic
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap
@@ -85,6 +86,7 @@ class SubgoalOptions(BufferViews):
         explore = explore if explore is not None else OptionCriticConfig()
         self.explore = explore
         self.crossings: CrossingMap | None = None
+        self.remembered_way: RememberedWay | None = None
         if crossings is not None and crossings.enabled:
             self._init_crossings(knowledge, batch, crossings, robot or RobotConfig(), max_actions)
         elif table is None:
@@ -174,6 +176,17 @@ class SubgoalOptions(BufferViews):
         names = list(knowledge.regions.names)
         self._region_of = {n: i for i, n in enumerate(names)}
         self._target = names.index(knowledge.regions.region_of(knowledge.goal.x, knowledge.goal.y))
+        if self.config.remembered_way:
+            self.remembered_way = RememberedWay(
+                batch,
+                len(names),
+                goal=(float(knowledge.goal.x), float(knowledge.goal.y)),
+                radius=robot.radius,
+                clearance=robot.close_distance,
+                sonar_range=robot.sonar_range,
+                n_sensors=robot.n_sensors,
+                step=robot.step,
+            )
         j = len(opts.borders)
         # per robot: the borders found blocked, the region graph's hops without them
         self._blocked = np.zeros((batch, j), dtype=bool)
@@ -328,6 +341,8 @@ class SubgoalOptions(BufferViews):
             steps = self._region_steps
             steps[rows, region_np] += 1
             late = (steps[rows, region_np] > self._limit[rows, region_np]) & ~on_route
+            if self.remembered_way is not None:  # the way has its own timeout
+                late &= ~self.remembered_way.following
             for b in np.flatnonzero(late).tolist():
                 here = int(region_np[b])
                 self._stall(b, here, int(chosen[b]))
@@ -360,6 +375,8 @@ class SubgoalOptions(BufferViews):
                 stage[first & (off >= self._lead)] = _SUBGOAL_STAGE
                 at_goal = at_goal | (stage == _FIRST_STAGE)
         aim = np.where(at_goal[:, None], self._goal, point)
+        if self.remembered_way is not None:
+            aim = self.remembered_way.aim(a["choice"], xy, aim)
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
@@ -431,6 +448,8 @@ class SubgoalOptions(BufferViews):
             self._limit[r] = float(self._timeout)
         if self.route is not None:
             self.route.forget(r)
+        if self.remembered_way is not None:
+            self.remembered_way.begin_trial(r)
         if self.crossings is not None:  # what is found blocked, from the learned evidence
             self.crossings.forget(r)
             self._trial_stalled[r] = False

@@ -78,7 +78,13 @@ OBS_KEYS = ("sonar", "ir", "state_reward")
 _GREEDY = (ExplorationType.DETERMINISTIC, ExplorationType.MODE, ExplorationType.MEAN)
 _PI = math.pi
 _PER_ROBOT = {"options.choice", "options.stage", "options.visit"}
-_PER_ROBOT_MODULES = ("experts.", "progress.", "options.critic.", "options.crossings.")
+_PER_ROBOT_MODULES = (
+    "experts.",
+    "progress.",
+    "options.critic.",
+    "options.crossings.",
+    "options.remembered_way.",
+)
 """State-dict entries with one row per robot: those named, and every buffer of those modules."""
 _BLOCK = 1024  # random draws per robot per refill: one call per robot instead of one per step
 

@@ -126,10 +126,12 @@ class TeseoUpdate:
         if policy.options is not None and self.crossings is not None:
             choices = policy.options.valid.shape[1]
         self.returns = TrialReturns(batch, len(policy.region_names), choices)
-        # the trial gradient's record of the trials in progress (empty at every trial boundary,
-        # where runs are saved, so it is not part of the state)
+        # the record of the trials in progress for the trial gradient and the remembered way
+        # (empty at every trial boundary, where runs are saved, so it is not part of the state)
         self.record: TrialRecord | None = None
-        if trial_gradient.rate > 0 and self.learning:
+        self._gradient_on = trial_gradient.rate > 0 and self.learning
+        way = policy.options.remembered_way if policy.options is not None else None
+        if self._gradient_on or way is not None:
             rays = policy.reflex.config.n_rays
             self.record = TrialRecord(batch, max_actions, rays)
 
@@ -342,6 +344,8 @@ class TeseoUpdate:
         ``best_total`` (the best success so far) and ``temperature`` (the one the trial
         explored with, before this call cools it)."""
         update, progress = self.settings, self.progress
+        if self.record is not None:  # before the trial gradient clears the record
+            self._learn_way(rows.numpy(), reached.numpy())
         # numpy on the buffers' memory (a handful of rows), the same operations
         rows_np, n = rows.numpy(), rows.shape[0]
         explored = progress.temperatures(rows_np)
@@ -354,7 +358,7 @@ class TeseoUpdate:
                 better = torch.from_numpy(rows_np[improved])
                 replaced[improved] = self.experts.replace_actions(better).numpy()
             progress.cool(rows_np, update.cooling, update.temperature_min)
-            if self.record is not None:
+            if self._gradient_on:
                 self._trial_gradient_step(rows_np)
             self.experts.clear_trial(rows)
         if self.critic is not None and self.crossings is not None:
@@ -365,6 +369,8 @@ class TeseoUpdate:
             returns = self.returns.close_entries(rows_np)
             self.critic.learn(rows_np, self.options.trial_choices(rows_np), returns)
         self.returns.close(rows_np)
+        if self.record is not None:
+            self.record.clear(rows_np)
         progress.count(rows_np)
         best = progress.best_totals(rows_np)
         return new_tensordict(
@@ -376,6 +382,19 @@ class TeseoUpdate:
             },
             torch.Size([n]),
         )
+
+    def _learn_way(self, rows: np.ndarray, reached: np.ndarray) -> None:
+        """The finished trials of ``rows`` (``reached`` (k,) bool) for the remembered way
+        (options with ``remembered_way``): from the record, before it is cleared."""
+        way = self.options.remembered_way if self.options is not None else None
+        rec = self.record
+        if way is None or rec is None:
+            return
+        assert self.options is not None
+        choices = self.options.trial_choices(rows)
+        for k, (b, ok) in enumerate(zip(rows.tolist(), reached.tolist(), strict=True)):
+            n = int(rec.steps[b])
+            way.learn(b, rec.pose[b, : n + 1], rec.sonar[b, : n + 1], choices[k], bool(ok))
 
     def _trial_gradient_step(self, rows: np.ndarray) -> None:
         """mu_j += clip(rate * sum of dJ/da_t over the steps neuron j acted, +-max_step), kept

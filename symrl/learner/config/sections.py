@@ -174,6 +174,12 @@ class OptionsConfig(Section):
     further off, at the sub-goal for the rest of the visit. The reward's heading term (f2) is
     measured against the goal's bearing, so heading at the goal while the sub-goal is nearly in
     line earns it at little cost to the route. 0: at the sub-goal from the region's entry."""
+    remembered_way: StrictBool = False
+    """With ``crossings``: steer along the best trial's way, pulled tight where the trial's own
+    echoes left room, while the options chosen are that trial's (``symrl.learner.remembered_way``).
+    Off in ``paper``: on the tuning worlds whose way turns where no region line is drawn it
+    shortens the path (24 worlds, 1.147 -> 1.129 x optimum), on the paper's world it costs 0.4
+    actions (docs/explanation/regions-learner.md)."""
 
     @field_validator("source")
     @classmethod

@@ -1,0 +1,211 @@
+"""The best trial's way, remembered and pulled tight where the trial's own echoes leave room.
+
+The options say where the reflex steers in each region (the goal, a border's crossing), and
+where a wall no region line marks stands in the way (a thin wall, an island) the reflex's
+avoidance slides the robot along it to its end, trial after trial. The robot's own best trial
+holds a better way. After each shorter successful trial, each robot keeps that trial's path in
+its odometry and pulls it tight backward from where the trial ended (the goal, in that trial's
+odometry): the earliest pose from which the straight way there stayed within the sonar's range
+and kept the body and the reward's close distance off every echo the trial read (each placed
+from the odometry pose it was read at) is the last via-point, the earliest pose from which the
+way to that one did the one before, and so on back to the start.
+
+The way belongs to the options that trial chose: a later trial steers at the via-points in turn,
+then at the goal, while the option chosen in every region it has entered is the one the best
+trial chose there. An option explored or given up elsewhere, or a via-point not reached within
+1.5 times the straight way's actions, hands the steering back to the options for the rest of the
+trial. After two trials that took the way and ended longer than the best by more than a tenth
+(and 3 actions), the way is left to the options until a shorter trial gives a new one. A
+shorter successful trial replaces the way, so it is refined as the robot learns.
+
+Nothing here reads the walls or searches a map: only the robot's odometry, sonar readings,
+option choices and returns. ``tests/learner/test_remembered_way.py`` checks the pulled way
+against a wall it must not cut.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+from symrl.buffers import BufferViews
+
+__all__ = ["RememberedWay"]
+
+_NONE = 1 << 30
+"""``best`` before any successful trial."""
+_MISSES = 2
+"""Trials that took the way and ended longer than the best by more than a tenth (and 3 actions)
+before the way is left to the options, until a shorter trial gives a new one."""
+
+
+class RememberedWay(BufferViews):
+    """The remembered ways of B robots over R regions.
+
+    Buffers (learned, saved): ``points`` (B, M, 2) the via-points, ``count`` (B,) how many,
+    ``choices`` (B, R) the option the best trial chose in each region (-1: not entered),
+    ``best`` (B,) its actions, ``misses`` (B,) the trials since that took the way and did worse.
+    """
+
+    points: torch.Tensor
+    count: torch.Tensor
+    choices: torch.Tensor
+    best: torch.Tensor
+    misses: torch.Tensor
+
+    def __init__(
+        self,
+        batch: int,
+        regions: int,
+        *,
+        goal: tuple[float, float],
+        radius: float,
+        clearance: float,
+        sonar_range: float,
+        n_sensors: int,
+        step: float,
+        max_points: int = 12,
+        reach: float = 0.5,
+        slack: float = 1.5,
+    ) -> None:
+        """``goal`` (the point steered at after the last via-point); the robot's ``radius``,
+        the ``clearance`` kept from the echoes beyond it, its sonar and ``step`` length; at most
+        ``max_points`` via-points (a longer way is not kept); a via-point nearer than ``reach``
+        is passed; one not reached within ``slack`` times the straight way's actions ends the
+        way for the trial."""
+        super().__init__()
+        self.goal = np.array(goal, dtype=np.float64)
+        self.radius = float(radius)
+        self.clearance = float(clearance)
+        self.sonar_range = float(sonar_range)
+        self.step = float(step)
+        self.reach = float(reach)
+        self.slack = float(slack)
+        self._angles = np.arange(n_sensors, dtype=np.float64) * (2 * math.pi / n_sensors)
+        self.register_buffer("points", torch.zeros(batch, max_points, 2, dtype=torch.float64))
+        self.register_buffer("count", torch.zeros(batch, dtype=torch.long))
+        self.register_buffer("choices", torch.full((batch, regions), -1, dtype=torch.long))
+        self.register_buffer("best", torch.full((batch,), _NONE, dtype=torch.long))
+        self.register_buffer("misses", torch.zeros(batch, dtype=torch.long))
+        # per trial (not saved: a trial starts afresh)
+        self._trial = {
+            "next": np.zeros(batch, dtype=np.int64),  # the via-point aimed at
+            "left": np.full(batch, -1.0),  # actions left to reach it (-1: not set yet)
+            "off": np.zeros(batch, dtype=bool),  # the way given up for this trial
+            "used": np.zeros(batch, dtype=bool),  # on the way at some step of the trial
+            "following": np.zeros(batch, dtype=bool),  # on the way at the last step
+        }
+
+    @property
+    def following(self) -> np.ndarray:
+        """Which robots steered by the way at the last step (B,) bool (the options' timeout
+        waits while they do: the way has its own)."""
+        return self._trial["following"]
+
+    def begin_trial(self, rows: np.ndarray) -> None:
+        """Robots ``rows`` start a trial: on their way again, from its first via-point."""
+        t = self._trial
+        t["next"][rows] = 0
+        t["left"][rows] = -1.0
+        for name in ("off", "used", "following"):
+            t[name][rows] = False
+
+    # -- acting ---------------------------------------------------------------------------
+    def aim(self, choice: np.ndarray, xy: np.ndarray, aim: np.ndarray) -> np.ndarray:
+        """The point each robot steers at (B, 2): on its remembered way (the options chosen so
+        far in the trial, ``choice`` (B, R), -1 not entered, are the best trial's), its next
+        via-point, then the goal; else ``aim``."""
+        a, t = self.arrays, self._trial
+        entered = choice >= 0
+        t["off"] |= (entered & (choice != a["choices"])).any(axis=1)
+        use = (a["best"] < _NONE) & ~t["off"] & (a["misses"] < _MISSES)
+        out = aim.copy()
+        for b in np.flatnonzero(use).tolist():
+            n, points = int(a["count"][b]), a["points"][b]
+            while t["next"][b] < n and math.dist(xy[b], points[t["next"][b]]) < self.reach:
+                t["next"][b] += 1
+                t["left"][b] = -1.0
+            point = points[t["next"][b]] if t["next"][b] < n else self.goal
+            if t["left"][b] < 0:  # a new point: the straight way's actions, times the slack
+                t["left"][b] = max(self.slack * math.dist(xy[b], point) / self.step, 5.0)
+            t["left"][b] -= 1.0
+            if t["left"][b] < 0:  # not reached in time: the options steer again
+                t["off"][b] = True
+                use[b] = False
+                continue
+            out[b] = point
+        t["following"][:] = use
+        t["used"] |= use
+        return out
+
+    # -- learning (the update calls this at a trial's end) --------------------------------
+    def learn(
+        self, row: int, pose: np.ndarray, sonar: np.ndarray, choices: np.ndarray, reached: bool
+    ) -> None:
+        """Robot ``row``'s finished trial: odometry poses (T + 1, 3), their scans (T + 1, n)
+        over the range, the option chosen in each region (R,), whether it reached the goal. A
+        successful trial shorter than the best so far gives the way."""
+        a = self.arrays
+        steps = len(pose) - 1
+        best = int(a["best"][row])
+        if self._trial["used"][row] and steps > best + max(3, 0.1 * best):
+            a["misses"][row] += 1  # it took the way and did worse
+        if not reached or steps >= best:
+            return
+        way = self._pulled(pose, sonar)
+        if way is None or len(way) > a["points"].shape[1]:
+            return
+        a["best"][row] = steps
+        a["misses"][row] = 0
+        a["choices"][row] = choices
+        a["count"][row] = len(way)
+        if way:
+            a["points"][row, : len(way)] = np.array(way)
+
+    def _pulled(self, pose: np.ndarray, sonar: np.ndarray) -> list[np.ndarray] | None:
+        """The via-points from the first pose to the last (where the trial reached the goal, in
+        its own odometry), pulled tight backward; None when some stretch had no pose that
+        could see its end."""
+        echoes = self._echoes(pose, sonar)
+        end = len(pose) - 1
+        target = pose[end, :2].copy()
+        vias: list[np.ndarray] = []
+        while True:
+            seen = [i for i in range(end) if self._clear(pose[i, :2], target, echoes)]
+            if not seen:
+                return None
+            i = seen[0]
+            if i == 0:
+                return vias[::-1]
+            target = pose[i, :2].copy()
+            vias.append(target)
+            end = i
+
+    def _echoes(self, pose: np.ndarray, sonar: np.ndarray) -> np.ndarray:
+        """Every echo of the trial (M, 2), placed from the odometry pose it was read at."""
+        angle = pose[:, 2:3] + self._angles
+        reach = sonar * self.sonar_range + self.radius
+        echoed = sonar < 1.0 - 1e-9
+        x = pose[:, 0:1] + reach * np.cos(angle)
+        y = pose[:, 1:2] + reach * np.sin(angle)
+        return np.stack((x[echoed], y[echoed]), axis=-1)
+
+    def _clear(self, start: np.ndarray, target: np.ndarray, echoes: np.ndarray) -> bool:
+        """Whether the straight way from ``start`` to ``target``, within the sonar's range, keeps
+        the body and the clearance off every echo of the trial (``echoes`` (M, 2)); beside the
+        start, where the robot stood, the body alone."""
+        d = target - start
+        length = math.hypot(*d)
+        if length > self.sonar_range:
+            return False
+        if length < 1e-9:
+            return True
+        ex, ey = d / length
+        rx, ry = echoes[:, 0] - start[0], echoes[:, 1] - start[1]
+        along = rx * ex + ry * ey
+        across = np.abs(rx * ey - ry * ex)
+        margin = self.radius + self.clearance
+        need = self.radius + self.clearance * np.minimum(along / margin, 1.0)
+        return not bool(((along > 0) & (along < length) & (across < need)).any())

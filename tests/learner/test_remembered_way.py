@@ -1,0 +1,219 @@
+"""The best trial's way: pulled tight where its own scans saw it clear, followed while the
+options match."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from symrl.learner.remembered_way import RememberedWay
+
+RADIUS, CLEAR, RANGE, N = 0.26, 0.30, 5.0, 24
+GOAL = (4.0, 3.0)
+
+
+def way(batch: int = 1, regions: int = 2) -> RememberedWay:
+    return RememberedWay(
+        batch,
+        regions,
+        goal=GOAL,
+        radius=RADIUS,
+        clearance=CLEAR,
+        sonar_range=RANGE,
+        n_sensors=N,
+        step=0.2,
+    )
+
+
+def scan(pose: np.ndarray, walls: list[tuple[float, ...]]) -> np.ndarray:
+    """Rim readings over the range (N,) of rays from ``pose`` against segments ``walls``."""
+    x, y, h = pose
+    out = np.ones(N)
+    for k in range(N):
+        a = h + k * 2 * math.pi / N
+        dx, dy = math.cos(a), math.sin(a)
+        best = math.inf
+        for x0, y0, x1, y1 in walls:
+            ex, ey = x1 - x0, y1 - y0
+            den = dx * ey - dy * ex
+            if abs(den) < 1e-12:
+                continue
+            t = ((x0 - x) * ey - (y0 - y) * ex) / den
+            u = ((x0 - x) * dy - (y0 - y) * dx) / den
+            if t > 0 and 0 <= u <= 1:
+                best = min(best, t)
+        out[k] = min(max(best - RADIUS, 0.0), RANGE) / RANGE
+    return out
+
+
+# a thin wall from the west wall to x = 2.5 at y = 1.5 hides the goal (4, 3) from the start
+# (0.5, 0.5); the path slides east under it, rounds its end and turns back up
+WALL = (-1.0, 1.5, 2.5, 1.5)
+PATH = [(0.5 + 0.2 * i, 0.5) for i in range(16)] + [(3.5, 0.7 + 0.2 * i) for i in range(12)]
+PATH = PATH + [(3.5 + 0.1 * i, 3.0) for i in range(1, 6)]
+
+
+def trial(path: list[tuple[float, float]]) -> tuple[np.ndarray, np.ndarray]:
+    pose = np.array([(x, y, 0.0) for x, y in path])
+    sonar = np.stack([scan(p, [WALL]) for p in pose])
+    return pose, sonar
+
+
+def segment_distance(p: np.ndarray, q: np.ndarray, wall: tuple[float, ...]) -> float:
+    s = np.linspace(0, 1, 400)[:, None]
+    a = p + s * (q - p)
+    w0, w1 = np.array(wall[:2]), np.array(wall[2:])
+    b = w0 + s * (w1 - w0)
+    return float(np.min(np.linalg.norm(a[:, None, :] - b[None, :, :], axis=-1)))
+
+
+def test_the_way_is_pulled_tight_and_keeps_its_clearance() -> None:
+    w = way()
+    pose, sonar = trial(PATH)
+    w.learn(0, pose, sonar, np.array([1, 0]), reached=True)
+    n = int(w.count[0])
+    assert 1 <= n < len(PATH) // 4  # a handful of via-points, not the path
+    points = [np.array(pose[0, :2])] + [w.points[0, i].numpy() for i in range(n)]
+    points.append(np.array(GOAL))
+    for p, q in zip(points, points[1:], strict=False):
+        assert segment_distance(p, q, WALL) >= RADIUS + CLEAR - 1e-9
+    # shorter than the path driven
+    pulled = sum(math.dist(p, q) for p, q in zip(points, points[1:], strict=False))
+    driven = sum(math.dist(p, q) for p, q in zip(PATH, PATH[1:], strict=False))
+    assert pulled < driven
+    assert int(w.best[0]) == len(PATH) - 1
+
+
+def test_only_a_shorter_successful_trial_gives_the_way() -> None:
+    w = way()
+    pose, sonar = trial(PATH)
+    w.learn(0, pose, sonar, np.array([1, 0]), reached=False)
+    assert int(w.count[0]) == 0 and int(w.best[0]) > 10**6
+    w.learn(0, pose, sonar, np.array([1, 0]), reached=True)
+    kept = w.points[0].clone()
+    longer = trial(PATH + [(4.0, 3.0)] * 3)
+    w.learn(0, *longer, np.array([0, 0]), reached=True)
+    assert np.array_equal(w.points[0].numpy(), kept.numpy())
+    assert w.choices[0].tolist() == [1, 0]
+
+
+def test_a_straight_way_has_no_via_point() -> None:
+    w = way()
+    path = [(1.0 + 0.2 * i, 3.0) for i in range(16)]
+    pose = np.array([(x, y, 0.0) for x, y in path])
+    sonar = np.ones((len(path), N))
+    w.learn(0, pose, sonar, np.array([0, -1]), reached=True)
+    assert int(w.count[0]) == 0 and int(w.best[0]) == len(path) - 1
+    # followed: straight at the goal
+    out = w.aim(np.array([[0, -1]]), np.array([[1.0, 3.0]]), np.array([[9.0, 9.0]]))
+    np.testing.assert_array_equal(out[0], GOAL)
+
+
+def test_the_way_is_followed_point_by_point_then_the_goal() -> None:
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    n = int(w.count[0])
+    choice = np.array([[1, -1]])
+    aim = np.array([[9.0, 9.0]])
+    start = np.array([0.5, 0.5])
+    first = w.aim(choice, start[None], aim)[0]
+    ahead = [w.points[0, i].numpy() for i in range(n) if math.dist(start, w.points[0, i]) >= 0.5]
+    np.testing.assert_allclose(first, ahead[0])  # the first via-point not yet within reach
+    # within reach of each via-point in turn: the next one, and after the last the goal
+    for i in range(n):
+        out = w.aim(choice, w.points[0, i].numpy()[None], aim)[0]
+        expected = w.points[0, i + 1].numpy() if i + 1 < n else np.array(GOAL)
+        np.testing.assert_allclose(out, expected)
+
+
+def test_another_option_stops_the_way_for_the_trial() -> None:
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    aim = np.array([[9.0, 9.0]])
+    xy = np.array([[0.5, 0.5]])
+    assert not np.array_equal(w.aim(np.array([[1, -1]]), xy, aim), aim)
+    np.testing.assert_array_equal(w.aim(np.array([[2, -1]]), xy, aim), aim)  # explored
+    np.testing.assert_array_equal(w.aim(np.array([[1, -1]]), xy, aim), aim)  # still off
+    w.begin_trial(np.array([0]))
+    assert not np.array_equal(w.aim(np.array([[1, -1]]), xy, aim), aim)
+
+
+def test_no_way_before_a_success() -> None:
+    w = way(batch=2)
+    aim = np.array([[9.0, 9.0], [8.0, 8.0]])
+    out = w.aim(np.full((2, 2), -1), np.zeros((2, 2)), aim)
+    np.testing.assert_array_equal(out, aim)
+
+
+def test_rows_are_independent() -> None:
+    w = way(batch=2)
+    w.learn(1, *trial(PATH), np.array([1, 0]), reached=True)
+    assert int(w.best[0]) > 10**6 and int(w.best[1]) == len(PATH) - 1
+    aim = np.array([[9.0, 9.0], [9.0, 9.0]])
+    out = w.aim(np.array([[1, -1], [1, -1]]), np.array([[0.5, 0.5], [0.5, 0.5]]), aim)
+    np.testing.assert_array_equal(out[0], aim[0])
+    assert not np.array_equal(out[1], aim[1])
+
+
+@pytest.mark.parametrize("target", [(1.6, 0.4), (0.5, 3.0)])
+def test_clear_is_what_the_scans_saw(target: tuple[float, float]) -> None:
+    w = way()
+    pose = np.array([[0.5, 0.5, 0.3], [1.5, 0.5, 0.0]])
+    echoes = w._echoes(pose, np.stack([scan(p, [WALL]) for p in pose]))
+    behind_wall = target[1] > 1.5
+    assert w._clear(pose[0, :2], np.array(target), echoes) is not behind_wall
+    assert not w._clear(pose[0, :2], np.array([0.5 + RANGE + 0.1, 0.5]), echoes[:0])
+
+
+@settings(max_examples=40, deadline=None)
+@given(end=st.floats(1.5, 3.2), height=st.floats(1.2, 2.0))
+def test_pulled_segments_never_touch_the_wall(end: float, height: float) -> None:
+    wall = (-1.0, height, end, height)
+    path = [(0.5 + 0.2 * i, 0.5) for i in range(int((end + 1.0) / 0.2))]
+    x = path[-1][0]
+    path += [(x, 0.7 + 0.2 * i) for i in range(int((3.0 - 0.7) / 0.2) + 1)]
+    path += [(x + (4.0 - x) * i / 5, 3.0) for i in range(1, 6)]
+    pose = np.array([(px, py, 0.0) for px, py in path])
+    sonar = np.stack([scan(p, [wall]) for p in pose])
+    w = way()
+    w.learn(0, pose, sonar, np.array([0, 0]), reached=True)
+    n = int(w.count[0])
+    points = [pose[0, :2]] + [w.points[0, i].numpy() for i in range(n)] + [np.array(GOAL)]
+    if int(w.best[0]) < 10**6:  # the body never touches the wall on the way (the clearance
+        # beyond it is kept from the echoes, which sample the wall)
+        for p, q in zip(points, points[1:], strict=False):
+            assert segment_distance(p, q, wall) > RADIUS
+
+
+def test_two_worse_trials_on_the_way_leave_it_to_the_options() -> None:
+    w = way()
+    pose, sonar = trial(PATH)
+    w.learn(0, pose, sonar, np.array([1, 0]), reached=True)
+    choice, xy, aim = np.array([[1, -1]]), np.array([[0.5, 0.5]]), np.array([[9.0, 9.0]])
+    longer = trial(PATH + [(4.0, 3.0)] * 10)  # took the way and needed 10 actions more
+    for misses in (1, 2):
+        w.begin_trial(np.array([0]))
+        assert not np.array_equal(w.aim(choice, xy, aim), aim)
+        w.learn(0, *longer, np.array([1, 0]), reached=True)
+        assert int(w.misses[0]) == misses
+    w.begin_trial(np.array([0]))
+    np.testing.assert_array_equal(w.aim(choice, xy, aim), aim)
+    # a shorter trial gives a new way and clears the misses
+    w.learn(0, *trial(PATH[:-2]), np.array([1, 0]), reached=True)
+    assert int(w.misses[0]) == 0
+
+
+def test_a_via_point_not_reached_in_time_hands_back_to_the_options() -> None:
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    choice, aim = np.array([[1, -1]]), np.array([[9.0, 9.0]])
+    stuck = np.array([[0.5, 0.5]])
+    steps = 0
+    while not np.array_equal(w.aim(choice, stuck, aim), aim):
+        steps += 1
+        assert steps < 200
+    assert steps >= 5 and not w.following[0]
