@@ -35,8 +35,8 @@ from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import CrossingsConfig, OptionCriticConfig, OptionsConfig
 from symrl.learner.crossings import CrossingMap
-from symrl.learner.remembered_way import RememberedWay
 from symrl.learner.option_critic import OptionCritic
+from symrl.learner.remembered_way import RememberedWay
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap
 
