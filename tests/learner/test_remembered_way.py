@@ -217,3 +217,35 @@ def test_a_via_point_not_reached_in_time_hands_back_to_the_options() -> None:
         steps += 1
         assert steps < 200
     assert steps >= 5 and not w.following[0]
+
+
+def test_the_way_needs_the_crossings(capsys) -> None:
+    from symrl.cli import main
+
+    code = main(
+        [
+            "train",
+            "paper",
+            "--trials",
+            "1",
+            "crossings.enabled=false",
+            "options.remembered_way=true",
+        ]
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code != 0 and len(err) == 1
+    assert "options.remembered_way=true" in err[0] and "crossings.enabled=true" in err[0]
+
+
+def test_a_run_with_the_way_resumes_as_if_uninterrupted(tmp_path) -> None:
+    """Its via-points, choices, best and misses are saved per robot with the controller."""
+    from symrl.cli import main
+    from symrl.runs import read_trials_csv
+
+    args = ["--seed", "5000", "--map", "tuning/island_room", "options.remembered_way=true"]
+    whole, parted = tmp_path / "whole", tmp_path / "parted"
+    assert main(["train", "paper", "--trials", "6", "--logdir", str(whole), *args]) == 0
+    assert main(["train", "paper", "--trials", "3", "--logdir", str(parted), *args]) == 0
+    assert main(["train", "--resume", str(parted), "--trials", "6"]) == 0
+    a, b = read_trials_csv(whole / "trials.csv"), read_trials_csv(parted / "trials.csv")
+    assert a == b
