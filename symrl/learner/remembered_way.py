@@ -173,10 +173,9 @@ class RememberedWay(BufferViews):
         target = pose[end, :2].copy()
         vias: list[np.ndarray] = []
         while True:
-            seen = [i for i in range(end) if self._clear(pose[i, :2], target, echoes)]
-            if not seen:
+            i = next((i for i in range(end) if self._clear(pose[i, :2], target, echoes)), None)
+            if i is None:
                 return None
-            i = seen[0]
             if i == 0:
                 return vias[::-1]
             target = pose[i, :2].copy()

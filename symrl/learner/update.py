@@ -344,7 +344,7 @@ class TeseoUpdate:
         ``best_total`` (the best success so far) and ``temperature`` (the one the trial
         explored with, before this call cools it)."""
         update, progress = self.settings, self.progress
-        if self.record is not None:  # before the trial gradient clears the record
+        if self.record is not None:  # from the record, cleared at the end of this call
             self._learn_way(rows.numpy(), reached.numpy())
         # numpy on the buffers' memory (a handful of rows), the same operations
         rows_np, n = rows.numpy(), rows.shape[0]
@@ -385,7 +385,7 @@ class TeseoUpdate:
 
     def _learn_way(self, rows: np.ndarray, reached: np.ndarray) -> None:
         """The finished trials of ``rows`` (``reached`` (k,) bool) for the remembered way
-        (options with ``remembered_way``): from the record, before it is cleared."""
+        (options with ``remembered_way``), from the record."""
         way = self.options.remembered_way if self.options is not None else None
         rec = self.record
         if way is None or rec is None:
@@ -432,7 +432,6 @@ class TeseoUpdate:
             total = np.bincount(index, weights=grad)[used]
             step = np.minimum(np.maximum(tg.rate * total, -tg.max_step), tg.max_step)
             self.experts.step_means(used, step, tg.limit)
-        rec.clear(rows)
 
     def __repr__(self) -> str:
         u = self.settings

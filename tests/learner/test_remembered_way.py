@@ -219,22 +219,20 @@ def test_a_via_point_not_reached_in_time_hands_back_to_the_options() -> None:
     assert steps >= 5 and not w.following[0]
 
 
-def test_the_way_needs_the_crossings(capsys) -> None:
+@pytest.mark.parametrize(
+    ("off", "needed"),
+    [
+        ("crossings.enabled=false", "crossings.enabled=true"),
+        ("experts.learning=false", "experts.learning=true"),
+    ],
+)
+def test_the_way_needs_the_crossings_and_the_learning(capsys, off: str, needed: str) -> None:
     from symrl.cli import main
 
-    code = main(
-        [
-            "train",
-            "paper",
-            "--trials",
-            "1",
-            "crossings.enabled=false",
-            "options.remembered_way=true",
-        ]
-    )
+    code = main(["train", "paper", "--trials", "1", off, "options.remembered_way=true"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code != 0 and len(err) == 1
-    assert "options.remembered_way=true" in err[0] and "crossings.enabled=true" in err[0]
+    assert "options.remembered_way=true" in err[0] and needed in err[0]
 
 
 def test_a_run_with_the_way_resumes_as_if_uninterrupted(tmp_path) -> None:
