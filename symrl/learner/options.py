@@ -181,6 +181,7 @@ class SubgoalOptions(BufferViews):
                 batch,
                 len(names),
                 goal=(float(knowledge.goal.x), float(knowledge.goal.y)),
+                goal_radius=float(knowledge.goal.radius),
                 radius=robot.radius,
                 clearance=robot.close_distance,
                 sonar_range=robot.sonar_range,
@@ -306,7 +307,11 @@ class SubgoalOptions(BufferViews):
 
     # -- acting (called by the policy) ----------------------------------------------------
     def steer(
-        self, region: torch.Tensor, odometry: torch.Tensor, greedy: bool
+        self,
+        region: torch.Tensor,
+        odometry: torch.Tensor,
+        greedy: bool,
+        sonar: torch.Tensor | None = None,
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray]:
         """The signed angle (left positive) from each odometry heading to the point the reflex
         should aim at in ``region``; also the option in force (B,), whether it was chosen at
@@ -376,7 +381,8 @@ class SubgoalOptions(BufferViews):
                 at_goal = at_goal | (stage == _FIRST_STAGE)
         aim = np.where(at_goal[:, None], self._goal, point)
         if self.remembered_way is not None:
-            aim = self.remembered_way.aim(a["choice"], xy, aim)
+            scan = None if sonar is None else sonar.numpy().astype(np.float64)
+            aim = self.remembered_way.aim(a["choice"], pose, aim, scan)
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi

@@ -332,7 +332,9 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         option, entered, aim = self._no_option, self._no_entry, self._goal_aim
         start_turn = None
         if self.options is not None:
-            target, option, entered, aim, start_turn = self.options.steer(region, pose, greedy)
+            target, option, entered, aim, start_turn = self.options.steer(
+                region, pose, greedy, sonar
+            )
         else:
             target = goal[:, 1].to(torch.float64)
         if xc.reflex or not xc.learning:

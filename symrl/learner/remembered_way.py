@@ -61,6 +61,7 @@ class RememberedWay(BufferViews):
         regions: int,
         *,
         goal: tuple[float, float],
+        goal_radius: float,
         radius: float,
         clearance: float,
         sonar_range: float,
@@ -70,13 +71,15 @@ class RememberedWay(BufferViews):
         reach: float = 0.5,
         slack: float = 1.5,
     ) -> None:
-        """``goal`` (the point steered at after the last via-point); the robot's ``radius``,
+        """``goal`` (the point steered at after the last via-point) and the radius of its disc;
+        the robot's ``radius``,
         the ``clearance`` kept from the echoes beyond it, its sonar and ``step`` length; at most
         ``max_points`` via-points (a longer way is not kept); a via-point nearer than ``reach``
         is passed; one not reached within ``slack`` times the straight way's actions ends the
         way for the trial."""
         super().__init__()
         self.goal = np.array(goal, dtype=np.float64)
+        self.goal_radius = float(goal_radius)
         self.radius = float(radius)
         self.clearance = float(clearance)
         self.sonar_range = float(sonar_range)
@@ -113,15 +116,31 @@ class RememberedWay(BufferViews):
             t[name][rows] = False
 
     # -- acting ---------------------------------------------------------------------------
-    def aim(self, choice: np.ndarray, xy: np.ndarray, aim: np.ndarray) -> np.ndarray:
-        """The point each robot steers at (B, 2): on its remembered way (the options chosen so
-        far in the trial, ``choice`` (B, R), -1 not entered, are the best trial's), its next
-        via-point, then the goal; else ``aim``."""
+    def aim(
+        self,
+        choice: np.ndarray,
+        pose: np.ndarray,
+        aim: np.ndarray,
+        sonar: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The point each robot at odometry ``pose`` (B, 3) steers at (B, 2): on its remembered
+        way (the options chosen so far in the trial, ``choice`` (B, R), -1 not entered, are the
+        best trial's), its next via-point, then the goal; else ``aim``. Once the latest scan
+        (``sonar`` (B, n) over the range) shows the straight way to the goal clear, the way
+        hands the steering back to the options for the rest of the trial: the best trial's
+        path past that point holds nothing the goal's bearing does not, and its wiggles cost."""
+        xy = pose[:, :2]
         a, t = self.arrays, self._trial
         entered = choice >= 0
         t["off"] |= (entered & (choice != a["choices"])).any(axis=1)
         use = (a["best"] < _NONE) & ~t["off"] & (a["misses"] < _MISSES)
         out = aim.copy()
+        if sonar is not None and use.any():
+            for b in np.flatnonzero(use).tolist():
+                echoes = self._echoes(pose[b : b + 1], sonar[b : b + 1])
+                if self._clear(xy[b], self._goal_edge(xy[b]), echoes, goal=True):
+                    t["off"][b] = True
+                    use[b] = False
         for b in np.flatnonzero(use).tolist():
             n, points = int(a["count"][b]), a["points"][b]
             while t["next"][b] < n and math.dist(xy[b], points[t["next"][b]]) < self.reach:
@@ -182,6 +201,14 @@ class RememberedWay(BufferViews):
             vias.append(target)
             end = i
 
+    def _goal_edge(self, xy: np.ndarray) -> np.ndarray:
+        """Where the straight way from ``xy`` to the goal meets the goal's disc."""
+        d = self.goal - xy
+        length = math.hypot(*d)
+        if length <= self.goal_radius:
+            return xy
+        return self.goal - d * (self.goal_radius / length)
+
     def _echoes(self, pose: np.ndarray, sonar: np.ndarray) -> np.ndarray:
         """Every echo of the trial (M, 2), placed from the odometry pose it was read at."""
         angle = pose[:, 2:3] + self._angles
@@ -191,10 +218,13 @@ class RememberedWay(BufferViews):
         y = pose[:, 1:2] + reach * np.sin(angle)
         return np.stack((x[echoed], y[echoed]), axis=-1)
 
-    def _clear(self, start: np.ndarray, target: np.ndarray, echoes: np.ndarray) -> bool:
+    def _clear(
+        self, start: np.ndarray, target: np.ndarray, echoes: np.ndarray, goal: bool = False
+    ) -> bool:
         """Whether the straight way from ``start`` to ``target``, within the sonar's range, keeps
         the body and the clearance off every echo of the trial (``echoes`` (M, 2)); beside the
-        start, where the robot stood, the body alone."""
+        start, where the robot stood, the body alone, and beside a ``goal`` target too (the
+        trial ends there, however near a wall)."""
         d = target - start
         length = math.hypot(*d)
         if length > self.sonar_range:
@@ -206,5 +236,6 @@ class RememberedWay(BufferViews):
         along = rx * ex + ry * ey
         across = np.abs(rx * ey - ry * ex)
         margin = self.radius + self.clearance
-        need = self.radius + self.clearance * np.minimum(along / margin, 1.0)
+        room = np.minimum(along, length - along) if goal else along
+        need = self.radius + self.clearance * np.minimum(room / margin, 1.0)
         return not bool(((along > 0) & (along < length) & (across < need)).any())

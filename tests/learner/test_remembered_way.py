@@ -21,6 +21,7 @@ def way(batch: int = 1, regions: int = 2) -> RememberedWay:
         batch,
         regions,
         goal=GOAL,
+        goal_radius=0.4,
         radius=RADIUS,
         clearance=CLEAR,
         sonar_range=RANGE,
