@@ -138,7 +138,10 @@ class RememberedWay(BufferViews):
         if sonar is not None and use.any():
             for b in np.flatnonzero(use).tolist():
                 echoes = self._echoes(pose[b : b + 1], sonar[b : b + 1])
-                if self._clear(xy[b], self._goal_edge(xy[b]), echoes, goal=True):
+                target = aim[b]
+                if np.array_equal(target, self.goal):
+                    target = self._goal_edge(xy[b])
+                if self._clear(xy[b], target, echoes, goal=True):
                     t["off"][b] = True
                     use[b] = False
         for b in np.flatnonzero(use).tolist():

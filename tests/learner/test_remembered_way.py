@@ -248,3 +248,32 @@ def test_a_run_with_the_way_resumes_as_if_uninterrupted(tmp_path) -> None:
     assert main(["train", "--resume", str(parted), "--trials", "6"]) == 0
     a, b = read_trials_csv(whole / "trials.csv"), read_trials_csv(parted / "trials.csv")
     assert a == b
+
+
+def test_the_options_steer_again_once_their_aim_is_in_plain_sight() -> None:
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    choice = np.array([[1, -1]])
+    goal = np.array([GOAL])
+    start = np.array([[0.5, 0.5, 0.0]])
+    # the thin wall hides the goal from the start: the way
+    hidden = w.aim(choice, start, goal, scan(start[0], [WALL])[None])
+    assert not np.array_equal(hidden, goal)
+    # past the wall's end, nothing between the robot and the goal's disc: the options' aim
+    # (the goal), for the rest of the trial
+    past = np.array([[3.5, 1.9, math.pi / 2]])
+    np.testing.assert_array_equal(w.aim(choice, past, goal, scan(past[0], [WALL])[None]), goal)
+    np.testing.assert_array_equal(w.aim(choice, start, goal, scan(start[0], [WALL])[None]), goal)
+    w.begin_trial(np.array([0]))
+    assert not np.array_equal(w.aim(choice, start, goal, scan(start[0], [WALL])[None]), goal)
+
+
+def test_a_wall_beside_the_goal_does_not_hide_it() -> None:
+    # the goal's disc touches a wall: the way to its edge ends at the body's distance from it
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    beside = (4.6, 2.0, 4.6, 4.0)  # 0.6 m east of the goal's centre, 0.2 m off its disc
+    pose = np.array([[4.0, 1.0, math.pi / 2]])
+    goal = np.array([GOAL])
+    out = w.aim(np.array([[1, -1]]), pose, goal, scan(pose[0], [beside])[None])
+    np.testing.assert_array_equal(out, goal)
