@@ -12,7 +12,9 @@ way to that one did the one before, and so on back to the start.
 
 The way belongs to the options that trial chose: a later trial steers at the via-points in turn,
 then at the goal, while the option chosen in every region it has entered is the one the best
-trial chose there. An option explored or given up elsewhere, or a via-point not reached within
+trial chose there, and until the robot's latest scan shows the straight way to the options' own
+aim clear (the way is for walls that hide the aim; once none does, the options steer for the
+rest of the trial). An option explored or given up elsewhere, or a via-point not reached within
 1.5 times the straight way's actions, hands the steering back to the options for the rest of the
 trial. After two trials that took the way and ended longer than the best by more than a tenth
 (and 3 actions), the way is left to the options until a shorter trial gives a new one. A
@@ -72,8 +74,8 @@ class RememberedWay(BufferViews):
         slack: float = 1.5,
     ) -> None:
         """``goal`` (the point steered at after the last via-point) and the radius of its disc;
-        the robot's ``radius``,
-        the ``clearance`` kept from the echoes beyond it, its sonar and ``step`` length; at most
+        the robot's ``radius``, the ``clearance`` kept from the echoes beyond it, its sonar and
+        ``step`` length; at most
         ``max_points`` via-points (a longer way is not kept); a via-point nearer than ``reach``
         is passed; one not reached within ``slack`` times the straight way's actions ends the
         way for the trial."""
@@ -125,10 +127,12 @@ class RememberedWay(BufferViews):
     ) -> np.ndarray:
         """The point each robot at odometry ``pose`` (B, 3) steers at (B, 2): on its remembered
         way (the options chosen so far in the trial, ``choice`` (B, R), -1 not entered, are the
-        best trial's), its next via-point, then the goal; else ``aim``. Once the latest scan
-        (``sonar`` (B, n) over the range) shows the straight way to the goal clear, the way
-        hands the steering back to the options for the rest of the trial: the best trial's
-        path past that point holds nothing the goal's bearing does not, and its wiggles cost."""
+        best trial's), its next via-point, then the goal; else ``aim``, the options' own. Once
+        the latest scan (``sonar`` (B, n) over the range) shows the straight way to the options'
+        aim clear (to the goal's disc when the aim is the goal), the way hands the steering back
+        to the options for the rest of the trial: the way is for walls that hide the aim, and
+        where nothing does, the options' aim (lined up with a crossing, refined by the experts)
+        does better than the best trial's path, wiggles and all."""
         xy = pose[:, :2]
         a, t = self.arrays, self._trial
         entered = choice >= 0
@@ -139,9 +143,9 @@ class RememberedWay(BufferViews):
             for b in np.flatnonzero(use).tolist():
                 echoes = self._echoes(pose[b : b + 1], sonar[b : b + 1])
                 target = aim[b]
-                if np.array_equal(target, self.goal):
+                if np.array_equal(target, self.goal):  # the options aim at the goal itself
                     target = self._goal_edge(xy[b])
-                if self._clear(xy[b], target, echoes, goal=True):
+                if self._clear(xy[b], target, echoes, both_ends=True):
                     t["off"][b] = True
                     use[b] = False
         for b in np.flatnonzero(use).tolist():
@@ -222,12 +226,13 @@ class RememberedWay(BufferViews):
         return np.stack((x[echoed], y[echoed]), axis=-1)
 
     def _clear(
-        self, start: np.ndarray, target: np.ndarray, echoes: np.ndarray, goal: bool = False
+        self, start: np.ndarray, target: np.ndarray, echoes: np.ndarray, both_ends: bool = False
     ) -> bool:
         """Whether the straight way from ``start`` to ``target``, within the sonar's range, keeps
-        the body and the clearance off every echo of the trial (``echoes`` (M, 2)); beside the
-        start, where the robot stood, the body alone, and beside a ``goal`` target too (the
-        trial ends there, however near a wall)."""
+        the body and the clearance off every echo (``echoes`` (M, 2)); beside the start, where
+        the robot stood, the body alone, and with ``both_ends`` beside the target too (an aim
+        is passed or ends the trial there, however near a wall: a goal beside a wall, a
+        crossing in a door)."""
         d = target - start
         length = math.hypot(*d)
         if length > self.sonar_range:
@@ -239,6 +244,6 @@ class RememberedWay(BufferViews):
         along = rx * ex + ry * ey
         across = np.abs(rx * ey - ry * ex)
         margin = self.radius + self.clearance
-        room = np.minimum(along, length - along) if goal else along
+        room = np.minimum(along, length - along) if both_ends else along
         need = self.radius + self.clearance * np.minimum(room / margin, 1.0)
         return not bool(((along > 0) & (along < length) & (across < need)).any())

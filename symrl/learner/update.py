@@ -191,6 +191,9 @@ class TeseoUpdate:
         nxt = read(td, "next")
         r = self._returns(td, nxt)
         if not self.learning:
+            if self.record is not None:  # the remembered way's poses and scans (no neuron)
+                none = np.zeros(batch, dtype=np.int64)
+                self._record(td, nxt, none, none)
             zero = torch.zeros(batch, dtype=torch.float64)
             return TensorDict(
                 td_error=zero,

@@ -220,20 +220,33 @@ def test_a_via_point_not_reached_in_time_hands_back_to_the_options() -> None:
     assert steps >= 5 and not w.following[0]
 
 
-@pytest.mark.parametrize(
-    ("off", "needed"),
-    [
-        ("crossings.enabled=false", "crossings.enabled=true"),
-        ("experts.learning=false", "experts.learning=true"),
-    ],
-)
-def test_the_way_needs_the_crossings_and_the_learning(capsys, off: str, needed: str) -> None:
+def test_the_way_needs_the_crossings(capsys) -> None:
     from symrl.cli import main
 
-    code = main(["train", "paper", "--trials", "1", off, "options.remembered_way=true"])
+    args = ["train", "paper", "--trials", "1", "crossings.enabled=false"]
+    code = main([*args, "options.remembered_way=true"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code != 0 and len(err) == 1
-    assert "options.remembered_way=true" in err[0] and needed in err[0]
+    assert "options.remembered_way=true" in err[0] and "crossings.enabled=true" in err[0]
+
+
+def test_the_way_is_learned_with_the_experts_off() -> None:
+    """The experts' learning off (the learned-shares baseline) still records the trial's poses
+    and scans for the way."""
+    from symrl.learner.config import load_config
+    from symrl.train import train_batch
+
+    ways = []
+
+    def on_trial(b: int, record: dict, policy) -> None:
+        ways.append(int(policy.options.remembered_way.best[b]))
+
+    config = load_config(
+        "paper",
+        ["run.trials=3", "experts.learning=false", "options.remembered_way=true"],
+    )
+    train_batch(config, [5000], progress=False, on_trial=on_trial)
+    assert ways[-1] < 200  # a success kept as the way
 
 
 def test_a_run_with_the_way_resumes_as_if_uninterrupted(tmp_path) -> None:

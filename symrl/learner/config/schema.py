@@ -88,11 +88,6 @@ class RunConfig(Section):
                 "options.remembered_way=true follows the best trial's way over the crossings it "
                 "learned: it needs options.enabled=true and crossings.enabled=true"
             )
-        if o.remembered_way and not self.experts.learning:
-            raise ValueError(
-                "options.remembered_way=true is learned from the trials with the experts: it "
-                "needs experts.learning=true"
-            )
         if o.region_limit_scale is not None and o.region_limit is None:
             raise ValueError(
                 f"options.region_limit_scale={o.region_limit_scale} scales the timeout: it "
