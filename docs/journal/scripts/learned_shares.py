@@ -1,5 +1,5 @@
 """What each learned part of `paper` buys, as on - off on the same sets: the crossing map, the
-option critic, the experts, and all three.
+remembered way, the option critic, the experts, and all of them.
 
 For every world: `paper`, then `paper` with one learned part off, each one batched run of
 ``sets`` sets x ``trials`` trials (set k seeded ``seed + k``). Prints a Markdown table: the last
@@ -10,7 +10,8 @@ full - off over the sets (mean ± standard error; positive: the part helps).
         [--trials 20] [--seed 9000]
 
 Off means: the crossing map ``crossings.enabled=false`` (each border option aims at one fixed
-point); the option critic ``option_critic.epsilon=0 option_critic.try_untried=false`` (it never
+point; the remembered way, which steers over the crossings, goes with it); the remembered way
+``options.remembered_way=false``; the option critic ``option_critic.epsilon=0 option_critic.try_untried=false`` (it never
 explores: every region keeps its first option until a timeout); the experts
 ``experts.learning=false`` (the reflex's actions, no residual corrections, no trial gradient).
 """
@@ -25,11 +26,14 @@ from symrl.studies.runner import LAST, curves, optimum, run_sets
 
 VARIANTS = {
     "paper": [],
-    "crossing map off": ["crossings.enabled=false"],
+    # the remembered way steers over the crossings: it goes with them
+    "crossing map off": ["crossings.enabled=false", "options.remembered_way=false"],
+    "remembered way off": ["options.remembered_way=false"],
     "option critic off": ["option_critic.epsilon=0", "option_critic.try_untried=false"],
     "experts off": ["experts.learning=false"],
-    "all three off": [
+    "all off": [
         "crossings.enabled=false",
+        "options.remembered_way=false",
         "option_critic.epsilon=0",
         "option_critic.try_untried=false",
         "experts.learning=false",
