@@ -5,15 +5,16 @@ stopped.
 The sets of a study train side by side in one batch per worker, so no set is finished before
 the batch is. Each batch therefore writes its whole state (:func:`symrl.train.batch_snapshot`:
 learners, random streams, robots mid-trial, trial rows) into the study's folder of kept sets,
-``batch-K1-K2-....pt``, at the first trial boundary after every :data:`INTERVAL_S` seconds
-(atomically: a kill leaves the previous one). A batch of the same sets and settings started
-again loads it and goes on exactly; a finished batch saves its sets (``set-K.pt``) and drops
-its state.
+``batch-K1-K2-....pt`` (a batch of many sets: its first and last set, their count and a
+digest), at the first trial boundary after every :data:`INTERVAL_S` seconds (atomically: a kill
+leaves the previous one). A batch of the same sets and settings started again loads it and goes
+on exactly; a finished batch saves its sets (``set-K.pt``) and drops its state.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -30,6 +31,17 @@ def batch_files(folder: str | Path) -> list[Path]:
     return sorted(Path(folder).glob("batch-*.pt"))
 
 
+def _sets_label(indices: Sequence[int]) -> str:
+    """The sets of a batch in its file's name: every index while the name stays short, else
+    the first, the last, the count and a digest of them all (a file name has at most 255
+    bytes; the file's own settings say which sets it holds)."""
+    label = "-".join(f"{int(k):03d}" for k in indices)
+    if len(label) <= 80:
+        return label
+    digest = hashlib.sha1(label.encode()).hexdigest()[:12]
+    return f"{int(indices[0]):03d}-{int(indices[-1]):03d}-n{len(indices)}-{digest}"
+
+
 class BatchKeeper:
     """Saves and finds the state of one batch of sets (``indices``) of a study."""
 
@@ -41,7 +53,7 @@ class BatchKeeper:
         starts: Sequence[Any],
     ) -> None:
         self.folder = Path(folder)
-        self.path = self.folder / ("batch-" + "-".join(f"{int(k):03d}" for k in indices) + ".pt")
+        self.path = self.folder / f"batch-{_sets_label(indices)}.pt"
         self.settings = {
             "config": config_data,
             "sets": [int(k) for k in indices],

@@ -170,3 +170,14 @@ def test_resume_needs_a_stopped_run_of_the_same_settings(uninterrupted, tmp_path
     assert code == 2 and "give one" in err
     assert _quiet([*argv, "--out", str(out), "--overwrite"])[0] == 0  # afresh
     assert (out / "trials.csv").read_bytes() == (uninterrupted["study"] / "trials.csv").read_bytes()
+
+
+@pytest.mark.parametrize("sets", [1, 20, 100, 1000])
+def test_a_batch_of_many_sets_has_a_file_name_the_system_takes(tmp_path, monkeypatch, sets):
+    monkeypatch.setattr(checkpointing, "INTERVAL_S", 0.0)
+    keeper = checkpointing.BatchKeeper(tmp_path, {}, list(range(sets)), [])
+    other = checkpointing.BatchKeeper(tmp_path, {}, list(range(1, sets + 1)), [])
+    assert len(keeper.path.name) < 255 and keeper.path != other.path
+    keeper.on_boundary(lambda: {"trials": []})
+    assert keeper.path.is_file() and keeper.saved() == {"trials": []}
+    assert checkpointing.batch_files(tmp_path) == [keeper.path]
