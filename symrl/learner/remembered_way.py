@@ -13,8 +13,8 @@ way to that one did the one before, and so on back to the start.
 The way belongs to the options that trial chose: a later trial steers at the via-points in turn,
 then at the goal, while the option chosen in every region it has entered is the one the best
 trial chose there, and until the robot's latest scan shows the straight way to the options' own
-aim clear (the way is for walls that hide the aim; once none does, the options steer for the
-rest of the trial). An option explored or given up elsewhere, or a via-point not reached within
+aim clear where the way leads too (the way is for walls that hide the aim; once none does, the
+options steer for the rest of the trial). An option explored or given up elsewhere, or a via-point not reached within
 1.5 times the straight way's actions, hands the steering back to the options for the rest of the
 trial. After two trials that took the way and ended longer than the best by more than a tenth
 (and 3 actions), the way is left to the options until a shorter trial gives a new one. A
@@ -129,10 +129,11 @@ class RememberedWay(BufferViews):
         way (the options chosen so far in the trial, ``choice`` (B, R), -1 not entered, are the
         best trial's), its next via-point, then the goal; else ``aim``, the options' own. Once
         the latest scan (``sonar`` (B, n) over the range) shows the straight way to the options'
-        aim clear (to the goal's disc when the aim is the goal), the way hands the steering back
-        to the options for the rest of the trial: the way is for walls that hide the aim, and
-        where nothing does, the options' aim (lined up with a crossing, refined by the experts)
-        does better than the best trial's path, wiggles and all."""
+        aim clear (to the goal's disc when the aim is the goal) and the way leads there too (its
+        next point within the body and the clearance of that straight way), the way hands the
+        steering back to the options for the rest of the trial: the way is for walls that hide
+        the aim, and where nothing does, the options' aim (lined up with a crossing, refined by
+        the experts) does better than the best trial's path, wiggles and all."""
         xy = pose[:, :2]
         a, t = self.arrays, self._trial
         entered = choice >= 0
@@ -145,7 +146,9 @@ class RememberedWay(BufferViews):
                 target = aim[b]
                 if np.array_equal(target, self.goal):  # the options aim at the goal itself
                     target = self._goal_edge(xy[b])
-                if self._clear(xy[b], target, echoes, both_ends=True):
+                if self._clear(xy[b], target, echoes, both_ends=True) and self._agrees(
+                    b, xy[b], target
+                ):
                     t["off"][b] = True
                     use[b] = False
         for b in np.flatnonzero(use).tolist():
@@ -207,6 +210,19 @@ class RememberedWay(BufferViews):
             target = pose[i, :2].copy()
             vias.append(target)
             end = i
+
+    def _agrees(self, b: int, xy: np.ndarray, target: np.ndarray) -> bool:
+        """Whether robot ``b``'s way leads where the straight way to ``target`` does: its next
+        via-point (or the goal after the last) lies within the body and the clearance of that
+        line. Where the best trial went elsewhere (round a wall the scan cannot show), the way
+        is kept."""
+        a, t = self.arrays, self._trial
+        n = int(a["count"][b])
+        point = a["points"][b, t["next"][b]] if t["next"][b] < n else self.goal
+        d = target - xy
+        length2 = float(d @ d)
+        f = 0.0 if length2 < 1e-18 else min(max(float((point - xy) @ d) / length2, 0.0), 1.0)
+        return math.dist(point, xy + f * d) <= self.radius + self.clearance
 
     def _goal_edge(self, xy: np.ndarray) -> np.ndarray:
         """Where the straight way from ``xy`` to the goal meets the goal's disc."""

@@ -266,27 +266,49 @@ def test_a_run_with_the_way_resumes_as_if_uninterrupted(tmp_path) -> None:
 def test_the_options_steer_again_once_their_aim_is_in_plain_sight() -> None:
     w = way()
     w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    assert int(w.count[0]) == 1  # one via-point, under the wall's end
+    via = w.points[0, 0].numpy()
     choice = np.array([[1, -1]])
     goal = np.array([GOAL])
     start = np.array([[0.5, 0.5, 0.0]])
     # the thin wall hides the goal from the start: the way
     hidden = w.aim(choice, start, goal, scan(start[0], [WALL])[None])
-    assert not np.array_equal(hidden, goal)
-    # past the wall's end, nothing between the robot and the goal's disc: the options' aim
-    # (the goal), for the rest of the trial
+    np.testing.assert_allclose(hidden[0], via)
+    at_via = np.array([[*via, math.pi / 2]])
+    np.testing.assert_array_equal(w.aim(choice, at_via, goal, scan(at_via[0], [WALL])[None]), goal)
+    # past the wall's end, nothing between the robot and the goal's disc, and the way leads
+    # there too: the options' aim (the goal), for the rest of the trial
     past = np.array([[3.5, 1.9, math.pi / 2]])
     np.testing.assert_array_equal(w.aim(choice, past, goal, scan(past[0], [WALL])[None]), goal)
+    assert not w.following[0]
     np.testing.assert_array_equal(w.aim(choice, start, goal, scan(start[0], [WALL])[None]), goal)
     w.begin_trial(np.array([0]))
-    assert not np.array_equal(w.aim(choice, start, goal, scan(start[0], [WALL])[None]), goal)
+    np.testing.assert_allclose(w.aim(choice, start, goal, scan(start[0], [WALL])[None])[0], via)
 
 
-def test_a_wall_beside_the_goal_does_not_hide_it() -> None:
-    # the goal's disc touches a wall: the way to its edge ends at the body's distance from it
+def test_an_aim_in_plain_sight_where_the_way_leads_elsewhere_keeps_the_way() -> None:
+    # the options aim straight north, short of the thin wall (in plain sight); the best trial
+    # went east under the wall to its end: the way is kept
     w = way()
     w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
-    beside = (4.6, 2.0, 4.6, 4.0)  # 0.6 m east of the goal's centre, 0.2 m off its disc
+    start = np.array([[0.5, 0.5, 0.0]])
+    north = np.array([[0.5, 1.0]])
+    out = w.aim(np.array([[1, -1]]), start, north, scan(start[0], [WALL])[None])
+    np.testing.assert_allclose(out[0], w.points[0, 0].numpy())
+    assert w.following[0]
+
+
+def test_a_wall_beside_the_goal_disc_does_not_hide_the_goal() -> None:
+    # the trial ends at the disc's edge, and the robot passes a wall's end 0.4 m off its way
+    # just before it: clear by the body there (not by the body and the clearance, nor to the
+    # goal's centre)
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    beside = (4.3, 2.5, 5.0, 2.5)
+    choice, goal = np.array([[1, -1]]), np.array([GOAL])
+    via = w.points[0, 0].numpy()
+    w.aim(choice, np.array([[*via, 0.0]]), goal)  # the via-point passed: the goal is next
     pose = np.array([[4.0, 1.0, math.pi / 2]])
-    goal = np.array([GOAL])
-    out = w.aim(np.array([[1, -1]]), pose, goal, scan(pose[0], [beside])[None])
+    out = w.aim(choice, pose, goal, scan(pose[0], [beside])[None])
     np.testing.assert_array_equal(out, goal)
+    assert not w.following[0]
