@@ -16,9 +16,10 @@ trial chose there, and until the robot's latest scan shows the straight way to t
 aim clear where the way leads too (the way is for walls that hide the aim; once none does, the
 options steer for the rest of the trial). An option explored or given up elsewhere, or a
 via-point not reached within 1.5 times the straight way's actions, hands the steering back to the
-options for the rest of the trial. After two trials that took the way and ended longer than the best by more than a tenth
-(and 3 actions), the way is left to the options until a shorter trial gives a new one. A
-shorter successful trial replaces the way, so it is refined as the robot learns.
+options for the rest of the trial. After two trials that took the way and ended longer than the
+best by more than a tenth (and 3 actions), the way is left to the options until a shorter trial
+gives a new one. A shorter successful trial replaces the way, so it is refined as the robot
+learns.
 
 Nothing here reads the walls or searches a map: only the robot's odometry, sonar readings,
 option choices and returns. ``tests/learner/test_remembered_way.py`` checks the pulled way
