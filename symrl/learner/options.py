@@ -187,6 +187,7 @@ class SubgoalOptions(BufferViews):
                 sonar_range=robot.sonar_range,
                 n_sensors=robot.n_sensors,
                 step=robot.step,
+                max_points=max_actions,
             )
         j = len(opts.borders)
         # per robot: the borders found blocked, the region graph's hops without them

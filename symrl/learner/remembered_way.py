@@ -70,16 +70,15 @@ class RememberedWay(BufferViews):
         sonar_range: float,
         n_sensors: int,
         step: float,
-        max_points: int = 12,
+        max_points: int,
         reach: float = 0.5,
         slack: float = 1.5,
     ) -> None:
         """``goal`` (the point steered at after the last via-point) and the radius of its disc;
         the robot's ``radius``, the ``clearance`` kept from the echoes beyond it, its sonar and
-        ``step`` length; at most
-        ``max_points`` via-points (a longer way is not kept); a via-point nearer than ``reach``
-        is passed; one not reached within ``slack`` times the straight way's actions ends the
-        way for the trial."""
+        ``step`` length; room for ``max_points`` via-points (the actions of a trial: a way has
+        at most one per pose); a via-point nearer than ``reach`` is passed; one not reached
+        within ``slack`` times the straight way's actions ends the way for the trial."""
         super().__init__()
         self.goal = np.array(goal, dtype=np.float64)
         self.goal_radius = float(goal_radius)

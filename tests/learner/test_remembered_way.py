@@ -27,6 +27,7 @@ def way(batch: int = 1, regions: int = 2) -> RememberedWay:
         sonar_range=RANGE,
         n_sensors=N,
         step=0.2,
+        max_points=200,
     )
 
 
