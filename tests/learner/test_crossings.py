@@ -229,7 +229,10 @@ def test_every_choice_is_credited_with_the_return_to_go_from_it():
 
     from symrl.assembly import build_policy, build_update
 
-    config = load_config("paper", ["crossings.enabled=true", "experts.learning=false"])
+    config = load_config(
+        "paper",
+        ["crossings.enabled=true", "experts.learning=false", "options.remembered_way=false"],
+    )
     policy = build_policy(config, OFFICE, [0])
     loss = build_update(config, policy)
     r = policy.region_names.index("west_office")

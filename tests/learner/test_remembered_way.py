@@ -221,14 +221,18 @@ def test_a_via_point_not_reached_in_time_hands_back_to_the_options() -> None:
     assert steps >= 5 and not w.following[0]
 
 
-def test_the_way_needs_the_crossings(capsys) -> None:
+def test_the_way_is_inert_without_the_crossings(tmp_path) -> None:
+    """It steers over the crossings' options: without them a run is the run without it."""
     from symrl.cli import main
+    from symrl.runs import read_trials_csv
 
-    args = ["train", "paper", "--trials", "1", "crossings.enabled=false"]
-    code = main([*args, "options.remembered_way=true"])
-    err = capsys.readouterr().err.strip().splitlines()
-    assert code != 0 and len(err) == 1
-    assert "options.remembered_way=true" in err[0] and "crossings.enabled=true" in err[0]
+    tables = []
+    for way in ("true", "false"):
+        out = tmp_path / way
+        args = ["train", "paper", "--trials", "3", "--seed", "5000", "--logdir", str(out)]
+        assert main([*args, "crossings.enabled=false", f"options.remembered_way={way}"]) == 0
+        tables.append(read_trials_csv(out / "trials.csv"))
+    assert tables[0] == tables[1]
 
 
 def test_the_way_is_learned_with_the_experts_off() -> None:

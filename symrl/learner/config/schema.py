@@ -83,11 +83,6 @@ class RunConfig(Section):
                 f"it needs options.source=rules, got options.source={o.source} "
                 "(or set crossings.enabled=false)"
             )
-        if o.remembered_way and not (o.enabled and self.crossings.enabled):
-            raise ValueError(
-                "options.remembered_way=true follows the best trial's way over the crossings it "
-                "learned: it needs options.enabled=true and crossings.enabled=true"
-            )
         if o.region_limit_scale is not None and o.region_limit is None:
             raise ValueError(
                 f"options.region_limit_scale={o.region_limit_scale} scales the timeout: it "
