@@ -1,17 +1,16 @@
-"""Backing out of a trap to where the robot was when it fell in.
+"""Backing out of a trap by the way the robot came.
 
-An option aimed past a wall the robot cannot see round (a pocket open toward it, two regions
-whose options point at each other across a line) holds the reflex where it is: the robot circles
-or goes to and fro, and the options' timeout does not free it (in a pocket cut by region lines
-each visit of a region is short, and the options offered next aim past the same walls). The
-robot's own trail says it is trapped: over the last ``window`` actions (twice the options'
-timeout) it got less than a tenth of the way those actions could take it. It then steers
-straight back to where it was ``window`` actions before (when that lies farther than ``reach``:
-else there is nothing to back out to), and the options it had chosen in every region it visited
-since are given up for the trial, so that the options choose anew there.
+An option aimed past a wall the robot cannot see round (a pocket open toward it, a concave
+corner, two regions whose options point at each other) holds the reflex where it is: the robot
+circles or slides to and fro, and the options' timeout only fires once the region's actions run
+out, which in a pocket cut by region lines they never do. The robot's own trail says it is
+trapped: over the last ``window`` actions (the options' timeout) it got less than a tenth of the
+way those actions could take it. It then steers back along its trail to where it was
+``2 * window`` actions before (or the trial's start), and the options it had chosen in every
+region it visited since are given up for the trial, so that the options choose anew there.
 
 Nothing here reads the walls: only the odometry poses of the trial. ``tests/learner/
-test_retreat.py`` checks the trap test, the way back and what the options give up.
+test_retreat.py`` checks the trap test and the way back.
 """
 
 from __future__ import annotations
