@@ -194,7 +194,7 @@ class SubgoalOptions(BufferViews):
         if self.config.retreat:
             assert self.config.region_limit is not None
             self.retreat = Retreat(
-                batch, max_actions, window=2 * self.config.region_limit, step=robot.step
+                batch, max_actions, window=self.config.region_limit, step=robot.step
             )
         j = len(opts.borders)
         # per robot: the borders found blocked, the region graph's hops without them

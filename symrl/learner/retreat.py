@@ -83,7 +83,7 @@ class Retreat:
                 continue
             if math.dist(self.trail[b, now], self.trail[b, now - w]) >= 0.1 * w * self.step:
                 continue
-            since = now - w
+            since = max(0, now - 2 * w)
             distance = math.dist(xy[b], self.trail[b, since])
             if distance < self.reach:  # trapped where it began: nothing to back out to
                 self._quiet[b] = now + w
