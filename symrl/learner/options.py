@@ -37,7 +37,6 @@ from symrl.learner.config import CrossingsConfig, OptionCriticConfig, OptionsCon
 from symrl.learner.crossings import CrossingMap
 from symrl.learner.option_critic import OptionCritic
 from symrl.learner.remembered_way import RememberedWay
-from symrl.learner.retreat import Retreat
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap
 
@@ -88,7 +87,6 @@ class SubgoalOptions(BufferViews):
         self.explore = explore
         self.crossings: CrossingMap | None = None
         self.remembered_way: RememberedWay | None = None
-        self.retreat: Retreat | None = None
         if crossings is not None and crossings.enabled:
             self._init_crossings(knowledge, batch, crossings, robot or RobotConfig(), max_actions)
         elif table is None:
@@ -190,11 +188,6 @@ class SubgoalOptions(BufferViews):
                 n_sensors=robot.n_sensors,
                 step=robot.step,
                 max_points=max_actions,
-            )
-        if self.config.retreat:
-            assert self.config.region_limit is not None
-            self.retreat = Retreat(
-                batch, max_actions, window=self.config.region_limit, step=robot.step
             )
         j = len(opts.borders)
         # per robot: the borders found blocked, the region graph's hops without them
@@ -348,17 +341,6 @@ class SubgoalOptions(BufferViews):
         visit[:] = region_np
         pose = odometry.numpy().astype(np.float64)
         xy = pose[:, :2]
-        if self.retreat is not None:  # a trapped robot backs out; then its options go
-            for b, visited in self.retreat.observe(xy, region_np):
-                here = int(region_np[b])
-                for r in visited:
-                    if choice[b, r] >= 0:
-                        self._stall(b, r, int(choice[b, r]))
-                        if r != here:
-                            choice[b, r] = -1  # chosen anew at the next entry
-                choice[b, here] = self._choose(b, here, greedy=True)
-                self._region_steps[b, here], stage[b] = 0, _FIRST_STAGE
-            chosen = choice[rows, region_np]
         on_route = chosen == self._route_option[region_np]
         late = self._zero_turn
         if self._timeout is not None:  # an option timed out gives way (the route re-plans)
@@ -367,8 +349,6 @@ class SubgoalOptions(BufferViews):
             late = (steps[rows, region_np] > self._limit[rows, region_np]) & ~on_route
             if self.remembered_way is not None:  # the way has its own timeout
                 late &= ~self.remembered_way.following
-            if self.retreat is not None:  # so has backing out
-                late &= ~self.retreat.active
             for b in np.flatnonzero(late).tolist():
                 here = int(region_np[b])
                 self._stall(b, here, int(chosen[b]))
@@ -404,8 +384,6 @@ class SubgoalOptions(BufferViews):
         if self.remembered_way is not None:
             scan = None if sonar is None else sonar.numpy().astype(np.float64)
             aim = self.remembered_way.aim(a["choice"], pose, aim, scan)
-        if self.retreat is not None:
-            aim = self.retreat.aim(aim)
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
@@ -479,8 +457,6 @@ class SubgoalOptions(BufferViews):
             self.route.forget(r)
         if self.remembered_way is not None:
             self.remembered_way.begin_trial(r)
-        if self.retreat is not None:
-            self.retreat.begin_trial(r)
         if self.crossings is not None:  # what is found blocked, from the learned evidence
             self.crossings.forget(r)
             self._trial_stalled[r] = False

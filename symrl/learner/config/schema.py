@@ -83,11 +83,6 @@ class RunConfig(Section):
                 f"it needs options.source=rules, got options.source={o.source} "
                 "(or set crossings.enabled=false)"
             )
-        if o.retreat and o.enabled and self.crossings.enabled and o.region_limit is None:
-            raise ValueError(
-                "options.retreat=true finds a robot trapped over options.region_limit actions: "
-                "it needs options.region_limit (an integer), got null"
-            )
         if o.region_limit_scale is not None and o.region_limit is None:
             raise ValueError(
                 f"options.region_limit_scale={o.region_limit_scale} scales the timeout: it "

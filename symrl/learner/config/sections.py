@@ -174,11 +174,6 @@ class OptionsConfig(Section):
     further off, at the sub-goal for the rest of the visit. The reward's heading term (f2) is
     measured against the goal's bearing, so heading at the goal while the sub-goal is nearly in
     line earns it at little cost to the route. 0: at the sub-goal from the region's entry."""
-    retreat: StrictBool = False
-    """With ``crossings``: a robot that got less than a tenth of the way in the last
-    ``region_limit`` actions backs out along its own trail to where it was twice as many actions
-    before, and gives up the options it chose in the regions it visited since
-    (``symrl.learner.retreat``)."""
     remembered_way: StrictBool = False
     """With ``crossings``: steer along the best trial's way, pulled tight where the trial's own
     echoes left room, while the options chosen are that trial's and until the options' aim is
