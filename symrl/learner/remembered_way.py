@@ -184,7 +184,7 @@ class RememberedWay(BufferViews):
         if not reached or steps >= best:
             return
         way = self._pulled(pose, sonar)
-        if way is None or len(way) > a["points"].shape[1]:
+        if len(way) > a["points"].shape[1]:
             return
         a["best"][row] = steps
         a["misses"][row] = 0
@@ -193,18 +193,17 @@ class RememberedWay(BufferViews):
         if way:
             a["points"][row, : len(way)] = np.array(way)
 
-    def _pulled(self, pose: np.ndarray, sonar: np.ndarray) -> list[np.ndarray] | None:
+    def _pulled(self, pose: np.ndarray, sonar: np.ndarray) -> list[np.ndarray]:
         """The via-points from the first pose to the last (where the trial reached the goal, in
-        its own odometry), pulled tight backward; None when some stretch had no pose that
-        could see its end."""
+        its own odometry), pulled tight backward."""
         echoes = self._echoes(pose, sonar)
         end = len(pose) - 1
         target = pose[end, :2].copy()
         vias: list[np.ndarray] = []
         while True:
-            i = next((i for i in range(end) if self._clear(pose[i, :2], target, echoes)), None)
-            if i is None:
-                return None
+            # the pose before is always a way there: the robot drove it (a door post nearer
+            # than the clearance hides nothing)
+            i = next((i for i in range(end) if self._clear(pose[i, :2], target, echoes)), end - 1)
             if i == 0:
                 return vias[::-1]
             target = pose[i, :2].copy()

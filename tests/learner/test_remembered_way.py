@@ -317,3 +317,21 @@ def test_a_wall_beside_the_goal_disc_does_not_hide_the_goal() -> None:
     out = w.aim(choice, pose, goal, scan(pose[0], [beside])[None])
     np.testing.assert_array_equal(out, goal)
     assert not w.following[0]
+
+
+def test_a_way_through_a_door_narrower_than_the_clearance_is_kept() -> None:
+    """A 0.7 m door: no straight way through it keeps the body and the clearance off both
+    posts, but the robot drove through it, step by step; the way is kept, through the door."""
+    door = [(-1.0, 2.0, 1.65, 2.0), (2.35, 2.0, 5.0, 2.0)]
+    path = [(2.0, 0.5 + 0.2 * k) for k in range(11)] + [(2.0 + 0.2 * k, 2.5) for k in range(1, 9)]
+    pose = np.array([(x, y, 0.0) for x, y in path])
+    sonar = np.stack([scan(p, door) for p in pose])
+    w = way()
+    w.learn(0, pose, sonar, np.array([0, 1]), reached=True)
+    assert int(w.best[0]) == len(path) - 1
+    points = w.points[0, : int(w.count[0])].numpy()
+    # every stretch of the way passes the door between its posts, not through the wall
+    ends = np.vstack([pose[:1, :2], points, pose[-1:, :2]])
+    for p, q in zip(ends[:-1], ends[1:], strict=True):
+        for wall in door:
+            assert segment_distance(p, q, wall) >= RADIUS - 1e-9
