@@ -320,9 +320,9 @@ def test_a_wall_beside_the_goal_disc_does_not_hide_the_goal() -> None:
 
 
 def test_a_way_through_a_door_narrower_than_the_clearance_is_kept() -> None:
-    """A 0.7 m door: no straight way through it keeps the body and the clearance off both
+    """A 0.6 m door: no straight way through it keeps the body and the clearance off both
     posts, but the robot drove through it, step by step; the way is kept, through the door."""
-    door = [(-1.0, 2.0, 1.65, 2.0), (2.35, 2.0, 5.0, 2.0)]
+    door = [(-1.0, 2.0, 1.7, 2.0), (2.3, 2.0, 5.0, 2.0)]
     path = [(2.0, 0.5 + 0.2 * k) for k in range(11)] + [(2.0 + 0.2 * k, 2.5) for k in range(1, 9)]
     pose = np.array([(x, y, 0.0) for x, y in path])
     sonar = np.stack([scan(p, door) for p in pose])
