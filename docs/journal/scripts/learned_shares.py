@@ -11,8 +11,9 @@ full - off over the sets (mean ± standard error; positive: the part helps).
 
 Off means: the crossing map ``crossings.enabled=false`` (each border option aims at one fixed
 point; the remembered way, which steers over the crossings, goes with it); the remembered way
-``options.remembered_way=false``; the option critic ``option_critic.epsilon=0 option_critic.try_untried=false`` (it never
-explores: every region keeps its first option until a timeout); the experts
+``options.remembered_way=false``; the option critic ``option_critic.epsilon=0
+option_critic.try_untried=false`` (it never explores: every region keeps its first option until
+a timeout); the experts
 ``experts.learning=false`` (the reflex's actions, no residual corrections, no trial gradient).
 """
 
