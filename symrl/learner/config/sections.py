@@ -180,7 +180,7 @@ class OptionsConfig(Section):
     in plain sight where the way leads too (``symrl.learner.remembered_way``). It steers over
     the crossings' options: without ``crossings.enabled`` (or ``options.enabled``) it is
     inert, as the crossings are without options. On in ``paper``: 24 tuning worlds 1.147 ->
-    1.127 x optimum, the paper's world unchanged (docs/explanation/regions-learner.md)."""
+    1.113 x optimum, the paper's world unchanged (docs/explanation/regions-learner.md)."""
 
     @field_validator("source")
     @classmethod
