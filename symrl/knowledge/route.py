@@ -22,7 +22,7 @@ import numpy as np
 
 from symrl.knowledge.option_sources import option_table
 from symrl.knowledge.option_tables import ROUTE
-from symrl.knowledge.planner import robot_clearances, shortest_path
+from symrl.knowledge.planner import Plan, robot_clearances, shortest_path
 from symrl.world.worldmap import WorldMap
 
 __all__ = ["ROUTE", "Route", "option_table"]
@@ -79,18 +79,30 @@ class Route:
         i = int(np.argmin(d))
         return start + i if d[i] <= self.reach else None
 
+    def plan_from(self, here: np.ndarray) -> float | None:
+        """The length (m) of the shortest way from ``here`` to the goal disc, as the route
+        would plan it (None where there is none)."""
+        plan = self._plan(here)
+        return None if plan is None else plan.length
+
     def _replan(self, here: np.ndarray) -> np.ndarray | None:
-        """The path from ``here`` (its first point), resampled every 5 cm; nearer a wall than
-        the planner's clearance, planned keeping the body radius only; None where there is no
-        way even so."""
+        """The path from ``here`` (its first point), resampled every 5 cm; None where there
+        is no way."""
+        plan = self._plan(here)
+        if plan is None:
+            return None
+        self.plans += 1
+        return _resampled(np.asarray(plan.points, dtype=np.float64))
+
+    def _plan(self, here: np.ndarray) -> Plan | None:
+        """The shortest path from ``here``; nearer a wall than the planner's clearance, planned
+        keeping the body radius only; None where there is no way even so."""
         start = (float(here[0]), float(here[1]))
         for clearance in (None, robot_clearances()[0]):
             try:
-                points = shortest_path(self.world, start=start, clearance=clearance).points
+                return shortest_path(self.world, start=start, clearance=clearance)
             except ValueError:
                 continue
-            self.plans += 1
-            return _resampled(np.asarray(points, dtype=np.float64))
         return None
 
 

@@ -7,6 +7,8 @@ trial. It is one module handed to both, and only its own methods write its buffe
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import torch
 
@@ -18,8 +20,9 @@ __all__ = ["OptionCritic"]
 class OptionCritic(BufferViews):
     """Buffers: ``q`` (B, R, K) mean (or best) return-to-go of each region's options, ``n``
     (B, R, K) trials that chose each, ``epsilon`` (B,) the actor's exploration rate, ``trials``
-    (B,) trials learned from, and with ``stalls`` ``stalled`` (B, R, K): the options that needed
-    another to finish their region (they are not chosen again)."""
+    (B,) trials learned from, with ``stalls`` ``stalled`` (B, R, K): the options that needed
+    another to finish their region (they are not chosen again), and with ``shortest``
+    ``shortest`` (B,): the fewest actions of a trial that reached the goal (inf: none yet)."""
 
     q: torch.Tensor
     n: torch.Tensor
@@ -35,6 +38,7 @@ class OptionCritic(BufferViews):
         epsilon_decay: float,
         critic: str = "mean",
         stalls: bool = False,
+        shortest: bool = False,
     ) -> None:
         super().__init__()
         self.epsilon_decay = float(epsilon_decay)
@@ -45,11 +49,29 @@ class OptionCritic(BufferViews):
         self.register_buffer("trials", torch.zeros(batch, dtype=torch.long))
         if stalls:
             self.register_buffer("stalled", torch.zeros(batch, regions, options, dtype=torch.bool))
+        if shortest:
+            self.register_buffer("shortest", torch.full((batch,), math.inf, dtype=torch.float64))
 
     @property
     def stalls(self) -> bool:
         """Whether the critic remembers stalled options."""
         return "stalled" in self._buffers
+
+    @property
+    def tracks_shortest(self) -> bool:
+        """Whether the critic remembers each robot's shortest trial to the goal."""
+        return "shortest" in self._buffers
+
+    def shortest_trial(self, b: int) -> float:
+        """Robot ``b``'s fewest actions in a trial that reached the goal (inf: none yet)."""
+        return float(self.arrays["shortest"][b])
+
+    def finish(self, rows: np.ndarray, steps: np.ndarray, reached: np.ndarray) -> None:
+        """Robots ``rows``' trials took ``steps`` (k,) actions and ``reached`` (k,) the goal or
+        not: the shortest trials so far follow."""
+        shortest = self.arrays["shortest"]
+        won = rows[reached]
+        shortest[won] = np.minimum(shortest[won], steps[reached])
 
     def stall(self, b: int, region: int, option: int) -> None:
         """Controller ``b``'s ``option`` needed another to finish ``region``."""

@@ -113,6 +113,9 @@ class SubgoalOptions(BufferViews):
             else None
         )
         slack = config.region_limit
+        self._bounds_tries = (
+            explore.try_untried and explore.try_if_shorter and self.crossings is None
+        )
         # learned across trials; with the region limit, an option given up is not chosen again
         self.critic = OptionCritic(
             batch,
@@ -122,7 +125,12 @@ class SubgoalOptions(BufferViews):
             explore.epsilon_decay,
             explore.critic,
             stalls=slack is not None and self.crossings is None,
+            shortest=self._bounds_tries,
         )
+        # the actions of the trial so far, and each option's way on from its point (the bound)
+        self._trial_steps = np.zeros(batch, dtype=np.int64)
+        self._planned: np.ndarray | None = None
+        self._to_goal = self._ways_on(knowledge) if self._bounds_tries else None
         self._zero_turn = np.zeros(batch, dtype=bool)
         self.register_buffer("choice", torch.full((batch, r), -1, dtype=torch.long))
         self.register_buffer("stage", torch.zeros(batch, dtype=torch.long))
@@ -138,6 +146,47 @@ class SubgoalOptions(BufferViews):
         self._limit_scale = config.region_limit_scale
         self._step_length = float((robot or RobotConfig()).step)
         self._limit = np.full((batch, r), math.inf if slack is None else float(slack))
+
+    def _ways_on(self, knowledge: Knowledge) -> np.ndarray:
+        """(R, K) the metres from each option's point to the goal disc at the least: the
+        straight way (the route's: 0); told the map, :meth:`_could_be_shorter` replaces it with
+        the planned way where the straight one cannot tell."""
+        table = self.table
+        assert table is not None
+        points = table.points.numpy().astype(np.float64)
+        goal = knowledge.goal
+        straight = np.hypot(points[..., 0] - goal.x, points[..., 1] - goal.y) - goal.radius
+        ways = np.maximum(straight, 0.0)
+        ways[~table.valid.numpy()] = 0.0
+        on_route = self._route_option >= 0
+        ways[np.flatnonzero(on_route), self._route_option[on_route]] = 0.0
+        # planned once each, and only when asked (a plan on a building takes up to seconds)
+        self._planned = np.zeros(ways.shape, dtype=bool) if self.route is not None else None
+        return ways
+
+    def _could_be_shorter(self, b: int, region: int, option: int, xy: np.ndarray) -> bool:
+        """Whether robot ``b`` at ``xy`` trying ``option`` of ``region`` could still finish
+        the trial in fewer actions than its shortest trial to the goal so far."""
+        assert self._to_goal is not None
+        if option == self._route_option[region]:
+            return True
+        shortest = self.critic.shortest_trial(b)
+        point = self.arrays["points"][region, option]
+        to_point = math.hypot(point[0] - xy[0], point[1] - xy[1])
+
+        def bound() -> float:
+            assert self._to_goal is not None
+            way = to_point + self._to_goal[region, option]
+            return self._trial_steps[b] + way / self._step_length
+
+        planned = self._planned
+        if bound() < shortest and planned is not None and not planned[region, option]:
+            assert self.route is not None
+            length = self.route.plan_from(np.asarray(point, dtype=np.float64))
+            if length is not None:
+                self._to_goal[region, option] = max(self._to_goal[region, option], length)
+            planned[region, option] = True
+        return bound() < shortest
 
     def _init_crossings(
         self,
@@ -330,17 +379,18 @@ class SubgoalOptions(BufferViews):
         choice = a["choice"]
         chosen = choice[rows, region_np]
         entered = chosen < 0
+        pose = odometry.numpy().astype(np.float64)
+        xy = pose[:, :2]
         if entered.any():
             for b in np.flatnonzero(entered).tolist():
-                choice[b, region_np[b]] = self._choose(b, int(region_np[b]), greedy)
+                choice[b, region_np[b]] = self._choose(b, int(region_np[b]), greedy, xy[b])
             chosen = choice[rows, region_np]
         # a new visit of a region starts at its first stage again
         stage, visit = a["stage"], a["visit"]
         stage[region_np != visit] = _FIRST_STAGE
         starting = visit < 0
         visit[:] = region_np
-        pose = odometry.numpy().astype(np.float64)
-        xy = pose[:, :2]
+        self._trial_steps += 1
         on_route = chosen == self._route_option[region_np]
         late = self._zero_turn
         if self._timeout is not None:  # an option timed out gives way (the route re-plans)
@@ -409,9 +459,10 @@ class SubgoalOptions(BufferViews):
         need = self._limit_scale * distance / self._step_length
         self._limit[rows, region] = np.maximum(float(self._timeout), need)
 
-    def _choose(self, b: int, region: int, greedy: bool) -> int:
-        """Controller ``b``'s option for ``region`` at its first entry in a trial (on Python
-        numbers: a handful of values, read once; the draws are those of the tensor version)."""
+    def _choose(self, b: int, region: int, greedy: bool, xy: np.ndarray | None = None) -> int:
+        """Controller ``b``'s option for ``region`` at its first entry in a trial, its robot at
+        ``xy`` (on Python numbers: a handful of values, read once; the draws are those of the
+        tensor version)."""
         explore = self.explore
         a, learned = self.arrays, self.critic.arrays
         valid = a["valid"][region].tolist()
@@ -431,6 +482,8 @@ class SubgoalOptions(BufferViews):
         gen = self.generators[b]
         if not greedy_only:
             untried = [o for o in options if counts[o] == 0]
+            if self._to_goal is not None and xy is not None:
+                untried = [o for o in untried if self._could_be_shorter(b, region, o, xy)]
             if explore.try_untried and untried:
                 return untried[0]
             epsilon = float(learned["epsilon"][b])
@@ -451,6 +504,7 @@ class SubgoalOptions(BufferViews):
         a["stage"][r] = _FIRST_STAGE
         a["visit"][r] = -1
         self._region_steps[r] = 0
+        self._trial_steps[r] = 0
         if self._timeout is not None:
             self._limit[r] = float(self._timeout)
         if self.route is not None:
@@ -472,6 +526,10 @@ class SubgoalOptions(BufferViews):
         """The trials of controllers ``rows`` as the critic learns from them: the option each
         region was visited with (k, R) (-1: not entered; a copy)."""
         return self.arrays["choice"][rows].copy()
+
+    def trial_steps(self, rows: np.ndarray) -> np.ndarray:
+        """The actions of controllers ``rows``' trials so far (k,) (a copy)."""
+        return self._trial_steps[rows].copy()
 
     def greedy(self, row: int) -> list[int]:
         """The option each region of controller ``row`` would choose greedily (-1: none tried)."""

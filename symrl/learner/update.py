@@ -371,6 +371,10 @@ class TeseoUpdate:
             assert self.options is not None
             returns = self.returns.close_entries(rows_np)
             self.critic.learn(rows_np, self.options.trial_choices(rows_np), returns)
+        if self.critic is not None and self.critic.tracks_shortest:
+            assert self.options is not None
+            steps = self.options.trial_steps(rows_np).astype(np.float64)
+            self.critic.finish(rows_np, steps, reached.numpy().astype(bool))
         self.returns.close(rows_np)
         if self.record is not None:
             self.record.clear(rows_np)

@@ -393,3 +393,40 @@ def test_a_timeout_scaled_by_the_aims_distance_gives_a_far_aim_the_actions_it_ne
 def test_the_scaled_timeout_needs_the_timeout():
     with pytest.raises(ValueError, match=r"options.region_limit_scale=1.5 .* options.region_limit"):
         load_config("paper", ["options.region_limit_scale=1.5", "options.region_limit=null"])
+
+
+@pytest.mark.parametrize("shortest, tried", [(20.0, False), (40.0, True)])
+def test_an_untried_option_is_tried_only_while_it_could_beat_the_shortest_trial(shortest, tried):
+    # from (0, 0) by s1 (3.5, -0.5) to the goal disc: 3.54 m + 1.58 m - radius, ~23 actions
+    opt = _options(epsilon=0.0, try_if_shorter=True)
+    assert _trial(opt, {0: -10.0}) == 0  # no trial has reached the goal yet: untried first
+    opt.critic.finish(np.array([0]), np.array([shortest]), np.array([True]))
+    assert _trial(opt, {0: -10.0, 1: -5.0, 2: -5.0}) == (1 if tried else 0)
+
+
+def test_the_critic_keeps_the_shortest_trial_that_reached_the_goal():
+    opt = _options(try_if_shorter=True)
+    critic = opt.critic
+    assert critic.tracks_shortest and critic.shortest_trial(0) == math.inf
+    critic.finish(np.array([0]), np.array([30.0]), np.array([False]))  # missed: not counted
+    assert critic.shortest_trial(0) == math.inf
+    critic.finish(np.array([0]), np.array([30.0]), np.array([True]))
+    critic.finish(np.array([0]), np.array([40.0]), np.array([True]))
+    assert critic.shortest_trial(0) == 30.0
+    assert not _options().critic.tracks_shortest
+
+
+@pytest.mark.parametrize("shortest, tried", [(8.0, False), (10.0, True)])
+def test_told_the_map_the_bound_is_the_planned_way_from_the_options_point(shortest, tried):
+    # the concave region's way back to the room, (3.0, -0.6): 1.32 m straight to the goal disc
+    # (6.6 actions), 1.86 m planned round the door post (9.3 actions)
+    config = paper_map("option_critic.try_if_shorter=true", "option_critic.epsilon=0")
+    opt = SubgoalOptions(WORLD, 1, config.options, [0], explore=config.option_critic)
+    concave = opt.region_names.index("concave")
+    way_back = opt.labels[concave].index("l1>room")
+    assert opt.points[concave, way_back].tolist() == pytest.approx([3.0, -0.6])
+    opt.critic.n[0, concave] = 1
+    opt.critic.n[0, concave, way_back] = 0  # only the way back is untried
+    opt.critic.finish(np.array([0]), np.array([shortest]), np.array([True]))
+    _, option, *_ = opt.steer(torch.tensor([concave]), _odometry((3.0, -0.6, 0.0)), greedy=False)
+    assert (int(option[0]) == way_back) == tried

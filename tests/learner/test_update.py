@@ -397,6 +397,18 @@ def test_option_return_to_go_starts_at_each_regions_first_entry():
     assert float(update.returns.trial_return[0]) == 0.0 and not update.returns.entry_return.any()
 
 
+def test_the_critic_learns_the_shortest_trial_that_reached_the_goal():
+    p = policy("paper_map", "option_critic.try_if_shorter=true")
+    update = teseo(p)
+    rows, critic = torch.tensor([0]), p.options.critic
+    for actions, reached in ((3, False), (4, True), (2, True), (3, True)):
+        p.begin_trial(rows)
+        for _ in range(actions):
+            _act(p, update, A, B, -1.0)
+        update.end_trial(rows, torch.tensor([-float(actions)]), torch.tensor([reached]))
+    assert critic.shortest_trial(0) == 2.0
+
+
 def test_end_trial_reports_the_temperature_the_trial_explored_with():
     p = policy("paper_literal", "update.temperature0=0.3", "update.cooling=0.5")
     update = teseo(p)

@@ -130,6 +130,13 @@ class OptionCriticConfig(Section):
     """From this many finished trials on, options are chosen greedily (0: never forced)."""
     try_untried: StrictBool = True
     """Every option is tried once before any greedy choice (its critic is unknown until then)."""
+    try_if_shorter: StrictBool = False
+    """With ``try_untried``: an untried option is tried only while it could still make the trial
+    shorter than the robot's shortest trial to the goal so far: the actions already taken plus
+    the straight way to its point plus, told the map, the planned way from its point to the goal
+    (else the straight way) must be fewer. A lower bound, so no option that could be better is
+    skipped; on a building with many doors per region most are. Options with fixed points only
+    (not with ``crossings``)."""
     critic: Literal["mean", "best"] = "mean"
     """Option critic: the mean return-to-go over its trials, or the best single one."""
 
