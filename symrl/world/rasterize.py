@@ -1,8 +1,9 @@
 """A world drawn as a ROS occupancy map: the image and the ``map_server`` YAML of a WorldMap.
 
 The reverse of :mod:`symrl.world.occupancy`: a cell is free (254) when its centre lies in the
-free area and no thin wall passes through it, occupied (0) within ``wall`` metres of the free
-area (the walls a laser scan sees), unknown (205) beyond, as ``map_saver`` writes a SLAM map.
+free area and no thin wall passes through it (a thin wall is one cell thick), occupied (0)
+within ``wall`` metres of the free area (the walls a laser scan sees), unknown (205) beyond, as
+``map_saver`` writes a SLAM map.
 Used to check that a world survives the round trip and to make example maps.
 """
 
@@ -15,8 +16,6 @@ import numpy as np
 import shapely
 import yaml
 from PIL import Image
-from shapely.geometry import LineString
-from shapely.ops import unary_union
 
 from symrl.world.worldmap import WorldMap
 
@@ -41,17 +40,29 @@ def occupancy_image(
     gx, gy = np.meshgrid(xs, ys)
     free_area = world.free_polygon
     free = shapely.contains_xy(free_area, gx, gy)
-    if len(world.extra_segments):
-        thin = unary_union([LineString([(a, b), (c, d)]) for a, b, c, d in world.extra_segments])
-        band = thin.buffer(0.5 * resolution, cap_style="square")
-        shapely.prepare(band)
-        free &= ~shapely.intersects_xy(band, gx, gy)
+    for segment in world.extra_segments:
+        r, c = _cells_crossed(segment, (ox, oy), resolution, rows)
+        free[r, c] = False
     near = free_area.buffer(wall + 0.5 * resolution, join_style="mitre")
     shapely.prepare(near)
     image = np.full((rows, cols), UNKNOWN, dtype=np.uint8)
     image[shapely.intersects_xy(near, gx, gy)] = OCCUPIED
     image[free] = FREE
     return image, (float(ox), float(oy))
+
+
+def _cells_crossed(
+    segment: np.ndarray, origin: tuple[float, float], resolution: float, rows: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The (row, column) indices of the cells a thin wall passes through, each cell taken as
+    half-open ``[x0, x1) x [y0, y1)``: a wall along a cell border is one cell thick, not two,
+    and it ends where it ends, not half a cell beyond."""
+    a, b, c, d = (float(v) for v in segment)
+    n = max(1, math.ceil(4.0 * math.hypot(c - a, d - b) / resolution))
+    t = np.linspace(0.0, 1.0, n + 1)
+    col = np.floor((a + t * (c - a) - origin[0]) / resolution).astype(np.int64)
+    up = np.floor((b + t * (d - b) - origin[1]) / resolution).astype(np.int64)
+    return rows - 1 - up, col
 
 
 def save_occupancy(
