@@ -18,7 +18,7 @@ from symrl.knowledge.planner import shortest_path
 from symrl.world import MapError, load_map
 from symrl.world.occupancy import free_cells, read_occupancy, trace_world
 from symrl.world.rasterize import occupancy_image, save_occupancy
-from symrl.world.worldmap import builtin_maps
+from symrl.world.worldmap import builtin_maps, parse_map
 
 RES = 0.1
 
@@ -194,6 +194,30 @@ def test_traced_walls_lie_within_one_cell_of_the_image(tmp_path_factory, w, h, p
     )
     assert traced.hausdorff_distance(truth) <= res * 1.001
     assert abs(traced.area - truth.area) <= res * traced.length
+
+
+def test_a_thin_wall_is_drawn_one_cell_thick_and_ends_where_it_ends():
+    # a 4 m x 2 m room with a thin wall on the cell border x = 2.0 from the top to y = 1.0
+    world = parse_map(
+        {
+            "name": "thin",
+            "boundary": [[0, 0], [4, 0], [4, 2], [0, 2]],
+            "segments": [[[2.0, 2.0], [2.0, 1.0]]],
+            "start": {"x": 1.0, "y": 0.5, "heading": 0.0},
+            "goal": {"x": 3.0, "y": 1.5, "radius": 0.3},
+        }
+    )
+    res = 0.1
+    image, (ox, oy) = occupancy_image(world, res)
+    rows = image.shape[0]
+
+    def cell(x: float, y: float) -> int:
+        return int(image[rows - 1 - math.floor((y - oy) / res), math.floor((x - ox) / res)])
+
+    across = [cell(x, 1.5) for x in np.arange(0.05, 4.0, res)]
+    assert across.count(0) == 1  # one cell thick, not the two cells either side of x = 2
+    assert [cell(1.95, 1.05), cell(2.05, 1.05)].count(0) == 1  # down to its end...
+    assert cell(1.95, 0.95) == 254 and cell(2.05, 0.95) == 254  # ...and no farther
 
 
 def test_a_rendered_world_reads_back(tmp_path):
