@@ -20,7 +20,11 @@ reading, s the reading's noise, P the prior's spread. Its derivative is exact: a
 (x, y) at angle phi hits a wall with direction d at distance t = (w x d) / (u x d), so
 dt/dx = -d_y / (u x d), dt/dy = d_x / (u x d), dt/dphi = t (u . d) / (u x d). Readings at the
 sonar's range, rays grazing a wall and readings far from the prediction (a corner the ray
-clips, a wall the pose's error puts another in front of) get no or less weight (Huber). A step
+clips, a wall the pose's error puts another in front of) get less weight (Huber), and with
+``outlier`` none beyond it: in a corridor whose door gaps repeat, a ray the model sends through
+a gap the scan saw as wall (or the reverse) is mispredicted by metres, and under Huber a few such
+rays pull the belief along the corridor a trust region per step until it locks onto the next
+gap, a room's pitch off (``docs/journal/buildings.md``). A step
 moves the position by at most ``max_move`` (a trust region): where the walls pin the pose only
 across a corridor (one at 45 degrees, a long one), one ray mispredicted near a wall's end would
 otherwise throw the estimate metres along it.
@@ -70,6 +74,7 @@ class MapLocalizer:
         min_incidence: float = 0.2,
         edge: float = 0.05,
         max_move: float | None = 0.1,
+        outlier: float | None = None,
     ) -> None:
         if iterations < 1:
             raise ValueError(f"MapLocalizer: iterations must be >= 1, got {iterations}")
@@ -82,6 +87,8 @@ class MapLocalizer:
             raise ValueError(f"MapLocalizer: max_move must be > 0 or None, got {max_move}")
         if not edge >= 0:
             raise ValueError(f"MapLocalizer: edge must be >= 0, got {edge}")
+        if outlier is not None and not outlier > 0:
+            raise ValueError(f"MapLocalizer: outlier must be > 0 or None, got {outlier}")
         self.walls = walls
         self.robot = robot
         self.iterations = int(iterations)
@@ -89,6 +96,7 @@ class MapLocalizer:
         self.min_incidence = float(min_incidence)
         self.edge = float(edge)
         self.max_move = None if max_move is None else float(max_move)
+        self.outlier = None if outlier is None else float(outlier)
         n = robot.n_sensors
         axes = np.arange(n) * (2.0 * math.pi / n)
         # a beam cone's reading is its nearest sub-ray (as in the physics): the model casts
@@ -215,6 +223,8 @@ class MapLocalizer:
         residual = np.where(ok, predicted - measured, 0.0)
         # Huber: huber / |r| beyond huber, else 1 (the minimum is 1 exactly up to huber)
         weight = np.minimum(self.huber / np.maximum(np.abs(residual), 1e-12), 1.0)
+        if self.outlier is not None:
+            ok = ok & (np.abs(residual) <= self.outlier)
         weight = np.where(ok, weight * self.reading_weight, 0.0)
         jw_t = np.swapaxes(jac * weight[..., None], 1, 2)  # (B, 3, n)
         offset = pose - prior_pose

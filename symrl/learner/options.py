@@ -488,7 +488,11 @@ class SubgoalOptions(BufferViews):
                 return untried[0]
             epsilon = float(learned["epsilon"][b])
             if torch.rand((), generator=gen, dtype=torch.float64).item() < epsilon:
-                return options[int(torch.randint(len(options), (), generator=gen))]
+                drawn = options  # bounded as the untried are (the route's option always passes)
+                if self._to_goal is not None and xy is not None:
+                    drawn = [o for o in options if self._could_be_shorter(b, region, o, xy)]
+                    drawn = drawn or options
+                return drawn[int(torch.randint(len(drawn), (), generator=gen))]
         q = learned["q"][b, region].tolist()
         tried = [q[o] if counts[o] > 0 and valid[o] else -math.inf for o in range(len(q))]
         best = max(tried)

@@ -77,6 +77,7 @@ class Perception(Transform):
                     lc.prior_xy,
                     lc.prior_heading,
                     max_move=lc.max_move,
+                    outlier=lc.outlier,
                 ),
                 batch,
             )

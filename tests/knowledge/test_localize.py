@@ -154,6 +154,24 @@ def test_a_scan_with_one_stray_reading_still_gives_the_pose():
     assert math.dist(out[0, :2], true[0, :2]) < 0.03
 
 
+def test_a_reading_beyond_outlier_counts_as_if_it_were_not_there():
+    """With ``outlier``, a reading mispredicted by more than it gives the estimate of the scan
+    without it (a reading at the sonar's range says nothing); without, it still pulls."""
+    true = np.array([[1.5, -0.8, 1.0]])
+    readings = scan(WALLS, true)
+    start = true + np.array([[0.05, -0.04, 0.02]])
+    stray, gone = readings.copy(), readings.copy()
+    stray[0, 5] *= 0.3  # metres short: a wall the map does not hold
+    gone[0, 5] = 1.0
+    assert abs(readings[0, 5] - stray[0, 5]) * ROBOT.sonar_range > 0.5
+    cut = MapLocalizer(WALLS, ROBOT, iterations=1, outlier=0.5)
+    assert np.allclose(cut(start, stray), cut(start, gone), rtol=0, atol=1e-12)
+    huber = MapLocalizer(WALLS, ROBOT, iterations=1)
+    assert not np.allclose(huber(start, stray), huber(start, gone), rtol=0, atol=1e-6)
+    # readings within it count as before
+    assert np.allclose(cut(start, readings), huber(start, readings), rtol=0, atol=1e-12)
+
+
 def test_one_step_moves_the_pose_at_most_max_move_toward_the_scans_pose():
     """A trust region: an estimate 0.4 m off is pulled back by 0.1 m a step, along the full
     step's direction, and gets there in a few steps."""
@@ -178,6 +196,7 @@ def test_one_step_moves_the_pose_at_most_max_move_toward_the_scans_pose():
         ({"huber": -1.0}, "huber"),
         ({"edge": -0.1}, "edge"),
         ({"max_move": 0.0}, "max_move"),
+        ({"outlier": 0.0}, "outlier"),
     ],
 )
 def test_bad_settings_are_named(kwargs, field):

@@ -131,12 +131,12 @@ class OptionCriticConfig(Section):
     try_untried: StrictBool = True
     """Every option is tried once before any greedy choice (its critic is unknown until then)."""
     try_if_shorter: StrictBool = False
-    """With ``try_untried``: an untried option is tried only while it could still make the trial
-    shorter than the robot's shortest trial to the goal so far: the actions already taken plus
-    the straight way to its point plus, told the map, the planned way from its point to the goal
-    (else the straight way) must be fewer. A lower bound, so no option that could be better is
-    skipped; on a building with many doors per region most are. Options with fixed points only
-    (not with ``crossings``)."""
+    """An option is tried (untried, with ``try_untried``) or drawn by the epsilon-greedy actor
+    only while it could still make the trial shorter than the robot's shortest trial to the
+    goal so far: the actions already taken plus the straight way to its point plus, told the
+    map, the planned way from its point to the goal (else the straight way) must be fewer. A
+    lower bound, so no option that could be better is skipped; on a building with many doors
+    per region most are. Options with fixed points only (not with ``crossings``)."""
     critic: Literal["mean", "best"] = "mean"
     """Option critic: the mean return-to-go over its trials, or the best single one."""
 
@@ -234,6 +234,12 @@ class LocalizeSection(Section):
     action; a scan whose readings the map explains weakly along a corridor's axis (a 45-degree
     corridor, `office`'s long corridor) otherwise lets one mispredicted ray throw the estimate
     metres along it."""
+    outlier: float | None = Field(None, gt=0)
+    """Readings the map mispredicts by more than this (m) get no weight (None: every reading
+    counts, beyond 5 cm less). The sonar's noise is a centimetre and the drift millimetres per
+    action, so a reading metres off is a ray the model sends through a gap the scan saw as
+    wall, or the reverse; along a corridor of repeating doors a few of them otherwise drag the
+    belief to the next door."""
 
 
 class ShieldSection(Section):
