@@ -114,7 +114,7 @@ class SubgoalOptions(BufferViews):
         )
         slack = config.region_limit
         self._bounds_tries = (
-            explore.try_untried and explore.try_if_shorter and self.crossings is None
+            explore.try_if_shorter and self.crossings is None
         )
         # learned across trials; with the region limit, an option given up is not chosen again
         self.critic = OptionCritic(

@@ -404,6 +404,14 @@ def test_an_untried_option_is_tried_only_while_it_could_beat_the_shortest_trial(
     assert _trial(opt, {0: -10.0, 1: -5.0, 2: -5.0}) == (1 if tried else 0)
 
 
+@pytest.mark.parametrize("shortest, drawn", [(23.0, {0}), (24.0, {0, 1}), (40.0, {0, 1, 2})])
+def test_an_epsilon_draw_takes_only_options_that_could_beat_the_shortest_trial(shortest, drawn):
+    # from (0, 0) the goal lies 22.4 actions off (option 0), by s1 23.6 (option 1), by s2 25.2
+    opt = _options(epsilon=1.0, epsilon_decay=1.0, try_untried=False, try_if_shorter=True)
+    opt.critic.finish(np.array([0]), np.array([shortest]), np.array([True]))
+    assert {_trial(opt, {0: -10.0, 1: -5.0, 2: -5.0}) for _ in range(30)} == drawn
+
+
 def test_the_critic_keeps_the_shortest_trial_that_reached_the_goal():
     opt = _options(try_if_shorter=True)
     critic = opt.critic
