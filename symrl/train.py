@@ -347,13 +347,15 @@ def _load_numpy_fields(obj: Any, state: dict[str, Any] | None) -> None:
 
 def _working_parts(policy, update) -> dict[str, Any]:
     """The objects whose attributes hold a trial in progress beyond the state dicts: the trial
-    gradient's record, the localiser's warm start, the options' step counts and route."""
+    gradient's record, the localiser's warm start, the options' step counts and route, the
+    goal scans' trial flags."""
     options = policy.options
     return {
         "loss_record": update.record,
         "tracker": policy.perception.tracker,
         "options": options,
         "route": getattr(options, "route", None),
+        "goal_scans": getattr(options, "goal_scans", None),
     }
 
 

@@ -35,6 +35,7 @@ from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import CrossingsConfig, OptionCriticConfig, OptionsConfig
 from symrl.learner.crossings import CrossingMap
+from symrl.learner.goal_scans import GoalScans
 from symrl.learner.option_critic import OptionCritic
 from symrl.learner.remembered_way import RememberedWay
 from symrl.world.robot import RobotConfig
@@ -113,9 +114,7 @@ class SubgoalOptions(BufferViews):
             else None
         )
         slack = config.region_limit
-        self._bounds_tries = (
-            explore.try_if_shorter and self.crossings is None
-        )
+        self._bounds_tries = explore.try_if_shorter and self.crossings is None
         # learned across trials; with the region limit, an option given up is not chosen again
         self.critic = OptionCritic(
             batch,
@@ -132,6 +131,16 @@ class SubgoalOptions(BufferViews):
         self._planned: np.ndarray | None = None
         self._to_goal = self._ways_on(knowledge) if self._bounds_tries else None
         self._zero_turn = np.zeros(batch, dtype=bool)
+        self.goal_scans = (
+            GoalScans(
+                batch,
+                goal=self.goal,
+                goal_radius=float(knowledge.goal.radius),
+                robot=robot or RobotConfig(),
+            )
+            if config.goal_scans
+            else None
+        )
         self.register_buffer("choice", torch.full((batch, r), -1, dtype=torch.long))
         self.register_buffer("stage", torch.zeros(batch, dtype=torch.long))
         self.register_buffer("visit", torch.full((batch,), -1, dtype=torch.long))
@@ -434,6 +443,8 @@ class SubgoalOptions(BufferViews):
         if self.remembered_way is not None:
             scan = None if sonar is None else sonar.numpy().astype(np.float64)
             aim = self.remembered_way.aim(a["choice"], pose, aim, scan)
+        if self.goal_scans is not None:
+            aim = self.goal_scans.aim(pose, aim, None if sonar is None else sonar.numpy())
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
@@ -515,6 +526,8 @@ class SubgoalOptions(BufferViews):
             self.route.forget(r)
         if self.remembered_way is not None:
             self.remembered_way.begin_trial(r)
+        if self.goal_scans is not None:
+            self.goal_scans.begin_trial(r)
         if self.crossings is not None:  # what is found blocked, from the learned evidence
             self.crossings.forget(r)
             self._trial_stalled[r] = False

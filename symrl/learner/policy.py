@@ -84,6 +84,7 @@ _PER_ROBOT_MODULES = (
     "options.critic.",
     "options.crossings.",
     "options.remembered_way.",
+    "options.goal_scans.",
 )
 """State-dict entries with one row per robot: those named, and every buffer of those modules."""
 _BLOCK = 1024  # random draws per robot per refill: one call per robot instead of one per step

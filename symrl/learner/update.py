@@ -130,8 +130,10 @@ class TeseoUpdate:
         # (empty at every trial boundary, where runs are saved, so it is not part of the state)
         self.record: TrialRecord | None = None
         self._gradient_on = trial_gradient.rate > 0 and self.learning
-        way = policy.options.remembered_way if policy.options is not None else None
-        if self._gradient_on or way is not None:
+        options = policy.options
+        way = options.remembered_way if options is not None else None
+        arrivals = options.goal_scans if options is not None else None
+        if self._gradient_on or way is not None or arrivals is not None:
             rays = policy.reflex.config.n_rays
             self.record = TrialRecord(batch, max_actions, rays)
 
@@ -392,9 +394,16 @@ class TeseoUpdate:
 
     def _learn_way(self, rows: np.ndarray, reached: np.ndarray) -> None:
         """The finished trials of ``rows`` (``reached`` (k,) bool) for the remembered way
-        (options with ``remembered_way``), from the record."""
-        way = self.options.remembered_way if self.options is not None else None
+        (options with ``remembered_way``) and the goal's arrival scans (``goal_scans``), from
+        the record."""
         rec = self.record
+        arrivals = self.options.goal_scans if self.options is not None else None
+        if arrivals is not None and rec is not None:  # where each success arrived
+            for b, ok in zip(rows.tolist(), reached.tolist(), strict=True):
+                if ok:
+                    n = int(rec.steps[b])
+                    arrivals.learn(b, rec.pose[b, n], rec.sonar[b, n])
+        way = self.options.remembered_way if self.options is not None else None
         if way is None or rec is None:
             return
         assert self.options is not None

@@ -188,6 +188,10 @@ class OptionsConfig(Section):
     the crossings' options: without ``crossings.enabled`` (or ``options.enabled``) it is
     inert, as the crossings are without options. On in ``paper``: 24 tuning worlds 1.147 ->
     1.113 x optimum, the paper's world unchanged (docs/explanation/regions-learner.md)."""
+    goal_scans: StrictBool = False
+    """Keep the scans read on arriving at the goal, and once the robot has driven onto its
+    believed goal's disc and off it again without arriving (its odometry has drifted), steer
+    at the arrival point its latest scan matches (``symrl.learner.goal_scans``)."""
 
     @field_validator("source")
     @classmethod

@@ -1,0 +1,103 @@
+"""The goal re-found from the arrival scans: echoes joined per wall, the arrival point found in
+a drifted odometry frame, nothing changed until the belief has passed through its goal."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from symrl.learner.goal_scans import GoalScans, echo_segments
+from symrl.world import load_map
+from symrl.world.geometry import Walls
+from symrl.world.robot import RobotConfig
+
+ROBOT = RobotConfig()
+WORLD = load_map("hailu2001")
+WALLS = Walls(WORLD.segments)
+GOAL = (WORLD.goal.x, WORLD.goal.y)
+N = ROBOT.n_sensors
+
+
+def scan(pose: tuple[float, float, float]) -> np.ndarray:
+    """Noise-free rim readings over the range (N,) at a true ``pose`` of the paper's world."""
+    x, y, h = pose
+    angles = h + np.arange(N) * (2 * math.pi / N)
+    rays = WALLS.cast_many(
+        np.array([x]), np.array([y]), angles[None], ROBOT.radius + ROBOT.sonar_range
+    )[0]
+    return np.clip(rays - ROBOT.radius, 0.0, ROBOT.sonar_range) / ROBOT.sonar_range
+
+
+def scans(memory: int = 5, batch: int = 1) -> GoalScans:
+    return GoalScans(batch, goal=GOAL, goal_radius=WORLD.goal.radius, robot=ROBOT, memory=memory)
+
+
+ARRIVAL = (GOAL[0] + 0.2, GOAL[1] + 0.3, -1.5)  # on the goal's disc, driving south
+
+
+def test_echoes_on_one_wall_are_joined_and_a_gap_is_not():
+    readings = np.ones(N)
+    readings[[0, 1, 2]] = 0.2  # three echoes 1 m ahead and to the left
+    readings[12] = 0.2  # one echo behind, alone
+    segments = echo_segments(ROBOT, readings)
+    assert len(segments) == 2  # 0-1 and 1-2: a lone echo makes no segment
+    ahead = segments[0][0]
+    assert ahead == pytest.approx([1.0 + ROBOT.radius, 0.0])
+
+
+@pytest.mark.parametrize("drift", [(0.6, -0.3), (-0.5, 0.4)])
+def test_the_arrival_point_is_found_in_a_drifted_odometry_frame(drift):
+    """A trial arrived at ARRIVAL with its odometry on the true pose; a later one, whose
+    odometry is ``drift`` off, has driven through its believed goal and off it again: it aims
+    at the arrival point in its own odometry frame (where steering takes it to ARRIVAL)."""
+    goal_scans = scans()
+    goal_scans.learn(0, np.array(ARRIVAL), scan(ARRIVAL))
+    true = np.array([GOAL[0] + 0.6, GOAL[1] + 1.1, -1.3])  # up the corridor
+    shift = np.array([*drift, 0.0])
+    options_aim = np.array([GOAL])
+    on_goal = np.array([[GOAL[0], GOAL[1], 0.0]])
+    off_goal = (true + shift)[None]
+    assert goal_scans.aim(on_goal, options_aim, scan(tuple(on_goal[0])[:3])[None]) is options_aim
+    aim = goal_scans.aim(off_goal, options_aim, scan(tuple(true))[None])
+    assert aim[0] == pytest.approx(np.array(ARRIVAL[:2]) + drift, abs=0.03)
+
+
+def test_nothing_changes_before_the_belief_has_passed_through_its_goal():
+    goal_scans = scans()
+    options_aim = np.array([GOAL])
+    far = np.array([[GOAL[0] - 2.0, GOAL[1], 0.0]])
+    readings = scan((GOAL[0] - 1.0, GOAL[1], 0.0))[None]
+    # no arrival kept yet: even passing through the goal leaves the aim
+    for pose in (GOAL[0], GOAL[1], 0.0), tuple(far[0]):
+        assert goal_scans.aim(np.array([pose]), options_aim, readings) is options_aim
+    goal_scans.begin_trial(np.array([0]))
+    goal_scans.learn(0, np.array(ARRIVAL), scan(ARRIVAL))
+    assert goal_scans.aim(far, options_aim, readings) is options_aim  # not on the disc yet
+    goal_scans.aim(np.array([[GOAL[0], GOAL[1], 0.0]]), options_aim, readings)
+    assert goal_scans.aim(far, options_aim, readings) is not options_aim  # passed through
+    goal_scans.begin_trial(np.array([0]))  # a new trial trusts its belief again
+    assert goal_scans.aim(far, options_aim, readings) is options_aim
+
+
+def test_a_scan_the_arrivals_do_not_explain_keeps_the_aim():
+    goal_scans = scans()
+    goal_scans.learn(0, np.array(ARRIVAL), scan(ARRIVAL))
+    options_aim = np.array([GOAL])
+    goal_scans.aim(np.array([[GOAL[0], GOAL[1], 0.0]]), options_aim, None)
+    # the robot in the room, far from any arrival: its scan explains nothing
+    room = (-2.0, 1.0, 0.0)
+    aim = goal_scans.aim(np.array([[0.0, 0.0, 0.0]]), options_aim, scan(room)[None])
+    assert aim[0] == pytest.approx(GOAL)
+
+
+def test_the_newest_arrivals_are_kept():
+    goal_scans = scans(memory=2)
+    for k in range(3):
+        goal_scans.learn(0, np.array([float(k), 0.0, 0.0]), np.full(N, 0.1 * (k + 1)))
+    a = goal_scans.arrays
+    assert int(a["count"][0]) == 3
+    assert a["poses"][0, :, 0].tolist() == [2.0, 1.0]  # the third replaced the first
+    with pytest.raises(ValueError, match="memory"):
+        scans(memory=0)
