@@ -157,6 +157,12 @@ class MapLocalizer:
             geometry = None
         return pose
 
+    def predict(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """At poses ``pose`` (B, 3): which readings the map explains (a wall hit inside its
+        ends, not grazing) and the readings it predicts (m), each (B, n)."""
+        geometry = self._geometry(np.asarray(pose, dtype=np.float64))
+        return geometry[0], geometry[-1]
+
     def _geometry_at_odometry(self, pose: np.ndarray) -> tuple[np.ndarray, ...]:
         """:meth:`_geometry` at odometry poses ``(k, 3)``. A first step starts from the odometry
         pose, which at a trial's first observation is the start pose: each pose's rows are

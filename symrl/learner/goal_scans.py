@@ -161,7 +161,7 @@ class GoalScans(BufferViews):
                 continue
             start = _relative(a["poses"][b, slot], pose)[None]
             estimate = matcher(start, sonar[None])
-            explained, *_, predicted = matcher._geometry(estimate)
+            explained, predicted = matcher.predict(estimate)
             used = usable & explained[0]
             if used.sum() < MIN_RAYS:
                 continue

@@ -231,7 +231,12 @@ def test_every_choice_is_credited_with_the_return_to_go_from_it():
 
     config = load_config(
         "paper",
-        ["crossings.enabled=true", "experts.learning=false", "options.remembered_way=false"],
+        [
+            "crossings.enabled=true",
+            "experts.learning=false",
+            "options.remembered_way=false",
+            "options.goal_scans=false",
+        ],
     )
     policy = build_policy(config, OFFICE, [0])
     loss = build_update(config, policy)
