@@ -69,6 +69,9 @@ def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor]) -> l
         crossings = policy.options.crossings if policy.options is not None else None
         if crossings is not None:
             extra.update(crossings.summary(int(index[j])))
+        goal_scans = policy.options.goal_scans if policy.options is not None else None
+        if goal_scans is not None:
+            extra.update(goal_scans.summary(int(index[j])))
         if choices is not None:
             labels = policy.options.labels
             for r, name in enumerate(policy.region_names):

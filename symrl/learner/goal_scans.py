@@ -127,6 +127,15 @@ class GoalScans(BufferViews):
         self.passed[rows] = False
         self.found[rows] = np.nan
 
+    def summary(self, row: int) -> dict[str, int]:
+        """Robot ``row``'s trial so far, for its trial record: whether its belief passed through
+        the goal without arriving (``goal_passed``) and whether an arrival scan then gave the
+        goal (``goal_refound``)."""
+        return {
+            "goal_passed": int(self.passed[row]),
+            "goal_refound": int(not np.isnan(self.found[row, 0])),
+        }
+
     # -- acting ---------------------------------------------------------------------------
     def aim(self, pose: np.ndarray, aim: np.ndarray, sonar: np.ndarray | None) -> np.ndarray:
         """The point each robot at odometry ``pose`` (B, 3) steers at (B, 2): ``aim``, the

@@ -33,6 +33,8 @@ _SCALARS = (
     ("crossings/open_m", "crossings_open_m"),
     ("crossings/blocked_m", "crossings_blocked_m"),
     ("crossings/borders_blocked", "borders_blocked"),
+    ("goal/passed", "goal_passed"),
+    ("goal/refound", "goal_refound"),
 )
 """TensorBoard tag of each trial column logged per trial."""
 

@@ -60,8 +60,10 @@ def test_the_arrival_point_is_found_in_a_drifted_odometry_frame(drift):
     on_goal = np.array([[GOAL[0], GOAL[1], 0.0]])
     off_goal = (true + shift)[None]
     assert goal_scans.aim(on_goal, options_aim, scan(tuple(on_goal[0])[:3])[None]) is options_aim
+    assert goal_scans.summary(0) == {"goal_passed": 0, "goal_refound": 0}
     aim = goal_scans.aim(off_goal, options_aim, scan(tuple(true))[None])
     assert aim[0] == pytest.approx(np.array(ARRIVAL[:2]) + drift, abs=0.03)
+    assert goal_scans.summary(0) == {"goal_passed": 1, "goal_refound": 1}
 
 
 def test_nothing_changes_before_the_belief_has_passed_through_its_goal():
