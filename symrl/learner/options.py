@@ -440,11 +440,13 @@ class SubgoalOptions(BufferViews):
                 stage[first & (off >= self._lead)] = _SUBGOAL_STAGE
                 at_goal = at_goal | (stage == _FIRST_STAGE)
         aim = np.where(at_goal[:, None], self._goal, point)
+        scan = None
+        if sonar is not None and (self.remembered_way is not None or self.goal_scans is not None):
+            scan = sonar.numpy().astype(np.float64)
         if self.remembered_way is not None:
-            scan = None if sonar is None else sonar.numpy().astype(np.float64)
             aim = self.remembered_way.aim(a["choice"], pose, aim, scan)
         if self.goal_scans is not None:
-            aim = self.goal_scans.aim(pose, aim, None if sonar is None else sonar.numpy())
+            aim = self.goal_scans.aim(pose, aim, scan)
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi

@@ -350,6 +350,7 @@ class TeseoUpdate:
         explored with, before this call cools it)."""
         update, progress = self.settings, self.progress
         if self.record is not None:  # from the record, cleared at the end of this call
+            self._learn_arrivals(rows.numpy(), reached.numpy())
             self._learn_way(rows.numpy(), reached.numpy())
         # numpy on the buffers' memory (a handful of rows), the same operations
         rows_np, n = rows.numpy(), rows.shape[0]
@@ -392,18 +393,23 @@ class TeseoUpdate:
             torch.Size([n]),
         )
 
+    def _learn_arrivals(self, rows: np.ndarray, reached: np.ndarray) -> None:
+        """Where each of the finished trials of ``rows`` that reached the goal (``reached``
+        (k,) bool) arrived, for the goal scans (options with ``goal_scans``), from the record:
+        the last pose and scan."""
+        arrivals = self.options.goal_scans if self.options is not None else None
+        rec = self.record
+        if arrivals is None or rec is None:
+            return
+        for b in rows[reached].tolist():
+            n = int(rec.steps[b])
+            arrivals.learn(b, rec.pose[b, n], rec.sonar[b, n])
+
     def _learn_way(self, rows: np.ndarray, reached: np.ndarray) -> None:
         """The finished trials of ``rows`` (``reached`` (k,) bool) for the remembered way
-        (options with ``remembered_way``) and the goal's arrival scans (``goal_scans``), from
-        the record."""
-        rec = self.record
-        arrivals = self.options.goal_scans if self.options is not None else None
-        if arrivals is not None and rec is not None:  # where each success arrived
-            for b, ok in zip(rows.tolist(), reached.tolist(), strict=True):
-                if ok:
-                    n = int(rec.steps[b])
-                    arrivals.learn(b, rec.pose[b, n], rec.sonar[b, n])
+        (options with ``remembered_way``), from the record."""
         way = self.options.remembered_way if self.options is not None else None
+        rec = self.record
         if way is None or rec is None:
             return
         assert self.options is not None
