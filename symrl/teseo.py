@@ -72,6 +72,9 @@ def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor]) -> l
         goal_scans = policy.options.goal_scans if policy.options is not None else None
         if goal_scans is not None:
             extra.update(goal_scans.summary(int(index[j])))
+        wall_follow = policy.options.wall_follow if policy.options is not None else None
+        if wall_follow is not None:
+            extra.update(wall_follow.summary(int(index[j])))
         if choices is not None:
             labels = policy.options.labels
             for r, name in enumerate(policy.region_names):

@@ -38,6 +38,7 @@ from symrl.learner.crossings import CrossingMap
 from symrl.learner.goal_scans import GoalScans
 from symrl.learner.option_critic import OptionCritic
 from symrl.learner.remembered_way import RememberedWay
+from symrl.learner.wall_follow import WallFollow
 from symrl.world.robot import RobotConfig
 from symrl.world.worldmap import WorldMap
 
@@ -141,6 +142,7 @@ class SubgoalOptions(BufferViews):
             if config.goal_scans
             else None
         )
+        self.wall_follow = WallFollow(batch, robot or RobotConfig()) if config.wall_follow else None
         self.register_buffer("choice", torch.full((batch, r), -1, dtype=torch.long))
         self.register_buffer("stage", torch.zeros(batch, dtype=torch.long))
         self.register_buffer("visit", torch.full((batch,), -1, dtype=torch.long))
@@ -441,12 +443,18 @@ class SubgoalOptions(BufferViews):
                 at_goal = at_goal | (stage == _FIRST_STAGE)
         aim = np.where(at_goal[:, None], self._goal, point)
         scan = None
-        if sonar is not None and (self.remembered_way is not None or self.goal_scans is not None):
+        if sonar is not None and (
+            self.remembered_way is not None
+            or self.goal_scans is not None
+            or self.wall_follow is not None
+        ):
             scan = sonar.numpy().astype(np.float64)
         if self.remembered_way is not None:
             aim = self.remembered_way.aim(a["choice"], pose, aim, scan)
         if self.goal_scans is not None:
             aim = self.goal_scans.aim(pose, aim, scan)
+        if self.wall_follow is not None:
+            aim = self.wall_follow.aim(pose, aim, scan)
         d = aim - xy
         heading = torch.atan2(torch.from_numpy(d[:, 1]), torch.from_numpy(d[:, 0])).numpy()
         angle = np.remainder(heading - pose[:, 2] + math.pi, 2 * math.pi) - math.pi
@@ -530,6 +538,8 @@ class SubgoalOptions(BufferViews):
             self.remembered_way.begin_trial(r)
         if self.goal_scans is not None:
             self.goal_scans.begin_trial(r)
+        if self.wall_follow is not None:
+            self.wall_follow.begin_trial(r)
         if self.crossings is not None:  # what is found blocked, from the learned evidence
             self.crossings.forget(r)
             self._trial_stalled[r] = False

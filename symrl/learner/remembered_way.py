@@ -18,7 +18,8 @@ options steer for the rest of the trial). An option explored or given up elsewhe
 via-point not reached within 1.5 times the straight way's actions, hands the steering back to the
 options for the rest of the trial. After two trials that took the way and ended longer than the
 best by more than a tenth (and 3 actions), the way is left to the options until a shorter trial
-gives a new one. A shorter successful trial replaces the way, so it is refined as the robot
+gives a new one, or a trial the options steered alone ends longer than the best by as much
+(the way is taken again). A shorter successful trial replaces the way, so it is refined as the robot
 learns.
 
 Nothing here reads the walls or searches a map: only the robot's odometry, sonar readings,
@@ -179,8 +180,11 @@ class RememberedWay(BufferViews):
         a = self.arrays
         steps = len(pose) - 1
         best = int(a["best"][row])
-        if self._trial["used"][row] and steps > best + max(3, 0.1 * best):
+        worse = not reached or steps > best + max(3, 0.1 * best)
+        if self._trial["used"][row] and worse:
             a["misses"][row] += 1  # it took the way and did worse
+        elif worse and a["misses"][row] >= _MISSES:
+            a["misses"][row] = 0  # left to the options, it did worse still: the way again
         if not reached or steps >= best:
             return
         way = self._pulled(pose, sonar)

@@ -35,6 +35,7 @@ _SCALARS = (
     ("crossings/borders_blocked", "borders_blocked"),
     ("goal/passed", "goal_passed"),
     ("goal/refound", "goal_refound"),
+    ("trap/wall_follows", "wall_follows"),
 )
 """TensorBoard tag of each trial column logged per trial."""
 

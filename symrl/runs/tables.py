@@ -38,6 +38,8 @@ def trial_columns(config: RunConfig, world: Any) -> list[str]:
         columns += ["crossings_open_m", "crossings_blocked_m", "borders_blocked"]
     if config.options.enabled and config.options.goal_scans:
         columns += ["goal_passed", "goal_refound"]
+    if config.options.enabled and config.options.wall_follow:
+        columns += ["wall_follows"]
     return columns
 
 

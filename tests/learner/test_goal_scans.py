@@ -111,7 +111,7 @@ def test_a_run_that_re_finds_its_goal_resumes_as_if_uninterrupted(tmp_path) -> N
     from symrl.cli import main
     from symrl.runs import read_trials_csv
 
-    args = ["--seed", "5000", "--map", "tuning/pillar_grid"]
+    args = ["--seed", "5000", "--map", "tuning/pillar_grid", "options.wall_follow=false"]
     whole, parted = tmp_path / "whole", tmp_path / "parted"
     assert main(["train", "paper", "--trials", "4", "--logdir", str(whole), *args]) == 0
     assert main(["train", "paper", "--trials", "2", "--logdir", str(parted), *args]) == 0

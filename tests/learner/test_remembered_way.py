@@ -209,6 +209,27 @@ def test_two_worse_trials_on_the_way_leave_it_to_the_options() -> None:
     assert int(w.misses[0]) == 0
 
 
+def test_the_way_is_taken_again_after_the_options_alone_did_worse() -> None:
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    choice, xy, aim = np.array([[1, -1]]), np.array([[0.5, 0.5]]), np.array([[9.0, 9.0]])
+    longer = trial(PATH + [(4.0, 3.0)] * 10)
+    for _ in range(2):
+        w.begin_trial(np.array([0]))
+        w.aim(choice, xy, aim)
+        w.learn(0, *longer, np.array([1, 0]), reached=True)
+    w.begin_trial(np.array([0]))
+    np.testing.assert_array_equal(w.aim(choice, xy, aim), aim)  # left to the options
+    w.learn(0, *trial(PATH + [(4.0, 3.0)] * 2), np.array([1, 0]), reached=True)  # as good
+    assert int(w.misses[0]) == 2
+    w.begin_trial(np.array([0]))
+    w.aim(choice, xy, aim)
+    w.learn(0, *longer, np.array([1, 0]), reached=False)  # the options alone: worse
+    assert int(w.misses[0]) == 0
+    w.begin_trial(np.array([0]))
+    assert not np.array_equal(w.aim(choice, xy, aim), aim)  # the way again
+
+
 def test_a_via_point_not_reached_in_time_hands_back_to_the_options() -> None:
     w = way()
     w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)

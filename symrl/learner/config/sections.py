@@ -192,6 +192,11 @@ class OptionsConfig(Section):
     """Keep the scans read on arriving at the goal, and once the robot has driven onto its
     believed goal's disc and off it again without arriving (its odometry has drifted), steer
     at the arrival point its latest scan matches (``symrl.learner.goal_scans``)."""
+    wall_follow: StrictBool = False
+    """A robot whose believed positions stayed within 1 m for 40 actions (2 m for 80) is
+    trapped: it follows the nearest wall until it is 1 m from the trap and sees the straight
+    way to its aim clear, as a bug algorithm does (``symrl.learner.wall_follow``). On in
+    ``paper``."""
 
     @field_validator("source")
     @classmethod

@@ -1,0 +1,156 @@
+"""Out of a trap by its wall: a robot on its way is left alone; one circling in a cup follows the
+nearest wall on the side nearer its aim, and leaves it in another region or nearer its aim with
+the way clear."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from symrl.learner.wall_follow import WINDOW, WallFollow
+from symrl.world.geometry import Walls
+from symrl.world.robot import RobotConfig
+
+ROBOT = RobotConfig()
+N = ROBOT.n_sensors
+# a cup 2 m wide open to the south, its closed top at y = 4.5, in a 10 m x 8 m room
+CUP = np.array(
+    [
+        [[4.0, 2.0], [4.0, 4.5]],
+        [[6.0, 2.0], [6.0, 4.5]],
+        [[4.0, 4.5], [6.0, 4.5]],
+        [[0.0, 0.0], [10.0, 0.0]],
+        [[10.0, 0.0], [10.0, 8.0]],
+        [[10.0, 8.0], [0.0, 8.0]],
+        [[0.0, 8.0], [0.0, 0.0]],
+    ]
+)
+WALLS = Walls(CUP)
+AIM = np.array([[3.6, 4.9]])  # beyond the cup's top west corner
+
+
+def scan(pose: np.ndarray) -> np.ndarray:
+    """Noise-free readings over the range (1, N) at ``pose`` (3,) in the cup world."""
+    angles = pose[2] + np.arange(N) * (2 * math.pi / N)
+    rays = WALLS.cast_many(
+        np.array([pose[0]]), np.array([pose[1]]), angles[None], ROBOT.radius + ROBOT.sonar_range
+    )
+    return np.clip(rays - ROBOT.radius, 0.0, ROBOT.sonar_range) / ROBOT.sonar_range
+
+
+def circle(follow: WallFollow, steps: int) -> np.ndarray:
+    """Drive ``steps`` actions round a 0.3 m circle under the cup's top; the last aim (1, 2)."""
+    out = AIM
+    for k in range(steps):
+        a = k * 0.7
+        pose = np.array([[5.0 + 0.3 * math.cos(a), 3.9 + 0.3 * math.sin(a), a + math.pi / 2]])
+        out = follow.aim(pose, AIM, scan(pose[0]))
+    return out
+
+
+def test_a_robot_on_its_way_is_left_alone() -> None:
+    follow = WallFollow(1, ROBOT)
+    for k in range(2 * WINDOW):
+        pose = np.array([[1.0 + 0.1 * k, 1.0, 0.0]])
+        assert np.array_equal(follow.aim(pose, AIM, scan(pose[0])), AIM)
+    assert not follow.following[0]
+    assert follow.summary(0) == {"wall_follows": 0}
+
+
+def test_a_circling_robot_follows_the_nearest_wall_on_its_aims_side() -> None:
+    follow = WallFollow(1, ROBOT)
+    before = circle(follow, WINDOW - 1)
+    assert np.array_equal(before, AIM) and not follow.following[0]
+    pose = np.array([5.0, 4.0, 0.0])  # 0.5 m under the top: the top is the nearest wall
+    out = follow.aim(pose[None], AIM, scan(pose))
+    assert follow.following[0] and follow.summary(0) == {"wall_follows": 1}
+    step = out[0] - pose[:2]
+    assert math.isclose(float(np.hypot(*step)), 1.0)
+    # along the top, westward (the aim's side), turned 0.1 rad away from it (0.5 m < 0.6 m)
+    assert step[0] < -0.99 and step[1] < 0.0
+    assert math.isclose(math.atan2(step[1], step[0]), -math.pi + 0.1, abs_tol=1e-9)
+
+
+def test_the_follow_rounds_an_inner_corner_away_from_the_wall() -> None:
+    follow = WallFollow(1, ROBOT)
+    circle(follow, WINDOW)
+    pose = np.array([4.45, 4.05, math.pi])  # in the cup's north-west corner, heading west
+    out = follow.aim(pose[None], AIM, scan(pose))[0] - pose[:2]
+    assert out[1] < -0.5  # the wall on its right: it turns left, down the cup's west side
+
+
+def test_trapped_again_in_the_same_place_it_takes_the_other_side() -> None:
+    follow = WallFollow(1, ROBOT)
+    circle(follow, WINDOW)
+    outside = np.array([[3.6, 4.0, math.pi / 2]])
+    follow.aim(outside, AIM, scan(outside[0]))  # out: nearer the aim, the way clear
+    assert not follow.following[0]
+    circle(follow, WINDOW - 1)
+    pose = np.array([5.0, 4.0, 0.0])
+    step = follow.aim(pose[None], AIM, scan(pose))[0] - pose[:2]
+    assert follow.summary(0) == {"wall_follows": 2}
+    assert step[0] > 0.99  # eastward now, the wall on its left
+
+
+def test_the_follow_ends_nearer_the_aim_with_the_way_clear_and_not_before() -> None:
+    follow = WallFollow(1, ROBOT)
+    circle(follow, WINDOW)
+    outside = np.array([[3.6, 4.0, math.pi / 2]])  # west of the cup, nearer, the way up clear
+    farther = np.array([[5.0, 2.5, -math.pi / 2]])  # in the cup's mouth: farther than at start
+    assert not np.array_equal(follow.aim(farther, AIM, scan(farther[0])), AIM)
+    assert follow.following[0]
+    assert np.array_equal(follow.aim(outside, AIM, scan(outside[0])), AIM)
+    assert not follow.following[0]
+
+
+def test_a_new_trial_forgets_the_trail() -> None:
+    follow = WallFollow(1, ROBOT)
+    circle(follow, WINDOW)
+    follow.begin_trial(np.array([0]))
+    assert not follow.following[0] and follow.summary(0) == {"wall_follows": 0}
+    assert np.array_equal(circle(follow, WINDOW - 1), AIM)
+
+
+def test_the_paper_robot_gets_out_of_a_cup_the_rules_draw_no_line_around() -> None:
+    """`tuning/cup_start_east`: the robot starts in a cup open away from the goal, every aim
+    beyond its end wall; without the follow its first trial circles there to the last action."""
+    from symrl.studies.runner import resolve_config
+    from symrl.train import train_batch
+
+    steps = {}
+    for follow in (False, True):
+        config = resolve_config(
+            "paper",
+            ["env.map=tuning/cup_start_east", "run.trials=1", f"options.wall_follow={follow}"],
+        )
+        (result,) = train_batch(config, [5000], progress=False)
+        (trial,) = result.trials
+        steps[follow] = (int(trial["steps"]), bool(trial["reached_goal"]))
+        assert ("wall_follows" in trial) == follow
+    assert steps[False] == (200, False)
+    assert steps[True][1] and steps[True][0] < 150
+
+
+def test_a_robot_follows_alike_alone_in_a_batch_and_resumed(tmp_path) -> None:
+    """The follow's trail and side are per robot and per trial: seed 5000 on
+    `tuning/cup_start_east` gives the same trials alone, beside another seed, and resumed."""
+    from symrl.cli import main
+    from symrl.runs import read_trials_csv
+    from symrl.studies.runner import resolve_config
+    from symrl.train import train_batch
+
+    config = resolve_config("paper", ["env.map=tuning/cup_start_east", "run.trials=3"])
+    alone = train_batch(config, [5000], progress=False)[0].trials
+    beside = train_batch(config, [5001, 5000], progress=False)[1].trials
+    key = [(t["steps"], round(t["total_reinforcement"], 6), t["wall_follows"]) for t in alone]
+    assert key == [
+        (t["steps"], round(t["total_reinforcement"], 6), t["wall_follows"]) for t in beside
+    ]
+    assert any(t["wall_follows"] for t in alone)
+    args = ["--seed", "5000", "--map", "tuning/cup_start_east"]
+    whole, parted = tmp_path / "whole", tmp_path / "parted"
+    assert main(["train", "paper", "--trials", "3", "--logdir", str(whole), *args]) == 0
+    assert main(["train", "paper", "--trials", "1", "--logdir", str(parted), *args]) == 0
+    assert main(["train", "--resume", str(parted), "--trials", "3"]) == 0
+    assert read_trials_csv(whole / "trials.csv") == read_trials_csv(parted / "trials.csv")
