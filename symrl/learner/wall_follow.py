@@ -104,8 +104,9 @@ class WallFollow:
         self._echoes[rows, self._count % ECHOES] = points
         self._count += 1
         distance = np.hypot(*(aim - xy).T)
-        for b in range(len(xy)):
-            reach = scan[b] * self._range + self._radius
+        centres = self._trapped()
+        for b in np.flatnonzero(self.following | ~np.isnan(centres[:, 0])).tolist():
+            reach = reach_all[b]
             if self.following[b]:
                 self._steps[b] += 1
                 away = np.hypot(*(xy[b] - self._trap[b])) >= RADIUS
@@ -116,10 +117,8 @@ class WallFollow:
                 if self._steps[b] > 2 * WINDOW:
                     self._side[b] = -self._side[b]
                     self._steps[b] = 0
-            elif self._count[b] >= WINDOW:
-                centre = self._trapped(b)
-                if centre is None:
-                    continue
+            else:
+                centre = centres[b]
                 self.following[b] = True
                 self._follows[b] += 1
                 self._steps[b] = 0
@@ -132,25 +131,28 @@ class WallFollow:
                     right = abs(float(_wrap(wall + math.pi / 2 - bearing)))
                     self._side[b] = 1.0 if left <= right else -1.0
                 self._trap[b] = centre
-            else:
-                continue
             travel = self._along(pose[b], float(self._side[b]), self._echoes[b])
             out[b] = xy[b] + LOOKAHEAD * np.array([math.cos(travel), math.sin(travel)])
         return out
 
-    def _trapped(self, b: int) -> np.ndarray | None:
-        """The centre (2,) of robot ``b``'s trap, or None: its last ``k`` windows' believed
-        positions all within ``k`` radii of their mean, for some ``k`` up to :data:`SCALES`."""
-        count, size = int(self._count[b]), SCALES * WINDOW
-        for k in range(1, SCALES + 1):
+    def _trapped(self) -> np.ndarray:
+        """(B, 2) the centre of each robot's trap (NaN: none) for robots not following one:
+        their last ``k`` windows' believed positions all within ``k`` radii of their mean, for
+        the least ``k`` up to :data:`SCALES` (all robots at once: this runs at every step)."""
+        centres = np.full((len(self._count), 2), np.nan)
+        size = SCALES * WINDOW
+        for k in range(SCALES, 0, -1):  # the least scale last: it wins
             n = k * WINDOW
-            if count < n:
-                break
-            trail = self._trail[b, (count - n + np.arange(n)) % size]
-            centre = trail.mean(axis=0)
-            if np.hypot(*(trail - centre).T).max() < k * RADIUS:
-                return centre
-        return None
+            rows = np.flatnonzero(~self.following & (self._count >= n))
+            if not len(rows):
+                continue
+            index = (self._count[rows, None] - n + np.arange(n)) % size
+            trail = self._trail[rows[:, None], index]  # (k, n, 2)
+            centre = trail.mean(axis=1)
+            spread = np.hypot(*(trail - centre[:, None]).transpose(2, 0, 1)).max(axis=1)
+            inside = spread < k * RADIUS
+            centres[rows[inside]] = centre[inside]
+        return centres
 
     def _along(self, pose: np.ndarray, side: float, echoes: np.ndarray) -> float:
         """The heading along the nearest of the kept echoes ``echoes`` (M, n, 2) with it on
