@@ -64,7 +64,8 @@ class WallFollow:
         self._range = float(robot.sonar_range)
         self._radius = float(robot.radius)
         self._trail = np.zeros((batch, SCALES * WINDOW, 2))
-        self._echoes = np.full((batch, ECHOES, n, 2), np.nan)
+        self._scans = np.ones((batch, ECHOES, n))  # no echo until read
+        self._poses = np.zeros((batch, ECHOES, 3))
         self._count = np.zeros(batch, dtype=np.int64)
         self.following = np.zeros(batch, dtype=bool)
         self._side = np.ones(batch)
@@ -75,7 +76,7 @@ class WallFollow:
     def begin_trial(self, rows: np.ndarray) -> None:
         """Forget the trail and the follow of robots ``rows`` (a new trial)."""
         self._count[rows] = 0
-        self._echoes[rows] = np.nan
+        self._scans[rows] = 1.0
         self.following[rows] = False
         self._steps[rows] = 0
         self._follows[rows] = 0
@@ -95,18 +96,13 @@ class WallFollow:
         xy = pose[:, :2]
         rows = np.arange(len(xy))
         self._trail[rows, self._count % (SCALES * WINDOW)] = xy
-        reach_all = scan * self._range + self._radius
-        angle = pose[:, 2:3] + self._angles
-        points = np.stack(
-            (xy[:, 0:1] + reach_all * np.cos(angle), xy[:, 1:2] + reach_all * np.sin(angle)), -1
-        )
-        points[scan >= 0.999] = np.nan  # no echo
-        self._echoes[rows, self._count % ECHOES] = points
+        self._scans[rows, self._count % ECHOES] = scan
+        self._poses[rows, self._count % ECHOES] = pose
         self._count += 1
         distance = np.hypot(*(aim - xy).T)
         centres = self._trapped()
         for b in np.flatnonzero(self.following | ~np.isnan(centres[:, 0])).tolist():
-            reach = reach_all[b]
+            reach = scan[b] * self._range + self._radius
             if self.following[b]:
                 self._steps[b] += 1
                 away = np.hypot(*(xy[b] - self._trap[b])) >= RADIUS
@@ -131,7 +127,7 @@ class WallFollow:
                     right = abs(float(_wrap(wall + math.pi / 2 - bearing)))
                     self._side[b] = 1.0 if left <= right else -1.0
                 self._trap[b] = centre
-            travel = self._along(pose[b], float(self._side[b]), self._echoes[b])
+            travel = self._along(pose[b], float(self._side[b]), self._echoes(b))
             out[b] = xy[b] + LOOKAHEAD * np.array([math.cos(travel), math.sin(travel)])
         return out
 
@@ -153,6 +149,22 @@ class WallFollow:
             inside = spread < k * RADIUS
             centres[rows[inside]] = centre[inside]
         return centres
+
+    def _echoes(self, b: int) -> np.ndarray:
+        """(M, n, 2) the echoes of robot ``b``'s last :data:`ECHOES` scans, placed from the
+        odometry poses they were read at (NaN: no echo), worked out only while it follows."""
+        scans, poses = self._scans[b], self._poses[b]
+        reach = scans * self._range + self._radius
+        angle = poses[:, 2:3] + self._angles
+        points = np.stack(
+            (
+                poses[:, 0:1] + reach * np.cos(angle),
+                poses[:, 1:2] + reach * np.sin(angle),
+            ),
+            -1,
+        )
+        points[scans >= 0.999] = np.nan
+        return points
 
     def _along(self, pose: np.ndarray, side: float, echoes: np.ndarray) -> float:
         """The heading along the nearest of the kept echoes ``echoes`` (M, n, 2) with it on

@@ -160,3 +160,16 @@ def transition(
     nxt["done"] = torch.tensor([[terminated or truncated]])
     td["next"] = nxt
     return td
+
+
+def whole_and_resumed(tmp_path, args: list[str], trials: int, stop: int) -> tuple[list, list]:
+    """The trial tables of ``symrl train paper ARGS`` run ``trials`` trials at once, and run
+    ``stop`` trials then resumed to ``trials`` (both in folders under ``tmp_path``)."""
+    from symrl.cli import main
+    from symrl.runs import read_trials_csv
+
+    whole, parted = tmp_path / "whole", tmp_path / "parted"
+    assert main(["train", "paper", "--trials", str(trials), "--logdir", str(whole), *args]) == 0
+    assert main(["train", "paper", "--trials", str(stop), "--logdir", str(parted), *args]) == 0
+    assert main(["train", "--resume", str(parted), "--trials", str(trials)]) == 0
+    return read_trials_csv(whole / "trials.csv"), read_trials_csv(parted / "trials.csv")

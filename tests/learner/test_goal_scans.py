@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from learner_helpers import whole_and_resumed
 
 from symrl.learner.goal_scans import GoalScans, echo_segments
 from symrl.world import load_map
@@ -108,14 +109,7 @@ def test_the_newest_arrivals_are_kept():
 def test_a_run_that_re_finds_its_goal_resumes_as_if_uninterrupted(tmp_path) -> None:
     """The arrival scans are saved per robot with the controller: on this world and seed the
     third trial's belief passes through its goal and an arrival of trials 1-2 gives the goal."""
-    from symrl.cli import main
-    from symrl.runs import read_trials_csv
-
     args = ["--seed", "5000", "--map", "tuning/pillar_grid", "options.wall_follow=false"]
-    whole, parted = tmp_path / "whole", tmp_path / "parted"
-    assert main(["train", "paper", "--trials", "4", "--logdir", str(whole), *args]) == 0
-    assert main(["train", "paper", "--trials", "2", "--logdir", str(parted), *args]) == 0
-    assert main(["train", "--resume", str(parted), "--trials", "4"]) == 0
-    a, b = read_trials_csv(whole / "trials.csv"), read_trials_csv(parted / "trials.csv")
+    a, b = whole_and_resumed(tmp_path, args, trials=4, stop=2)
     assert [(r["goal_passed"], r["goal_refound"]) for r in a][2] == (1, 1)
     assert a == b

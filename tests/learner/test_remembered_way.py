@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from learner_helpers import whole_and_resumed
 
 from symrl.learner.remembered_way import RememberedWay
 
@@ -277,15 +278,8 @@ def test_the_way_is_learned_with_the_experts_off() -> None:
 
 def test_a_run_with_the_way_resumes_as_if_uninterrupted(tmp_path) -> None:
     """Its via-points, choices, best and misses are saved per robot with the controller."""
-    from symrl.cli import main
-    from symrl.runs import read_trials_csv
-
     args = ["--seed", "5000", "--map", "tuning/island_room", "options.remembered_way=true"]
-    whole, parted = tmp_path / "whole", tmp_path / "parted"
-    assert main(["train", "paper", "--trials", "6", "--logdir", str(whole), *args]) == 0
-    assert main(["train", "paper", "--trials", "3", "--logdir", str(parted), *args]) == 0
-    assert main(["train", "--resume", str(parted), "--trials", "6"]) == 0
-    a, b = read_trials_csv(whole / "trials.csv"), read_trials_csv(parted / "trials.csv")
+    a, b = whole_and_resumed(tmp_path, args, trials=6, stop=3)
     assert a == b
 
 

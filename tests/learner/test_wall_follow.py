@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from learner_helpers import whole_and_resumed
 
 from symrl.learner.wall_follow import WINDOW, WallFollow
 from symrl.world.geometry import Walls
@@ -135,8 +136,6 @@ def test_the_paper_robot_gets_out_of_a_cup_the_rules_draw_no_line_around() -> No
 def test_a_robot_follows_alike_alone_in_a_batch_and_resumed(tmp_path) -> None:
     """The follow's trail and side are per robot and per trial: seed 5000 on
     `tuning/cup_start_east` gives the same trials alone, beside another seed, and resumed."""
-    from symrl.cli import main
-    from symrl.runs import read_trials_csv
     from symrl.studies.runner import resolve_config
     from symrl.train import train_batch
 
@@ -148,9 +147,7 @@ def test_a_robot_follows_alike_alone_in_a_batch_and_resumed(tmp_path) -> None:
         (t["steps"], round(t["total_reinforcement"], 6), t["wall_follows"]) for t in beside
     ]
     assert any(t["wall_follows"] for t in alone)
-    args = ["--seed", "5000", "--map", "tuning/cup_start_east"]
-    whole, parted = tmp_path / "whole", tmp_path / "parted"
-    assert main(["train", "paper", "--trials", "3", "--logdir", str(whole), *args]) == 0
-    assert main(["train", "paper", "--trials", "1", "--logdir", str(parted), *args]) == 0
-    assert main(["train", "--resume", str(parted), "--trials", "3"]) == 0
-    assert read_trials_csv(whole / "trials.csv") == read_trials_csv(parted / "trials.csv")
+    whole, resumed = whole_and_resumed(
+        tmp_path, ["--seed", "5000", "--map", "tuning/cup_start_east"], trials=3, stop=1
+    )
+    assert whole == resumed
