@@ -153,7 +153,11 @@ def plot_paths(
     plt.close(fig)
 
 
-_CROSSING_COLOURS = {1: ("tab:green", "seen open"), 2: ("tab:red", "seen blocked")}
+_CROSSING_COLOURS = {
+    1: ("tab:green", "seen open"),
+    2: ("tab:red", "seen blocked"),
+    3: ("tab:orange", "led into a dead end"),
+}
 
 
 def crossings_figure(world: WorldMap, records: Sequence[dict[str, Any]], panels: int = 6):

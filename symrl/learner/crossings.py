@@ -71,6 +71,7 @@ class CrossingMap(BufferViews):
         origin: tuple[float, float],
         reach: float,
         resolution: float,
+        dead_ends: bool = False,
         step: float = 0.0,
         translation_noise: float = 0.0,
         rotation_noise: float = 0.0,
@@ -81,13 +82,15 @@ class CrossingMap(BufferViews):
         border is binned that far either side of the start); ``step``, ``translation_noise``
         (a fraction of the step) and ``rotation_noise`` (radians): the robot's model of its own
         motion, whose odometry drifts as a trial goes on: a ray counts as passing the line
-        only when its echo lies beyond it by more than the drift could account for."""
+        only when its echo lies beyond it by more than the drift could account for;
+        ``dead_ends``: mark the stretches that led into a dead end (:meth:`cross`)."""
         super().__init__()
         self.borders = tuple(borders)
         self.radius = float(radius)
         self.inset = float(radius + close_distance)
         self.sonar_range = float(sonar_range)
         self.resolution = float(resolution)
+        self.dead_ends = bool(dead_ends)
         self.tolerance = 0.5 * self.resolution  # an echo this far past the line hit the line
         j = len(self.borders)
         self.axis = np.array([b.axis for b in self.borders], dtype=np.int64)
@@ -104,6 +107,9 @@ class CrossingMap(BufferViews):
         self.register_buffer("open", torch.zeros(batch, j, n, dtype=torch.float32))
         self.register_buffer("blocked", torch.zeros(batch, j, n, dtype=torch.float32))
         self.register_buffer("hidden", torch.zeros(batch, j, n, dtype=torch.float32))
+        # per border and direction (0: toward its high side, 1: toward its low side), the bins
+        # of a stretch that led into a dead end: crossed there, trapped, and back out there
+        self.register_buffer("dead", torch.zeros(batch, j, 2, n, dtype=torch.bool))
         # the latest scan alone, at full weight: it is in the frame of the odometry the robot
         # steers by now, however far that has drifted
         for name in ("fresh_open", "fresh_blocked", "fresh_hidden"):
@@ -119,6 +125,10 @@ class CrossingMap(BufferViews):
             float(rotation_noise),
         )
         self._seen_steps = np.zeros(batch, dtype=np.int64)  # observations in this trial
+        # the trial's last crossing per robot: border (-1: none yet), where, which direction
+        self._entry = np.full(batch, -1, dtype=np.int64)
+        self._entry_t = np.zeros(batch)
+        self._entry_way = np.zeros(batch, dtype=np.int64)
         self._between: dict[tuple[str, str], list[int]] = {}
         for i, b in enumerate(self.borders):
             self._between.setdefault((b.low, b.high), []).append(i)
@@ -194,9 +204,20 @@ class CrossingMap(BufferViews):
         blocked = (shut >= _SURE) & (shut > opened)
         return (opened >= _SURE) & ~blocked, blocked, hidden
 
-    def cross(self, row: int, before: str, after: str, xy: np.ndarray, xy_next: np.ndarray) -> None:
+    def cross(
+        self,
+        row: int,
+        before: str,
+        after: str,
+        xy: np.ndarray,
+        xy_next: np.ndarray,
+        trapped: bool = False,
+    ) -> None:
         """Robot ``row`` moved from region ``before`` at ``xy`` to ``after`` at ``xy_next``:
-        every border between the two that the move crosses is open where it crossed."""
+        every border between the two that the move crosses is open where it crossed. When the
+        robot was ``trapped`` since its last crossing and now crosses that same border back
+        the other way, the stretch it came in by led into a dead end: it is marked so for that
+        direction (it stays open, and is taken only when no other stretch is left)."""
         for j in self._between.get((before, after), ()):
             a, c = int(self.axis[j]), float(self.intercept[j])
             d = xy_next[a] - xy[a]
@@ -204,8 +225,24 @@ class CrossingMap(BufferViews):
                 continue
             f = (c - xy[a]) / d
             t = float(xy[1 - a] + f * (xy_next[1 - a] - xy[1 - a]))
-            if self.lo[j] <= t < self.hi[j]:
-                self.crossed(row, j, t)
+            if not self.lo[j] <= t < self.hi[j]:
+                continue
+            way = 0 if d > 0 else 1  # toward the high side, or the low
+            back = self._entry[row] == j and self._entry_way[row] != way
+            if trapped and back and self.dead_ends:
+                self._dead_end(row, j, 1 - way, self._entry_t[row])
+            self._entry[row], self._entry_t[row], self._entry_way[row] = j, t, way
+            self.crossed(row, j, t)
+
+    def _dead_end(self, row: int, border: int, way: int, t: float) -> None:
+        """The stretch of ``border`` not seen blocked around ``t`` led robot ``row`` into a dead
+        end going ``way`` (0: toward the high side)."""
+        _, shut, _ = self._states(row, border)
+        i = min(max(int((t - self.lo[border]) / self.resolution), 0), len(shut) - 1)
+        walls = np.flatnonzero(shut)
+        first = int(walls[walls < i].max()) + 1 if (walls < i).any() else 0
+        last = int(walls[walls > i].min()) - 1 if (walls > i).any() else len(shut) - 1
+        self.arrays["dead"][row, border, way, first : last + 1] = True
 
     def crossed(self, row: int, border: int, t: float) -> None:
         """Robot ``row`` crossed ``border`` at ``t`` along its line: open for a body width."""
@@ -219,6 +256,7 @@ class CrossingMap(BufferViews):
         for name in ("fresh_open", "fresh_blocked", "fresh_hidden"):
             a[name][rows] = 0.0
         self._seen_steps[rows] = 0
+        self._entry[rows] = -1
 
     def _span(self, border: int, t0: float, t1: float) -> tuple[int, int]:
         n = int(self.bins[border])
@@ -250,11 +288,19 @@ class CrossingMap(BufferViews):
         runs = list(zip(starts.tolist(), ends.tolist(), strict=True))
         seen_open = np.array([bool(opened[s : e + 1].any()) for s, e in runs])
         hidden = np.array([bool(behind[s : e + 1].any()) for s, e in runs])
-        keep = seen_open if seen_open.any() else ~hidden
+        # a stretch that led into a dead end going this way comes last
+        b = self.borders[border]
+        way = 0 if (xy[0] if b.axis == 0 else xy[1]) < b.intercept else 1
+        dead_bins = self.arrays["dead"][row, border, way]
+        dead = np.array([bool(dead_bins[s : e + 1].any()) for s, e in runs])
+        keep = np.zeros(len(runs), dtype=bool)
+        for kind in (seen_open & ~dead, ~hidden & ~dead, (seen_open | ~hidden) & dead):
+            if kind.any():
+                keep = kind
+                break
         if not keep.any():
             return None
         starts, ends = starts[keep], ends[keep]
-        b = self.borders[border]
         goal_t = goal[1] if b.axis == 0 else goal[0]
         best: Crossing | None = None
         best_cost = math.inf
@@ -272,27 +318,31 @@ class CrossingMap(BufferViews):
 
     def seen(self, row: int, border: int) -> tuple[np.ndarray, np.ndarray]:
         """Robot ``row``'s view of ``border``: the bins' centres along the line (n,) and their
-        state (n,) int: 0 unknown, 1 open, 2 blocked (figures, logging)."""
+        state (n,) int: 0 unknown, 1 open, 2 blocked, 3 led into a dead end one way or the
+        other (and not blocked) (figures, logging)."""
         n = int(self.bins[border])
         centres = self.lo[border] + (np.arange(n) + 0.5) * self.resolution
         opened, shut, _ = self._states(row, border)
         state = np.zeros(n, dtype=np.int64)
         state[opened] = 1
         state[shut] = 2
+        state[self.arrays["dead"][row, border, :, :n].any(axis=0) & ~shut] = 3
         return centres, state
 
     def summary(self, row: int) -> dict[str, object]:
         """Robot ``row``'s belief in a few numbers and as stretches (trial records, TensorBoard,
-        figures): metres of the borders seen open and seen blocked, the borders with no
-        crossing left, and ``stretches``: per border, runs ``[t0, t1, state]`` of one state
+        figures): metres of the borders seen open and seen blocked (and, with ``dead_ends``,
+        that led into a dead end, not counted open), the borders with no crossing left, and
+        ``stretches``: per border, runs ``[t0, t1, state]`` of one state
         (:meth:`seen`'s codes)."""
-        opened = shut = 0.0
+        opened = shut = dead = 0.0
         blocked = 0
         stretches = []
         for j in range(len(self.borders)):
             centres, state = self.seen(row, j)
             opened += float((state == 1).sum()) * self.resolution
             shut += float((state == 2).sum()) * self.resolution
+            dead += float((state == 3).sum()) * self.resolution
             goal = (0.0, 0.0)
             blocked += self.crossing(row, j, np.zeros(2), goal) is None
             edges = np.flatnonzero(np.diff(state)) + 1
@@ -305,5 +355,6 @@ class CrossingMap(BufferViews):
             "crossings_open_m": round(opened, 3),
             "crossings_blocked_m": round(shut, 3),
             "borders_blocked": int(blocked),
+            **({"crossings_dead_end_m": round(dead, 3)} if self.dead_ends else {}),
             "stretches": stretches,
         }

@@ -227,6 +227,7 @@ class SubgoalOptions(BufferViews):
             origin=(float(start.x), float(start.y)),
             reach=max_actions * robot.step + robot.sonar_range + robot.radius,
             resolution=config.resolution,
+            dead_ends=config.dead_ends,
             step=robot.step,
             translation_noise=robot.translation_noise,
             rotation_noise=math.radians(robot.rotation_noise_deg),

@@ -150,7 +150,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     gets), ``xi`` (exploration draw), ``sigma``, ``taken`` (the action relative to its base,
     remembered for action replacement), ``shielded``, ``aim`` (B, 2) (the point the reflex
     steered at: the goal or the option's sub-goal), with options ``option`` and
-    ``option_entry``.
+    ``option_entry``, and ``wall_follow`` (B,) bool: the robot follows a wall out of a trap.
     """
 
     in_keys = [*OBS_KEYS, *PERCEPTION_KEYS, INIT_KEY]
@@ -166,6 +166,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         "aim",
         "option",
         "option_entry",
+        "wall_follow",
     ]
 
     def __init__(
@@ -366,6 +367,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 "shielded": shielded,
                 "option": option,
                 "option_entry": entered,
+                "wall_follow": self._following(),
                 "aim": aim,
             },
         )
@@ -425,6 +427,13 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         return action
 
     @no_grad
+    def _following(self) -> torch.Tensor:
+        """(B,) bool: which robots follow a wall out of a trap at this step."""
+        follow = self.options.wall_follow if self.options is not None else None
+        if follow is None:
+            return self._no_entry
+        return torch.from_numpy(follow.following.copy())
+
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the per-trial decisions of robots ``rows`` (they start a new trial); called
         by :meth:`forward` where ``is_init`` marks a trial's first state."""

@@ -71,6 +71,7 @@ class UpdateKeys:
     aim: str = "aim"
     shielded: str = "shielded"
     option_entry: str = "option_entry"
+    wall_follow: str = "wall_follow"
     state_reward: str = "state_reward"
     sonar: str = "sonar"
     pose: str = "pose"
@@ -119,6 +120,7 @@ class TeseoUpdate:
         self.crossings = policy.options.crossings if policy.options is not None else None
         self.tensor_keys = UpdateKeys()
         batch = policy.batch
+        self._trapped = np.zeros(batch, dtype=bool)  # followed a wall since its last crossing
         # option critics: the return so far in the trial, at each region's first entry and,
         # with crossings, at every choice of a trial (a region's first, and each after an
         # option was given up), credited with the return-to-go from it
@@ -153,6 +155,8 @@ class TeseoUpdate:
             k.state_reward,
         ]
         reached = [k.expert, k.x, k.reward, k.terminated, k.truncated]
+        if self.crossings is not None:
+            own.append(k.wall_follow)
         if self.record is not None:
             own += [k.sonar, k.pose, k.aim, k.shielded]
             reached += [k.sonar, k.pose]
@@ -325,6 +329,11 @@ class TeseoUpdate:
             crossings.observe_rows(rows, pose[rows], sonar)
         sonar_next = read(nxt, k.sonar).numpy().astype(np.float64) * scale
         crossings.observe(pose_next, sonar_next)
+        following = read(td, k.wall_follow, None)
+        if first is not None and first.any():
+            self._trapped[first.numpy().reshape(-1)] = False
+        if following is not None:
+            self._trapped |= following.numpy().reshape(-1)
         region, region_next = read(td, k.region).numpy(), read(nxt, k.region).numpy()
         moved = region != region_next
         if moved.any():
@@ -336,7 +345,9 @@ class TeseoUpdate:
                     names[int(region_next[b])],
                     pose[b, :2],
                     pose_next[b, :2],
+                    trapped=bool(self._trapped[b]),
                 )
+                self._trapped[b] = False
 
     @no_grad
     def end_trial(

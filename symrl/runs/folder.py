@@ -33,6 +33,7 @@ _SCALARS = (
     ("crossings/open_m", "crossings_open_m"),
     ("crossings/blocked_m", "crossings_blocked_m"),
     ("crossings/borders_blocked", "borders_blocked"),
+    ("crossings/dead_end_m", "crossings_dead_end_m"),
     ("goal/passed", "goal_passed"),
     ("goal/refound", "goal_refound"),
     ("trap/wall_follows", "wall_follows"),

@@ -36,6 +36,8 @@ def trial_columns(config: RunConfig, world: Any) -> list[str]:
         columns += [f"option_{name}" for name in world.regions.names]
     if config.crossings.enabled:
         columns += ["crossings_open_m", "crossings_blocked_m", "borders_blocked"]
+        if config.crossings.dead_ends:
+            columns += ["crossings_dead_end_m"]
     if config.options.enabled and config.options.goal_scans:
         columns += ["goal_passed", "goal_refound"]
     if config.options.enabled and config.options.wall_follow:

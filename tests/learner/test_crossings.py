@@ -27,7 +27,7 @@ ROBOT = RobotConfig()
 UNKNOWN, OPEN, BLOCKED = 0, 1, 2
 
 
-def _map(borders, batch: int = 1, origin=(2.0, 4.5)) -> CrossingMap:
+def _map(borders, batch: int = 1, origin=(2.0, 4.5), dead_ends: bool = True) -> CrossingMap:
     return CrossingMap(
         borders,
         batch,
@@ -38,6 +38,7 @@ def _map(borders, batch: int = 1, origin=(2.0, 4.5)) -> CrossingMap:
         origin=origin,
         reach=20.0,
         resolution=0.1,
+        dead_ends=dead_ends,
     )
 
 
@@ -116,6 +117,47 @@ def test_a_crossing_from_odometry_opens_a_body_width_and_only_that_robots():
     assert (cmap.seen(0, 0)[1] == UNKNOWN).all()
     cmap.cross(1, "a", "c", np.array([0.9, 3.0]), np.array([1.1, 3.0]))  # not this border
     assert (cmap.seen(1, 0)[1][np.abs(centres - 3.0) < 0.5] == UNKNOWN).all()
+
+
+def _two_doors(dead_ends: bool = True) -> CrossingMap:
+    """A wall on x = 1 between regions a (west) and b (east), with doors at y in [-3, -2]
+    (away from the goal) and [0, 1] (on its bearing), both seen open."""
+    cmap = _map([Border("l", 0, 1.0, -5.0, 5.0, "a", "b")], origin=(0.0, 0.0), dead_ends=dead_ends)
+    cmap.arrays["blocked"][0, 0, :] = 3.0
+    for lo, hi in ((-3.0, -2.0), (0.0, 1.0)):
+        cmap.arrays["open"][0, 0, int((lo + 5) / 0.1) : int((hi + 5) / 0.1)] = 4.0
+    return cmap
+
+
+def test_a_door_crossed_into_a_trap_and_back_out_comes_last_that_way():
+    cmap = _two_doors()
+    west, goal = np.array([0.0, 0.0]), (3.0, 0.5)
+    assert cmap.crossing(0, 0, west, goal)[0] == pytest.approx(0.5, abs=0.06)
+    cmap.cross(0, "a", "b", np.array([0.9, 0.5]), np.array([1.1, 0.5]))  # in by the door
+    cmap.cross(0, "b", "a", np.array([1.1, 0.4]), np.array([0.9, 0.4]), trapped=True)  # out
+    t, _, _ = cmap.crossing(0, 0, west, goal)
+    assert -3.0 < t < -2.0  # the other door, though farther
+    east = np.array([2.0, 0.5])  # going west, the door is no dead end
+    assert cmap.crossing(0, 0, east, (-3.0, 0.5))[0] == pytest.approx(0.5, abs=0.06)
+    cmap.arrays["blocked"][0, 0, 20:30] = 9.0  # the other door shut: the dead end is left
+    assert cmap.crossing(0, 0, west, goal)[0] == pytest.approx(0.5, abs=0.06)
+
+
+def test_a_door_crossed_back_without_a_trap_elsewhere_or_with_marks_off_stays_first():
+    for trapped, back, marks in ((False, "a", True), (True, "c", True), (True, "a", False)):
+        cmap = _two_doors(marks)
+        cmap.cross(0, "a", "b", np.array([0.9, 0.5]), np.array([1.1, 0.5]))
+        cmap.cross(0, "b", back, np.array([1.1, 0.4]), np.array([0.9, 0.4]), trapped=trapped)
+        t, _, _ = cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.5))
+        assert t == pytest.approx(0.5, abs=0.06)
+
+
+def test_a_new_trial_forgets_where_the_robot_came_in():
+    cmap = _two_doors()
+    cmap.cross(0, "a", "b", np.array([0.9, 0.5]), np.array([1.1, 0.5]))
+    cmap.forget(np.array([0]))
+    cmap.cross(0, "b", "a", np.array([1.1, 0.4]), np.array([0.9, 0.4]), trapped=True)
+    assert cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.5))[0] == pytest.approx(0.5, abs=0.06)
 
 
 @settings(max_examples=40, deadline=None)

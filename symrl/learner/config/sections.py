@@ -216,6 +216,9 @@ class CrossingsConfig(Section):
     """False: a border option aims at one fixed point of it (``symrl.knowledge.borders``)."""
     resolution: float = Field(0.1, gt=0, le=1)
     """Bin width (m) of the evidence kept along each border's line."""
+    dead_ends: StrictBool = False
+    """A stretch the robot crossed, was trapped beyond (``options.wall_follow``) and crossed
+    back out of is taken that way again only when no other stretch of the border is left."""
 
 
 class LocalizeSection(Section):
