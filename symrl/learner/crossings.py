@@ -129,6 +129,7 @@ class CrossingMap(BufferViews):
         self._entry = np.full(batch, -1, dtype=np.int64)
         self._entry_t = np.zeros(batch)
         self._entry_way = np.zeros(batch, dtype=np.int64)
+        self._trapped = np.zeros(batch, dtype=bool)  # trapped on its way on since then
         self._between: dict[tuple[str, str], list[int]] = {}
         for i, b in enumerate(self.borders):
             self._between.setdefault((b.low, b.high), []).append(i)
@@ -204,19 +205,20 @@ class CrossingMap(BufferViews):
         blocked = (shut >= _SURE) & (shut > opened)
         return (opened >= _SURE) & ~blocked, blocked, hidden
 
-    def cross(
-        self,
-        row: int,
-        before: str,
-        after: str,
-        xy: np.ndarray,
-        xy_next: np.ndarray,
-        trapped: bool = False,
-    ) -> None:
+    def trapped(self, rows: np.ndarray, aiming: np.ndarray) -> None:
+        """Robots ``rows`` (k,) began to follow a wall out of a trap while their option led
+        across border ``aiming`` (k,) (-1: the goal). A trap met while aiming back across the
+        border last crossed says nothing of what lies beyond it."""
+        if self.dead_ends:
+            onward = aiming != self._entry[rows]
+            self._trapped[rows[onward]] = True
+
+    def cross(self, row: int, before: str, after: str, xy: np.ndarray, xy_next: np.ndarray) -> None:
         """Robot ``row`` moved from region ``before`` at ``xy`` to ``after`` at ``xy_next``:
         every border between the two that the move crosses is open where it crossed. When the
-        robot was ``trapped`` since its last crossing and now crosses that same border back
-        the other way, the stretch it came in by led into a dead end: it is marked so for that
+        robot was trapped on its way on since its last crossing (:meth:`trapped`) and now
+        crosses that same border back the other way, within the stretch it came in by (the run
+        of bins not seen blocked), that stretch led into a dead end: it is marked so for that
         direction (it stays open, and is taken only when no other stretch is left)."""
         for j in self._between.get((before, after), ()):
             a, c = int(self.axis[j]), float(self.intercept[j])
@@ -229,20 +231,26 @@ class CrossingMap(BufferViews):
                 continue
             way = 0 if d > 0 else 1  # toward the high side, or the low
             back = self._entry[row] == j and self._entry_way[row] != way
-            if trapped and back and self.dead_ends:
-                self._dead_end(row, j, 1 - way, self._entry_t[row])
+            if self._trapped[row] and back:
+                first, last = self._run(row, j, self._entry_t[row])
+                if first <= self._bin(j, t) <= last:  # out the way it came in
+                    self.arrays["dead"][row, j, 1 - way, first : last + 1] = True
             self._entry[row], self._entry_t[row], self._entry_way[row] = j, t, way
+            self._trapped[row] = False
             self.crossed(row, j, t)
 
-    def _dead_end(self, row: int, border: int, way: int, t: float) -> None:
-        """The stretch of ``border`` not seen blocked around ``t`` led robot ``row`` into a dead
-        end going ``way`` (0: toward the high side)."""
+    def _bin(self, border: int, t: float) -> int:
+        return min(max(int((t - self.lo[border]) / self.resolution), 0), int(self.bins[border]) - 1)
+
+    def _run(self, row: int, border: int, t: float) -> tuple[int, int]:
+        """The first and last bin of the run of ``border``'s bins not seen blocked around ``t``
+        (robot ``row``'s evidence)."""
         _, shut, _ = self._states(row, border)
-        i = min(max(int((t - self.lo[border]) / self.resolution), 0), len(shut) - 1)
+        i = self._bin(border, t)
         walls = np.flatnonzero(shut)
         first = int(walls[walls < i].max()) + 1 if (walls < i).any() else 0
         last = int(walls[walls > i].min()) - 1 if (walls > i).any() else len(shut) - 1
-        self.arrays["dead"][row, border, way, first : last + 1] = True
+        return first, last
 
     def crossed(self, row: int, border: int, t: float) -> None:
         """Robot ``row`` crossed ``border`` at ``t`` along its line: open for a body width."""
@@ -257,6 +265,7 @@ class CrossingMap(BufferViews):
             a[name][rows] = 0.0
         self._seen_steps[rows] = 0
         self._entry[rows] = -1
+        self._trapped[rows] = False
 
     def _span(self, border: int, t0: float, t1: float) -> tuple[int, int]:
         n = int(self.bins[border])

@@ -150,7 +150,8 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
     gets), ``xi`` (exploration draw), ``sigma``, ``taken`` (the action relative to its base,
     remembered for action replacement), ``shielded``, ``aim`` (B, 2) (the point the reflex
     steered at: the goal or the option's sub-goal), with options ``option`` and
-    ``option_entry``, and ``wall_follow`` (B,) bool: the robot follows a wall out of a trap.
+    ``option_entry``, ``option_border`` (B,) the border the option leads across (-1: the goal),
+    and ``wall_follow`` (B,) bool: the robot follows a wall out of a trap.
     """
 
     in_keys = [*OBS_KEYS, *PERCEPTION_KEYS, INIT_KEY]
@@ -166,6 +167,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         "aim",
         "option",
         "option_entry",
+        "option_border",
         "wall_follow",
     ]
 
@@ -332,11 +334,13 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
         winner, novel = self._winners(expert, x)
         zero = self._zeros
         option, entered, aim = self._no_option, self._no_entry, self._goal_aim
+        border = self._no_option
         start_turn = None
         if self.options is not None:
             target, option, entered, aim, start_turn = self.options.steer(
                 region, pose, greedy, sonar
             )
+            border = self.options.aimed_border(region, option)
         else:
             target = goal[:, 1].to(torch.float64)
         if xc.reflex or not xc.learning:
@@ -367,6 +371,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
                 "shielded": shielded,
                 "option": option,
                 "option_entry": entered,
+                "option_border": border,
                 "wall_follow": self._following(),
                 "aim": aim,
             },

@@ -72,6 +72,7 @@ class UpdateKeys:
     shielded: str = "shielded"
     option_entry: str = "option_entry"
     wall_follow: str = "wall_follow"
+    option_border: str = "option_border"
     state_reward: str = "state_reward"
     sonar: str = "sonar"
     pose: str = "pose"
@@ -120,7 +121,7 @@ class TeseoUpdate:
         self.crossings = policy.options.crossings if policy.options is not None else None
         self.tensor_keys = UpdateKeys()
         batch = policy.batch
-        self._trapped = np.zeros(batch, dtype=bool)  # followed a wall since its last crossing
+        self._following = np.zeros(batch, dtype=bool)  # following a wall at the last step
         # option critics: the return so far in the trial, at each region's first entry and,
         # with crossings, at every choice of a trial (a region's first, and each after an
         # option was given up), credited with the return-to-go from it
@@ -156,7 +157,7 @@ class TeseoUpdate:
         ]
         reached = [k.expert, k.x, k.reward, k.terminated, k.truncated]
         if self.crossings is not None:
-            own.append(k.wall_follow)
+            own += [k.wall_follow, k.option_border]
         if self.record is not None:
             own += [k.sonar, k.pose, k.aim, k.shielded]
             reached += [k.sonar, k.pose]
@@ -331,9 +332,13 @@ class TeseoUpdate:
         crossings.observe(pose_next, sonar_next)
         following = read(td, k.wall_follow, None)
         if first is not None and first.any():
-            self._trapped[first.numpy().reshape(-1)] = False
-        if following is not None:
-            self._trapped |= following.numpy().reshape(-1)
+            self._following[first.numpy().reshape(-1)] = False
+        if following is not None:  # a follow that began here, not one carried across a line
+            now = following.numpy().reshape(-1)
+            began = np.flatnonzero(now & ~self._following)
+            if len(began):
+                crossings.trapped(began, read(td, k.option_border).numpy()[began])
+            self._following[:] = now
         region, region_next = read(td, k.region).numpy(), read(nxt, k.region).numpy()
         moved = region != region_next
         if moved.any():
@@ -345,9 +350,7 @@ class TeseoUpdate:
                     names[int(region_next[b])],
                     pose[b, :2],
                     pose_next[b, :2],
-                    trapped=bool(self._trapped[b]),
                 )
-                self._trapped[b] = False
 
     @no_grad
     def end_trial(

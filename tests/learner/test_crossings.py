@@ -129,35 +129,52 @@ def _two_doors(dead_ends: bool = True) -> CrossingMap:
     return cmap
 
 
+ROBOT_0, GOAL, BORDER_0 = np.array([0]), np.array([-1]), np.array([0])
+
+
+def _in_trapped_out(cmap: CrossingMap, aiming=GOAL, out_y: float = 0.4) -> None:
+    """In by the door on the bearing, trapped beyond it aiming at ``aiming``, back out at
+    ``out_y``."""
+    cmap.cross(0, "a", "b", np.array([0.9, 0.5]), np.array([1.1, 0.5]))
+    cmap.trapped(ROBOT_0, aiming)
+    cmap.cross(0, "b", "a", np.array([1.1, out_y]), np.array([0.9, out_y]))
+
+
+def _aim(cmap: CrossingMap, xy=(0.0, 0.0), goal=(3.0, 0.5)) -> float:
+    return cmap.crossing(0, 0, np.array(xy), goal)[0]
+
+
 def test_a_door_crossed_into_a_trap_and_back_out_comes_last_that_way():
     cmap = _two_doors()
-    west, goal = np.array([0.0, 0.0]), (3.0, 0.5)
-    assert cmap.crossing(0, 0, west, goal)[0] == pytest.approx(0.5, abs=0.06)
-    cmap.cross(0, "a", "b", np.array([0.9, 0.5]), np.array([1.1, 0.5]))  # in by the door
-    cmap.cross(0, "b", "a", np.array([1.1, 0.4]), np.array([0.9, 0.4]), trapped=True)  # out
-    t, _, _ = cmap.crossing(0, 0, west, goal)
-    assert -3.0 < t < -2.0  # the other door, though farther
-    east = np.array([2.0, 0.5])  # going west, the door is no dead end
-    assert cmap.crossing(0, 0, east, (-3.0, 0.5))[0] == pytest.approx(0.5, abs=0.06)
+    assert _aim(cmap) == pytest.approx(0.5, abs=0.06)
+    _in_trapped_out(cmap)
+    assert -3.0 < _aim(cmap) < -2.0  # the other door, though farther
+    assert _aim(cmap, (2.0, 0.5), (-3.0, 0.5)) == pytest.approx(0.5, abs=0.06)  # the other way
     cmap.arrays["blocked"][0, 0, 20:30] = 9.0  # the other door shut: the dead end is left
-    assert cmap.crossing(0, 0, west, goal)[0] == pytest.approx(0.5, abs=0.06)
+    assert _aim(cmap) == pytest.approx(0.5, abs=0.06)
 
 
-def test_a_door_crossed_back_without_a_trap_elsewhere_or_with_marks_off_stays_first():
-    for trapped, back, marks in ((False, "a", True), (True, "c", True), (True, "a", False)):
-        cmap = _two_doors(marks)
-        cmap.cross(0, "a", "b", np.array([0.9, 0.5]), np.array([1.1, 0.5]))
-        cmap.cross(0, "b", back, np.array([1.1, 0.4]), np.array([0.9, 0.4]), trapped=trapped)
-        t, _, _ = cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.5))
-        assert t == pytest.approx(0.5, abs=0.06)
+def test_no_dead_end_without_a_trap_on_the_way_on_or_out_the_way_in():
+    untrapped = _two_doors()
+    untrapped.cross(0, "a", "b", np.array([0.9, 0.5]), np.array([1.1, 0.5]))
+    untrapped.cross(0, "b", "a", np.array([1.1, 0.4]), np.array([0.9, 0.4]))
+    aiming_back = _two_doors()  # trapped while its option led back across the door
+    _in_trapped_out(aiming_back, aiming=BORDER_0)
+    out_elsewhere = _two_doors()  # out by the other door
+    _in_trapped_out(out_elsewhere, out_y=-2.5)
+    marks_off = _two_doors(dead_ends=False)
+    _in_trapped_out(marks_off)
+    for cmap in (untrapped, aiming_back, out_elsewhere, marks_off):
+        assert _aim(cmap) == pytest.approx(0.5, abs=0.06)
 
 
 def test_a_new_trial_forgets_where_the_robot_came_in():
     cmap = _two_doors()
     cmap.cross(0, "a", "b", np.array([0.9, 0.5]), np.array([1.1, 0.5]))
-    cmap.forget(np.array([0]))
-    cmap.cross(0, "b", "a", np.array([1.1, 0.4]), np.array([0.9, 0.4]), trapped=True)
-    assert cmap.crossing(0, 0, np.array([0.0, 0.0]), (3.0, 0.5))[0] == pytest.approx(0.5, abs=0.06)
+    cmap.forget(ROBOT_0)
+    cmap.trapped(ROBOT_0, GOAL)
+    cmap.cross(0, "b", "a", np.array([1.1, 0.4]), np.array([0.9, 0.4]))
+    assert _aim(cmap) == pytest.approx(0.5, abs=0.06)
 
 
 @settings(max_examples=40, deadline=None)
