@@ -522,7 +522,6 @@ class SubgoalOptions(BufferViews):
             return options[0]
         return tried.index(best)  # the first of equal values
 
-    @no_grad
     def aimed_border(self, region: torch.Tensor, option: torch.Tensor) -> torch.Tensor:
         """(B,) the index (in the crossing map's borders) of the border each robot's ``option``
         in ``region`` leads across; -1 for the goal, or without crossings."""
@@ -530,6 +529,7 @@ class SubgoalOptions(BufferViews):
             return torch.full_like(option, -1)
         return torch.from_numpy(self._border[region.numpy(), option.numpy()])
 
+    @no_grad
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the choices of controllers ``rows`` (their robots start a new trial)."""
         a, r = self.arrays, rows.numpy()

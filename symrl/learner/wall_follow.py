@@ -72,6 +72,7 @@ class WallFollow:
         self._trap = np.full((batch, 2), np.inf)
         self._steps = np.zeros(batch, dtype=np.int64)
         self._follows = np.zeros(batch, dtype=np.int64)
+        self._wall = np.full((batch, 2), np.nan)  # the point of the wall followed (NaN: none)
 
     def begin_trial(self, rows: np.ndarray) -> None:
         """Forget the trail and the follow of robots ``rows`` (a new trial)."""
@@ -81,6 +82,7 @@ class WallFollow:
         self._steps[rows] = 0
         self._follows[rows] = 0
         self._trap[rows] = np.inf
+        self._wall[rows] = np.nan
 
     def summary(self, row: int) -> dict[str, int]:
         """The trial's wall follows of robot ``row`` (a trial-table column)."""
@@ -127,7 +129,8 @@ class WallFollow:
                     right = abs(float(_wrap(wall + math.pi / 2 - bearing)))
                     self._side[b] = 1.0 if left <= right else -1.0
                 self._trap[b] = centre
-            travel = self._along(pose[b], float(self._side[b]), self._echoes(b))
+                self._wall[b] = np.nan
+            travel = self._along(b, pose[b], float(self._side[b]), self._echoes(b))
             out[b] = xy[b] + LOOKAHEAD * np.array([math.cos(travel), math.sin(travel)])
         return out
 
@@ -166,14 +169,27 @@ class WallFollow:
         points[scans >= 0.999] = np.nan
         return points
 
-    def _along(self, pose: np.ndarray, side: float, echoes: np.ndarray) -> float:
-        """The heading along the nearest of the kept echoes ``echoes`` (M, n, 2) with it on
-        ``side``, turned toward it when farther than :data:`CLEARANCE` and away when nearer."""
-        d = (echoes - pose[:2]).reshape(-1, 2)
+    def _along(self, b: int, pose: np.ndarray, side: float, echoes: np.ndarray) -> float:
+        """The heading along the wall robot ``b`` follows, with it on ``side``, turned toward it
+        when farther than :data:`CLEARANCE` and away when nearer. The wall is the nearest of
+        the kept echoes ``echoes`` (M, n, 2) that lies within the body's diameter of the point
+        followed at the last step (a gap the body cannot pass is wall; one it can, a door, is
+        not: the follow rounds the door's post into it instead of taking up the wall beyond);
+        the nearest of all when none does."""
+        points = echoes.reshape(-1, 2)
+        d = points - pose[:2]
         distance = np.hypot(d[:, 0], d[:, 1])
         if np.isnan(distance).all():  # no echo: turn toward the side
+            self._wall[b] = np.nan
             return float(pose[2] + side * math.pi / 4)
+        last = self._wall[b]
+        if not np.isnan(last[0]):
+            reach = max(2 * self._radius, float(np.hypot(*(last - pose[:2]))))
+            near = np.hypot(*(points - last).T) <= reach
+            if near.any():
+                distance = np.where(near, distance, np.nan)
         k = int(np.nanargmin(distance))
+        self._wall[b] = points[k]
         wall = math.atan2(d[k, 1], d[k, 0])
         turn = float(np.clip(GAIN * (distance[k] - CLEARANCE), -math.pi / 3, math.pi / 3))
         return float(wall - side * math.pi / 2 + side * turn)

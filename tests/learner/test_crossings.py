@@ -177,6 +177,26 @@ def test_a_new_trial_forgets_where_the_robot_came_in():
     assert _aim(cmap) == pytest.approx(0.5, abs=0.06)
 
 
+def test_the_paper_robot_learns_that_the_door_on_the_goals_bearing_leads_into_a_closet():
+    """`tuning/closet_first_door`: the door on the goal's bearing opens into a closet; the
+    robot drives in, is trapped, follows the closet's wall out by the door, and marks it."""
+    from symrl.studies.runner import resolve_config
+    from symrl.train import train_batch
+
+    trials = {}
+    for marks in (False, True):
+        config = resolve_config(
+            "paper",
+            ["env.map=tuning/closet_first_door", "run.trials=3", f"crossings.dead_ends={marks}"],
+        )
+        (result,) = train_batch(config, [6004], progress=False)
+        trials[marks] = result.trials
+    assert all("crossings_dead_end_m" not in t for t in trials[False])
+    assert 0.5 < trials[True][0]["crossings_dead_end_m"] < 1.5  # the closet's 1 m door
+    assert [int(t["steps"]) for t in trials[False]] == [200] * 3
+    assert trials[True][2]["reached_goal"] and int(trials[True][2]["steps"]) < 80  # optimum 55
+
+
 @settings(max_examples=40, deadline=None)
 @given(x=st.floats(0.4, 3.6), y=st.floats(2.5, 5.6), heading=st.floats(-math.pi, math.pi))
 def test_no_ray_from_the_west_office_shows_its_walls_open(x, y, heading):

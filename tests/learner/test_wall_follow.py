@@ -76,9 +76,14 @@ def test_a_circling_robot_follows_the_nearest_wall_on_its_aims_side() -> None:
 def test_the_follow_rounds_an_inner_corner_away_from_the_wall() -> None:
     follow = WallFollow(1, ROBOT)
     circle(follow, WINDOW)
-    pose = np.array([4.45, 4.05, math.pi])  # in the cup's north-west corner, heading west
-    out = follow.aim(pose[None], AIM, scan(pose))[0] - pose[:2]
-    assert out[1] < -0.5  # the wall on its right: it turns left, down the cup's west side
+    turned = None
+    for x in np.arange(5.0, 4.25, -0.05):  # along the cup's top, westward, into its corner
+        pose = np.array([x, 3.9, math.pi])
+        out = follow.aim(pose[None], AIM, scan(pose))[0] - pose[:2]
+        if out[1] < -0.5:  # the wall on its right: it turns left, down the cup's west side
+            turned = x
+            break
+    assert turned is not None and turned > 4.0 + ROBOT.radius + 0.1
 
 
 def test_trapped_again_in_the_same_place_it_takes_the_other_side() -> None:
@@ -131,6 +136,19 @@ def test_the_paper_robot_gets_out_of_a_cup_the_rules_draw_no_line_around() -> No
         assert ("wall_follows" in trial) == follow
     assert steps[False] == (200, False)
     assert steps[True][1] and steps[True][0] < 150
+
+
+def test_the_follow_rounds_a_door_post_out_of_the_room_the_robot_starts_in() -> None:
+    """`tuning/room_start_back_door`: the robot starts in a room whose 1 m door is in its far
+    wall; following the room's walls it turns round the door's post and out, instead of
+    taking up the wall beyond the door."""
+    from symrl.studies.runner import resolve_config
+    from symrl.train import train_batch
+
+    config = resolve_config("paper", ["env.map=tuning/room_start_back_door", "run.trials=1"])
+    (result,) = train_batch(config, [6001], progress=False)
+    (trial,) = result.trials
+    assert trial["wall_follows"] >= 1 and trial["reached_goal"]
 
 
 def test_a_robot_follows_alike_alone_in_a_batch_and_resumed(tmp_path) -> None:
