@@ -144,6 +144,7 @@ class SubgoalOptions(BufferViews):
         )
         self.wall_follow = WallFollow(batch, robot or RobotConfig()) if config.wall_follow else None
         self.register_buffer("choice", torch.full((batch, r), -1, dtype=torch.long))
+        self._first = np.full((batch, r), -1, dtype=np.int64)  # each region's first choice
         self.register_buffer("stage", torch.zeros(batch, dtype=torch.long))
         self.register_buffer("visit", torch.full((batch,), -1, dtype=torch.long))
         # each controller's own stream (not the exploration noise's): set k of a batch draws
@@ -396,6 +397,7 @@ class SubgoalOptions(BufferViews):
         if entered.any():
             for b in np.flatnonzero(entered).tolist():
                 choice[b, region_np[b]] = self._choose(b, int(region_np[b]), greedy, xy[b])
+                self._first[b, region_np[b]] = choice[b, region_np[b]]
             chosen = choice[rows, region_np]
         # a new visit of a region starts at its first stage again
         stage, visit = a["stage"], a["visit"]
@@ -534,6 +536,7 @@ class SubgoalOptions(BufferViews):
         """Forget the choices of controllers ``rows`` (their robots start a new trial)."""
         a, r = self.arrays, rows.numpy()
         a["choice"][r] = -1
+        self._first[r] = -1
         a["stage"][r] = _FIRST_STAGE
         a["visit"][r] = -1
         self._region_steps[r] = 0
@@ -563,6 +566,11 @@ class SubgoalOptions(BufferViews):
         """The trials of controllers ``rows`` as the critic learns from them: the option each
         region was visited with (k, R) (-1: not entered; a copy)."""
         return self.arrays["choice"][rows].copy()
+
+    def trial_first_choices(self, rows: np.ndarray) -> np.ndarray:
+        """The option each region of controllers ``rows``' trials was entered with (k, R), before
+        any was given up (-1: not entered; a copy)."""
+        return self._first[rows].copy()
 
     def trial_steps(self, rows: np.ndarray) -> np.ndarray:
         """The actions of controllers ``rows``' trials so far (k,) (a copy)."""

@@ -11,8 +11,9 @@ from the odometry pose it was read at) is the last via-point, the earliest pose 
 way to that one did the one before, and so on back to the start.
 
 The way belongs to the options that trial chose: a later trial steers at the via-points in turn,
-then at the goal, while the option chosen in every region it has entered is the one the best
-trial chose there, and until the robot's latest scan shows the straight way to the options' own
+then at the goal, while the option chosen in every region it has entered is one the best trial
+chose there (the one it entered the region with, or the one in force at its end, when the first
+was given up), and until the robot's latest scan shows the straight way to the options' own
 aim clear where the way leads too (the way is for walls that hide the aim; once none does, the
 options steer for the rest of the trial). An option explored or given up elsewhere, or a
 via-point not reached within 1.5 times the straight way's actions, hands the steering back to the
@@ -93,6 +94,7 @@ class RememberedWay(BufferViews):
         self.register_buffer("points", torch.zeros(batch, max_points, 2, dtype=torch.float64))
         self.register_buffer("count", torch.zeros(batch, dtype=torch.long))
         self.register_buffer("choices", torch.full((batch, regions), -1, dtype=torch.long))
+        self.register_buffer("first", torch.full((batch, regions), -1, dtype=torch.long))
         self.register_buffer("best", torch.full((batch,), _NONE, dtype=torch.long))
         self.register_buffer("misses", torch.zeros(batch, dtype=torch.long))
         # per trial (not saved: a trial starts afresh)
@@ -138,7 +140,8 @@ class RememberedWay(BufferViews):
         xy = pose[:, :2]
         a, t = self.arrays, self._trial
         entered = choice >= 0
-        t["off"] |= (entered & (choice != a["choices"])).any(axis=1)
+        other = (choice != a["choices"]) & (choice != a["first"])
+        t["off"] |= (entered & other).any(axis=1)
         use = (a["best"] < _NONE) & ~t["off"] & (a["misses"] < _MISSES)
         out = aim.copy()
         if sonar is not None and use.any():
@@ -172,11 +175,18 @@ class RememberedWay(BufferViews):
 
     # -- learning (the update calls this at a trial's end) --------------------------------
     def learn(
-        self, row: int, pose: np.ndarray, sonar: np.ndarray, choices: np.ndarray, reached: bool
+        self,
+        row: int,
+        pose: np.ndarray,
+        sonar: np.ndarray,
+        choices: np.ndarray,
+        reached: bool,
+        first: np.ndarray | None = None,
     ) -> None:
         """Robot ``row``'s finished trial: odometry poses (T + 1, 3), their scans (T + 1, n)
-        over the range, the option chosen in each region (R,), whether it reached the goal. A
-        successful trial shorter than the best so far gives the way."""
+        over the range, the option chosen in each region (R,) at the trial's end and ``first``
+        (R,) the one each region was entered with (the same when none was given up), whether
+        it reached the goal. A successful trial shorter than the best so far gives the way."""
         a = self.arrays
         steps = len(pose) - 1
         best = int(a["best"][row])
@@ -193,6 +203,7 @@ class RememberedWay(BufferViews):
         a["best"][row] = steps
         a["misses"][row] = 0
         a["choices"][row] = choices
+        a["first"][row] = choices if first is None else first
         a["count"][row] = len(way)
         if way:
             a["points"][row, : len(way)] = np.array(way)

@@ -428,9 +428,11 @@ class TeseoUpdate:
             return
         assert self.options is not None
         choices = self.options.trial_choices(rows)
+        first = self.options.trial_first_choices(rows)
         for k, (b, ok) in enumerate(zip(rows.tolist(), reached.tolist(), strict=True)):
             n = int(rec.steps[b])
-            way.learn(b, rec.pose[b, : n + 1], rec.sonar[b, : n + 1], choices[k], bool(ok))
+            pose, sonar = rec.pose[b, : n + 1], rec.sonar[b, : n + 1]
+            way.learn(b, pose, sonar, choices[k], bool(ok), first=first[k])
 
     def _trial_gradient_step(self, rows: np.ndarray) -> None:
         """mu_j += clip(rate * sum of dJ/da_t over the steps neuron j acted, +-max_step), kept

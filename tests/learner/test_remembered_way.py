@@ -145,6 +145,19 @@ def test_another_option_stops_the_way_for_the_trial() -> None:
     assert not np.array_equal(w.aim(np.array([[1, -1]]), xy, aim), aim)
 
 
+def test_the_way_is_taken_with_the_option_the_best_trial_began_or_ended_a_region_with() -> None:
+    """The best trial entered region 0 with option 2, gave it up for option 1 and arrived:
+    a later trial that enters it with either takes the way; with a third, not."""
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True, first=np.array([2, 0]))
+    aim = np.array([[9.0, 9.0]])
+    xy = np.array([[0.5, 0.5]])
+    for option, taken in ((2, True), (1, True), (0, False)):
+        w.begin_trial(np.array([0]))
+        out = w.aim(np.array([[option, -1]]), xy, aim)
+        assert np.array_equal(out, aim) != taken
+
+
 def test_no_way_before_a_success() -> None:
     w = way(batch=2)
     aim = np.array([[9.0, 9.0], [8.0, 8.0]])
