@@ -156,7 +156,7 @@ def plot_paths(
 _CROSSING_COLOURS = {
     1: ("tab:green", "seen open"),
     2: ("tab:red", "seen blocked"),
-    3: ("tab:orange", "led into a dead end"),
+    3: ("tab:purple", "led into a dead end"),
 }
 
 

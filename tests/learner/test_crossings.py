@@ -189,7 +189,7 @@ def test_the_paper_robot_learns_that_the_door_on_the_goals_bearing_leads_into_a_
             "paper",
             ["env.map=tuning/closet_first_door", "run.trials=3", f"crossings.dead_ends={marks}"],
         )
-        (result,) = train_batch(config, [6004], progress=False)
+        (result,) = train_batch(config, [5000], progress=False)
         trials[marks] = result.trials
     assert all("crossings_dead_end_m" not in t for t in trials[False])
     assert 0.5 < trials[True][0]["crossings_dead_end_m"] < 1.5  # the closet's 1 m door
