@@ -173,3 +173,13 @@ def whole_and_resumed(tmp_path, args: list[str], trials: int, stop: int) -> tupl
     assert main(["train", "paper", "--trials", str(stop), "--logdir", str(parted), *args]) == 0
     assert main(["train", "--resume", str(parted), "--trials", str(trials)]) == 0
     return read_trials_csv(whole / "trials.csv"), read_trials_csv(parted / "trials.csv")
+
+
+def paper_trials(world: str, seed: int, trials: int, *overrides: str) -> list[dict]:
+    """The trial rows of `paper` (with ``overrides``) on ``world``, seed ``seed``."""
+    from symrl.studies.runner import resolve_config
+    from symrl.train import train_batch
+
+    config = resolve_config("paper", [f"env.map={world}", f"run.trials={trials}", *overrides])
+    (result,) = train_batch(config, [seed], progress=False)
+    return list(result.trials)

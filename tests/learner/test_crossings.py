@@ -12,6 +12,7 @@ import pytest
 import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from learner_helpers import paper_trials
 
 from symrl.knowledge.borders import Border, region_borders
 from symrl.knowledge.rungs import Knowledge
@@ -180,17 +181,10 @@ def test_a_new_trial_forgets_where_the_robot_came_in():
 def test_the_paper_robot_learns_that_the_door_on_the_goals_bearing_leads_into_a_closet():
     """`tuning/closet_first_door`: the door on the goal's bearing opens into a closet; the
     robot drives in, is trapped, follows the closet's wall out by the door, and marks it."""
-    from symrl.studies.runner import resolve_config
-    from symrl.train import train_batch
-
-    trials = {}
-    for marks in (False, True):
-        config = resolve_config(
-            "paper",
-            ["env.map=tuning/closet_first_door", "run.trials=3", f"crossings.dead_ends={marks}"],
-        )
-        (result,) = train_batch(config, [5000], progress=False)
-        trials[marks] = result.trials
+    trials = {
+        marks: paper_trials("tuning/closet_first_door", 5000, 3, f"crossings.dead_ends={marks}")
+        for marks in (False, True)
+    }
     assert all("crossings_dead_end_m" not in t for t in trials[False])
     assert 0.5 < trials[True][0]["crossings_dead_end_m"] < 1.5  # the closet's 1 m door
     assert [int(t["steps"]) for t in trials[False]] == [200] * 3

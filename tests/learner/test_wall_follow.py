@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from learner_helpers import whole_and_resumed
+from learner_helpers import paper_trials, whole_and_resumed
 
 from symrl.learner.wall_follow import WINDOW, WallFollow
 from symrl.world.geometry import Walls
@@ -121,17 +121,9 @@ def test_a_new_trial_forgets_the_trail() -> None:
 def test_the_paper_robot_gets_out_of_a_cup_the_rules_draw_no_line_around() -> None:
     """`tuning/cup_start_east`: the robot starts in a cup open away from the goal, every aim
     beyond its end wall; without the follow its first trial circles there to the last action."""
-    from symrl.studies.runner import resolve_config
-    from symrl.train import train_batch
-
     steps = {}
     for follow in (False, True):
-        config = resolve_config(
-            "paper",
-            ["env.map=tuning/cup_start_east", "run.trials=1", f"options.wall_follow={follow}"],
-        )
-        (result,) = train_batch(config, [5000], progress=False)
-        (trial,) = result.trials
+        (trial,) = paper_trials("tuning/cup_start_east", 5000, 1, f"options.wall_follow={follow}")
         steps[follow] = (int(trial["steps"]), bool(trial["reached_goal"]))
         assert ("wall_follows" in trial) == follow
     assert steps[False] == (200, False)
@@ -142,12 +134,7 @@ def test_the_follow_rounds_a_door_post_out_of_the_room_the_robot_starts_in() -> 
     """`tuning/room_start_back_door`: the robot starts in a room whose 1 m door is in its far
     wall; following the room's walls it turns round the door's post and out, instead of
     taking up the wall beyond the door."""
-    from symrl.studies.runner import resolve_config
-    from symrl.train import train_batch
-
-    config = resolve_config("paper", ["env.map=tuning/room_start_back_door", "run.trials=1"])
-    (result,) = train_batch(config, [6001], progress=False)
-    (trial,) = result.trials
+    (trial,) = paper_trials("tuning/room_start_back_door", 6001, 1)
     assert trial["wall_follows"] >= 1 and trial["reached_goal"]
 
 
