@@ -348,7 +348,7 @@ def _load_numpy_fields(obj: Any, state: dict[str, Any] | None) -> None:
 def _working_parts(policy, update) -> dict[str, Any]:
     """The objects whose attributes hold a trial in progress beyond the state dicts: the trial
     gradient's record, the localiser's warm start, the options' step counts and route, the
-    goal scans' trial flags, the wall follow's trail."""
+    goal scans' trial flags, the wall follow's trail, the crossing map's last crossing."""
     options = policy.options
     return {
         "loss_record": update.record,
@@ -357,6 +357,7 @@ def _working_parts(policy, update) -> dict[str, Any]:
         "route": getattr(options, "route", None),
         "goal_scans": getattr(options, "goal_scans", None),
         "wall_follow": getattr(options, "wall_follow", None),
+        "crossings": getattr(options, "crossings", None),
     }
 
 

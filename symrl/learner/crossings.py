@@ -130,6 +130,7 @@ class CrossingMap(BufferViews):
         self._entry_t = np.zeros(batch)
         self._entry_way = np.zeros(batch, dtype=np.int64)
         self._trapped = np.zeros(batch, dtype=bool)  # trapped on its way on since then
+        self._following = np.zeros(batch, dtype=bool)  # following a wall at the last step
         self._between: dict[tuple[str, str], list[int]] = {}
         for i, b in enumerate(self.borders):
             self._between.setdefault((b.low, b.high), []).append(i)
@@ -205,18 +206,22 @@ class CrossingMap(BufferViews):
         blocked = (shut >= _SURE) & (shut > opened)
         return (opened >= _SURE) & ~blocked, blocked, hidden
 
-    def trapped(self, rows: np.ndarray, aiming: np.ndarray) -> None:
-        """Robots ``rows`` (k,) began to follow a wall out of a trap while their option led
-        across border ``aiming`` (k,) (-1: the goal). A trap met while aiming back across the
-        border last crossed says nothing of what lies beyond it."""
-        if self.dead_ends:
-            onward = aiming != self._entry[rows]
-            self._trapped[rows[onward]] = True
+    def watch(self, following: np.ndarray, aiming: np.ndarray) -> None:
+        """Every robot's wall follow at this step (B,) bool (``options.wall_follow``) and the
+        border its option leads across (B,) (-1: the goal): a follow that began since the
+        robot's last crossing, its option leading on, is a trap met beyond that crossing. A
+        follow carried across the line, or begun while aiming back across it, says nothing of
+        what lies beyond."""
+        if not self.dead_ends:
+            return
+        began = following & ~self._following
+        self._following[:] = following
+        self._trapped |= began & (aiming != self._entry)
 
     def cross(self, row: int, before: str, after: str, xy: np.ndarray, xy_next: np.ndarray) -> None:
         """Robot ``row`` moved from region ``before`` at ``xy`` to ``after`` at ``xy_next``:
         every border between the two that the move crosses is open where it crossed. When the
-        robot was trapped on its way on since its last crossing (:meth:`trapped`) and now
+        robot was trapped on its way on since its last crossing (:meth:`watch`) and now
         crosses that same border back the other way, within the stretch it came in by (the run
         of bins not seen blocked), that stretch led into a dead end: it is marked so for that
         direction (it stays open, and is taken only when no other stretch is left)."""
@@ -266,6 +271,7 @@ class CrossingMap(BufferViews):
         self._seen_steps[rows] = 0
         self._entry[rows] = -1
         self._trapped[rows] = False
+        self._following[rows] = False
 
     def _span(self, border: int, t0: float, t1: float) -> tuple[int, int]:
         n = int(self.bins[border])

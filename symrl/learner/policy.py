@@ -431,7 +431,6 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             action = torch.from_numpy(np.where(start_turn, target.numpy(), action.numpy()))
         return action
 
-    @no_grad
     def _following(self) -> torch.Tensor:
         """(B,) bool: which robots follow a wall out of a trap at this step."""
         follow = self.options.wall_follow if self.options is not None else None
@@ -439,6 +438,7 @@ class MixtureOfExpertsPolicy(TensorDictModuleBase):
             return self._no_entry
         return torch.from_numpy(follow.following.copy())
 
+    @no_grad
     def begin_trial(self, rows: torch.Tensor) -> None:
         """Forget the per-trial decisions of robots ``rows`` (they start a new trial); called
         by :meth:`forward` where ``is_init`` marks a trial's first state."""

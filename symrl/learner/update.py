@@ -121,7 +121,6 @@ class TeseoUpdate:
         self.crossings = policy.options.crossings if policy.options is not None else None
         self.tensor_keys = UpdateKeys()
         batch = policy.batch
-        self._following = np.zeros(batch, dtype=bool)  # following a wall at the last step
         # option critics: the return so far in the trial, at each region's first entry and,
         # with crossings, at every choice of a trial (a region's first, and each after an
         # option was given up), credited with the return-to-go from it
@@ -331,14 +330,8 @@ class TeseoUpdate:
         sonar_next = read(nxt, k.sonar).numpy().astype(np.float64) * scale
         crossings.observe(pose_next, sonar_next)
         following = read(td, k.wall_follow, None)
-        if first is not None and first.any():
-            self._following[first.numpy().reshape(-1)] = False
-        if following is not None:  # a follow that began here, not one carried across a line
-            now = following.numpy().reshape(-1)
-            began = np.flatnonzero(now & ~self._following)
-            if len(began):
-                crossings.trapped(began, read(td, k.option_border).numpy()[began])
-            self._following[:] = now
+        if following is not None:
+            crossings.watch(following.numpy().reshape(-1), read(td, k.option_border).numpy())
         region, region_next = read(td, k.region).numpy(), read(nxt, k.region).numpy()
         moved = region != region_next
         if moved.any():

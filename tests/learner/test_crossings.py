@@ -130,14 +130,14 @@ def _two_doors(dead_ends: bool = True) -> CrossingMap:
     return cmap
 
 
-ROBOT_0, GOAL, BORDER_0 = np.array([0]), np.array([-1]), np.array([0])
+FOLLOWING, GOAL, BORDER_0 = np.array([True]), np.array([-1]), np.array([0])
 
 
 def _in_trapped_out(cmap: CrossingMap, aiming=GOAL, out_y: float = 0.4) -> None:
     """In by the door on the bearing, trapped beyond it aiming at ``aiming``, back out at
     ``out_y``."""
     cmap.cross(0, "a", "b", np.array([0.9, 0.5]), np.array([1.1, 0.5]))
-    cmap.trapped(ROBOT_0, aiming)
+    cmap.watch(FOLLOWING, aiming)
     cmap.cross(0, "b", "a", np.array([1.1, out_y]), np.array([0.9, out_y]))
 
 
@@ -172,8 +172,8 @@ def test_no_dead_end_without_a_trap_on_the_way_on_or_out_the_way_in():
 def test_a_new_trial_forgets_where_the_robot_came_in():
     cmap = _two_doors()
     cmap.cross(0, "a", "b", np.array([0.9, 0.5]), np.array([1.1, 0.5]))
-    cmap.forget(ROBOT_0)
-    cmap.trapped(ROBOT_0, GOAL)
+    cmap.forget(np.array([0]))
+    cmap.watch(FOLLOWING, GOAL)
     cmap.cross(0, "b", "a", np.array([1.1, 0.4]), np.array([0.9, 0.4]))
     assert _aim(cmap) == pytest.approx(0.5, abs=0.06)
 

@@ -30,6 +30,13 @@ COMMANDS = {
         "sets/batch-*.pt",
         ["trials.csv"],
     ),
+    # `paper` on a closet world: its robots follow walls and mark dead ends (working state
+    # beyond the state dicts)
+    "study_paper": (
+        ["study", "paper", "--sets", "2", "--trials", "4", "--map", "tuning/closet_first_door"],
+        "sets/batch-*.pt",
+        ["trials.csv"],
+    ),
     "ablate": (
         ["ablate", "--recipes", "reflex_only,paper_map", "--sets", "2", "--trials", "4"],
         "paper_map/sets/batch-*.pt",
@@ -99,6 +106,7 @@ def _stopped(argv: list[str], out: Path, saved: str, sig: int, delay: float) -> 
         ("study", signal.SIGTERM, 2, 0.3),
         ("study", signal.SIGHUP, 1, 0.5),
         ("study", signal.SIGKILL, 2, 0.2),
+        ("study_paper", signal.SIGKILL, 1, 0.3),
         ("ablate", signal.SIGTERM, 1, 0.0),
         ("ablate", signal.SIGKILL, 2, 0.3),
         ("sweep", signal.SIGINT, 1, 0.0),
