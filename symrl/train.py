@@ -319,8 +319,9 @@ BATCH_SNAPSHOT_FORMAT = 1
 
 
 def _numpy_fields(obj: Any) -> dict[str, Any] | None:
-    """The per-trial working state kept in ``obj``'s attributes (numpy arrays, and lists of
-    arrays or None such as the route's paths) as tensors (copies); None for no ``obj``."""
+    """The per-trial working state kept in ``obj``'s attributes (numpy arrays, lists of arrays
+    or None such as the route's paths, and dicts of arrays such as the remembered way's trial
+    flags) as tensors (copies); None for no ``obj``."""
     if obj is None:
         return None
     out: dict[str, Any] = {}
@@ -329,6 +330,8 @@ def _numpy_fields(obj: Any) -> dict[str, Any] | None:
             out[k] = torch.from_numpy(v.copy())
         elif isinstance(v, list) and v and all(x is None or isinstance(x, np.ndarray) for x in v):
             out[k] = [None if x is None else torch.from_numpy(x.copy()) for x in v]
+        elif isinstance(v, dict) and v and all(isinstance(x, np.ndarray) for x in v.values()):
+            out[k] = {name: torch.from_numpy(x.copy()) for name, x in v.items()}
     return out
 
 
@@ -336,19 +339,19 @@ def _load_numpy_fields(obj: Any, state: dict[str, Any] | None) -> None:
     if obj is None or state is None:
         return
     for k, v in state.items():
-        setattr(
-            obj,
-            k,
-            [None if x is None else x.numpy().copy() for x in v]
-            if isinstance(v, list)
-            else v.numpy().copy(),
-        )
+        if isinstance(v, dict):
+            setattr(obj, k, {name: x.numpy().copy() for name, x in v.items()})
+        elif isinstance(v, list):
+            setattr(obj, k, [None if x is None else x.numpy().copy() for x in v])
+        else:
+            setattr(obj, k, v.numpy().copy())
 
 
 def _working_parts(policy, update) -> dict[str, Any]:
     """The objects whose attributes hold a trial in progress beyond the state dicts: the trial
     gradient's record, the localiser's warm start, the options' step counts and route, the
-    goal scans' trial flags, the wall follow's trail, the crossing map's last crossing."""
+    goal scans' trial flags, the wall follow's trail, the crossing map's last crossing, the
+    remembered way's trial flags."""
     options = policy.options
     return {
         "loss_record": update.record,
@@ -358,6 +361,7 @@ def _working_parts(policy, update) -> dict[str, Any]:
         "goal_scans": getattr(options, "goal_scans", None),
         "wall_follow": getattr(options, "wall_follow", None),
         "crossings": getattr(options, "crossings", None),
+        "remembered_way": getattr(options, "remembered_way", None),
     }
 
 
