@@ -107,9 +107,10 @@ class CrossingMap(BufferViews):
         self.register_buffer("open", torch.zeros(batch, j, n, dtype=torch.float32))
         self.register_buffer("blocked", torch.zeros(batch, j, n, dtype=torch.float32))
         self.register_buffer("hidden", torch.zeros(batch, j, n, dtype=torch.float32))
-        # per border and direction (0: toward its high side, 1: toward its low side), the bins
-        # of a stretch that led into a dead end: crossed there, trapped, and back out there
-        self.register_buffer("dead", torch.zeros(batch, j, 2, n, dtype=torch.bool))
+        if self.dead_ends:  # per border and direction (0: toward its high side, 1: toward its
+            # low side), the bins of a stretch that led into a dead end: crossed there, trapped,
+            # and back out there
+            self.register_buffer("dead", torch.zeros(batch, j, 2, n, dtype=torch.bool))
         # the latest scan alone, at full weight: it is in the frame of the odometry the robot
         # steers by now, however far that has drifted
         for name in ("fresh_open", "fresh_blocked", "fresh_hidden"):
@@ -238,20 +239,17 @@ class CrossingMap(BufferViews):
             back = self._entry[row] == j and self._entry_way[row] != way
             if self._trapped[row] and back:
                 first, last = self._run(row, j, self._entry_t[row])
-                if first <= self._bin(j, t) <= last:  # out the way it came in
+                if first <= self._span(j, t, t)[0] <= last:  # out the way it came in
                     self.arrays["dead"][row, j, 1 - way, first : last + 1] = True
             self._entry[row], self._entry_t[row], self._entry_way[row] = j, t, way
             self._trapped[row] = False
             self.crossed(row, j, t)
 
-    def _bin(self, border: int, t: float) -> int:
-        return min(max(int((t - self.lo[border]) / self.resolution), 0), int(self.bins[border]) - 1)
-
     def _run(self, row: int, border: int, t: float) -> tuple[int, int]:
         """The first and last bin of the run of ``border``'s bins not seen blocked around ``t``
         (robot ``row``'s evidence)."""
         _, shut, _ = self._states(row, border)
-        i = self._bin(border, t)
+        i = self._span(border, t, t)[0]
         walls = np.flatnonzero(shut)
         first = int(walls[walls < i].max()) + 1 if (walls < i).any() else 0
         last = int(walls[walls > i].min()) - 1 if (walls > i).any() else len(shut) - 1
@@ -305,9 +303,11 @@ class CrossingMap(BufferViews):
         hidden = np.array([bool(behind[s : e + 1].any()) for s, e in runs])
         # a stretch that led into a dead end going this way comes last
         b = self.borders[border]
-        way = 0 if (xy[0] if b.axis == 0 else xy[1]) < b.intercept else 1
-        dead_bins = self.arrays["dead"][row, border, way]
-        dead = np.array([bool(dead_bins[s : e + 1].any()) for s, e in runs])
+        dead = np.zeros(len(runs), dtype=bool)
+        if self.dead_ends:
+            way = 0 if (xy[0] if b.axis == 0 else xy[1]) < b.intercept else 1
+            dead_bins = self.arrays["dead"][row, border, way]
+            dead = np.array([bool(dead_bins[s : e + 1].any()) for s, e in runs])
         keep = np.zeros(len(runs), dtype=bool)
         for kind in (seen_open & ~dead, ~hidden & ~dead, (seen_open | ~hidden) & dead):
             if kind.any():
@@ -341,7 +341,8 @@ class CrossingMap(BufferViews):
         state = np.zeros(n, dtype=np.int64)
         state[opened] = 1
         state[shut] = 2
-        state[self.arrays["dead"][row, border, :, :n].any(axis=0) & ~shut] = 3
+        if self.dead_ends:
+            state[self.arrays["dead"][row, border, :, :n].any(axis=0) & ~shut] = 3
         return centres, state
 
     def summary(self, row: int) -> dict[str, object]:
