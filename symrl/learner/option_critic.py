@@ -22,7 +22,9 @@ class OptionCritic(BufferViews):
     (B, R, K) trials that chose each, ``epsilon`` (B,) the actor's exploration rate, ``trials``
     (B,) trials learned from, with ``stalls`` ``stalled`` (B, R, K): the options that needed
     another to finish their region (they are not chosen again), and with ``shortest``
-    ``shortest`` (B,): the fewest actions of a trial that reached the goal (inf: none yet)."""
+    ``shortest`` (B,): the fewest actions of a trial that reached the goal (inf: none yet).
+    ``credit`` ("first" or "last"): which choice of an option chosen twice in a region and trial
+    its return-to-go is taken from (the update reads it)."""
 
     q: torch.Tensor
     n: torch.Tensor
@@ -37,12 +39,14 @@ class OptionCritic(BufferViews):
         epsilon: float,
         epsilon_decay: float,
         critic: str = "mean",
+        credit: str = "last",
         stalls: bool = False,
         shortest: bool = False,
     ) -> None:
         super().__init__()
         self.epsilon_decay = float(epsilon_decay)
         self.critic = critic
+        self.credit = credit
         self.register_buffer("q", torch.zeros(batch, regions, options, dtype=torch.float64))
         self.register_buffer("n", torch.zeros(batch, regions, options, dtype=torch.long))
         self.register_buffer("epsilon", torch.full((batch,), float(epsilon), dtype=torch.float64))

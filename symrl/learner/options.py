@@ -124,6 +124,7 @@ class SubgoalOptions(BufferViews):
             explore.epsilon,
             explore.epsilon_decay,
             explore.critic,
+            explore.credit,
             stalls=slack is not None and self.crossings is None,
             shortest=self._bounds_tries,
         )

@@ -21,14 +21,18 @@ __all__ = ["TrialReturns"]
 class TrialReturns(BufferViews):
     """``trial_return`` (B,) the return so far; ``entry_return`` (B, R) the return at each
     region's first entry; with ``choices`` options per region, ``choice_return`` (B, R, K) the
-    return at each choice of the trial (NaN where none was made)."""
+    return at each option's last choice in the trial (its first with ``keep_first``; NaN where
+    none was made)."""
 
     trial_return: torch.Tensor
     entry_return: torch.Tensor
     choice_return: torch.Tensor
 
-    def __init__(self, batch: int, regions: int, choices: int | None = None) -> None:
+    def __init__(
+        self, batch: int, regions: int, choices: int | None = None, keep_first: bool = False
+    ) -> None:
         super().__init__()
+        self.keep_first = keep_first
         self.register_buffer("trial_return", torch.zeros(batch, dtype=torch.float64))
         self.register_buffer("entry_return", torch.zeros(batch, regions, dtype=torch.float64))
         self.choices = choices is not None
@@ -45,7 +49,10 @@ class TrialReturns(BufferViews):
         so_far = a["trial_return"][rows]
         a["entry_return"][rows, region[rows]] = so_far
         if self.choices and option is not None:
-            a["choice_return"][rows, region[rows], option[rows]] = so_far
+            at = (rows, region[rows], option[rows])
+            if self.keep_first:  # an option chosen again keeps the return at its first choice
+                so_far = np.where(np.isnan(a["choice_return"][at]), so_far, a["choice_return"][at])
+            a["choice_return"][at] = so_far
 
     def add(self, reward: np.ndarray) -> None:
         """Every robot's reward (B,) float64 of this step."""

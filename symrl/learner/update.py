@@ -127,7 +127,8 @@ class TeseoUpdate:
         choices = None
         if policy.options is not None and self.crossings is not None:
             choices = policy.options.valid.shape[1]
-        self.returns = TrialReturns(batch, len(policy.region_names), choices)
+        keep_first = self.critic is not None and self.critic.credit == "first"
+        self.returns = TrialReturns(batch, len(policy.region_names), choices, keep_first)
         # the record of the trials in progress for the trial gradient and the remembered way
         # (empty at every trial boundary, where runs are saved, so it is not part of the state)
         self.record: TrialRecord | None = None

@@ -295,9 +295,10 @@ def test_in_the_goals_region_the_goal_is_never_given_up():
     assert opts._trial_stalled[0, w, 0]
 
 
-def test_every_choice_is_credited_with_the_return_to_go_from_it():
-    """A region's first option, given up after 4 actions of reward -1, and the one chosen then,
-    which reaches the goal 2 actions later: the first is credited with -6, the second -2."""
+def _credited(choices: list[int], *overrides: str) -> tuple[torch.Tensor, torch.Tensor]:
+    """The west office's option critic (q, n) after one trial that took ``choices[step]`` (an
+    index into the region's options) at each step, reward -1 per step, a new choice marked
+    wherever the option changes."""
     from tensordict import TensorDict
 
     from symrl.assembly import build_policy, build_update
@@ -309,19 +310,19 @@ def test_every_choice_is_credited_with_the_return_to_go_from_it():
             "experts.learning=false",
             "options.remembered_way=false",
             "options.goal_scans=false",
+            *overrides,
         ],
     )
     policy = build_policy(config, OFFICE, [0])
     loss = build_update(config, policy)
     r = policy.region_names.index("west_office")
-    first, second = 0, policy.options.labels[r].index("wc>middle_office")
     pose, sonar = torch.tensor([[2.0, 4.5, 0.0]]), torch.ones(1, ROBOT.n_sensors)
-    for step in range(6):
+    for step, option in enumerate(choices):
         td = TensorDict(
             {
-                "option_entry": torch.tensor([step in (0, 4)]),
+                "option_entry": torch.tensor([step == 0 or option != choices[step - 1]]),
                 "region": torch.tensor([r]),
-                "option": torch.tensor([first if step < 4 else second]),
+                "option": torch.tensor([option]),
                 "pose": pose,
                 "sonar": sonar,
                 "next": TensorDict(
@@ -337,8 +338,27 @@ def test_every_choice_is_credited_with_the_return_to_go_from_it():
             [1],
         )
         loss(td)
-    loss.end_trial(torch.tensor([0]), torch.tensor([-6.0]), torch.tensor([True]))
-    q, count = policy.options.critic.q[0, r], policy.options.critic.n[0, r]
+    total = -float(len(choices))
+    loss.end_trial(torch.tensor([0]), torch.tensor([total]), torch.tensor([True]))
+    assert torch.isnan(loss.returns.choice_return).all()  # ready for the next trial
+    critic = policy.options.critic
+    return critic.q[0, r], critic.n[0, r]
+
+
+def test_every_choice_is_credited_with_the_return_to_go_from_it():
+    """A region's first option, given up after 4 actions of reward -1, and the one chosen then,
+    which reaches the goal 2 actions later: the first is credited with -6, the second -2."""
+    first, second = 0, 1
+    q, count = _credited([first] * 4 + [second] * 2)
     assert count[first] == 1 and q[first] == pytest.approx(-6.0)
     assert count[second] == 1 and q[second] == pytest.approx(-2.0)
-    assert torch.isnan(loss.returns.choice_return).all()  # ready for the next trial
+
+
+@pytest.mark.parametrize("credit, again", [("first", -6.0), ("last", -2.0)])
+def test_an_option_chosen_again_is_credited_from_its_first_or_last_choice(credit, again):
+    """The first option for 2 actions, given up; the second for 2, given up; the first again
+    for 2 to the goal. From its first choice the first option carries the whole trial (-6);
+    from its last, only the tail (-2). The second is credited -4 either way."""
+    q, count = _credited([0, 0, 1, 1, 0, 0], f"option_critic.credit={credit}")
+    assert count[0] == 1 and q[0] == pytest.approx(again)
+    assert count[1] == 1 and q[1] == pytest.approx(-4.0)

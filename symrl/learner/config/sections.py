@@ -139,6 +139,11 @@ class OptionCriticConfig(Section):
     per region most are. Options with fixed points only (not with ``crossings``)."""
     critic: Literal["mean", "best"] = "mean"
     """Option critic: the mean return-to-go over its trials, or the best single one."""
+    credit: Literal["last", "first"] = "last"
+    """With ``crossings``, where the return-to-go of an option chosen more than once in a region
+    in one trial (given up, then chosen again after another was) starts: at its last choice, or
+    at its first. From the last, an option that stalled is credited only with the tail that
+    finished the region, and the option that took over with the stall's cost."""
 
 
 class OptionsConfig(Section):
