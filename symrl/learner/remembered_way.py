@@ -17,8 +17,8 @@ was given up), and until the robot's latest scan shows the straight way to the o
 aim clear where the way leads too (the way is for walls that hide the aim; once none does, the
 options steer for the rest of the trial). An option explored or given up elsewhere, or a
 via-point not reached within 1.5 times the straight way's actions, hands the steering back to the
-options for the rest of the trial. After two trials that took the way and ended longer than the
-best by more than a tenth (and 3 actions), the way is left to the options until a shorter trial
+options for the rest of the trial. After two trials in a row that took the way and ended longer
+than the best by more than a tenth (and 3 actions), the way is left to the options until a shorter trial
 gives a new one, or a trial the options steered alone ends longer than the best by as much
 (the way is taken again). A shorter successful trial replaces the way, so it is refined as the robot
 learns.
@@ -42,8 +42,10 @@ __all__ = ["RememberedWay"]
 _NONE = 1 << 30
 """``best`` before any successful trial."""
 _MISSES = 2
-"""Trials that took the way and ended longer than the best by more than a tenth (and 3 actions)
-before the way is left to the options, until a shorter trial gives a new one."""
+"""Trials in a row that took the way and ended longer than the best by more than a tenth (and 3
+actions) before the way is left to the options, until a shorter trial gives a new one (one the
+noise made longer, between trials that took the way as well as the best, is no sign the way is
+stale)."""
 
 
 class RememberedWay(BufferViews):
@@ -51,7 +53,7 @@ class RememberedWay(BufferViews):
 
     Buffers (learned, saved): ``points`` (B, M, 2) the via-points, ``count`` (B,) how many,
     ``choices`` (B, R) the option the best trial chose in each region (-1: not entered),
-    ``best`` (B,) its actions, ``misses`` (B,) the trials since that took the way and did worse.
+    ``best`` (B,) its actions, ``misses`` (B,) the trials in a row that took the way and did worse.
     """
 
     points: torch.Tensor
@@ -191,8 +193,8 @@ class RememberedWay(BufferViews):
         steps = len(pose) - 1
         best = int(a["best"][row])
         worse = not reached or steps > best + max(3, 0.1 * best)
-        if self._trial["used"][row] and worse:
-            a["misses"][row] += 1  # it took the way and did worse
+        if self._trial["used"][row]:  # it took the way: did worse, or as well (misses end)
+            a["misses"][row] = a["misses"][row] + 1 if worse else 0
         elif worse and a["misses"][row] >= _MISSES:
             a["misses"][row] = 0  # left to the options, it did worse still: the way again
         if not reached or steps >= best:

@@ -223,6 +223,22 @@ def test_two_worse_trials_on_the_way_leave_it_to_the_options() -> None:
     assert int(w.misses[0]) == 0
 
 
+def test_a_trial_on_the_way_as_good_as_the_best_ends_the_misses() -> None:
+    """Worse, as good, worse: never two in a row, so the way is still taken."""
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    choice, xy, aim = np.array([[1, -1]]), np.array([[0.5, 0.5]]), np.array([[9.0, 9.0]])
+    longer = trial(PATH + [(4.0, 3.0)] * 10)
+    as_good = trial(PATH + [(4.0, 3.0)] * 2)
+    for taken, misses in ((longer, 1), (as_good, 0), (longer, 1)):
+        w.begin_trial(np.array([0]))
+        assert not np.array_equal(w.aim(choice, xy, aim), aim)  # the way is taken
+        w.learn(0, *taken, np.array([1, 0]), reached=True)
+        assert int(w.misses[0]) == misses
+    w.begin_trial(np.array([0]))
+    assert not np.array_equal(w.aim(choice, xy, aim), aim)
+
+
 def test_the_way_is_taken_again_after_the_options_alone_did_worse() -> None:
     w = way()
     w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
