@@ -279,11 +279,19 @@ class CrossingMap(BufferViews):
 
     # -- reading (the options call these) ---------------------------------------------------
     def crossing(
-        self, row: int, border: int, xy: np.ndarray, goal: tuple[float, float]
+        self,
+        row: int,
+        border: int,
+        xy: np.ndarray,
+        goal: tuple[float, float],
+        hidden_too: bool = False,
     ) -> Crossing | None:
         """Where robot ``row`` at ``xy`` should cross ``border`` on its way to ``goal``: the
         point ``t`` along the line and the stretch it lies in (first and last bin); None when
-        the robot has found the border blocked."""
+        the robot has found the border blocked. With ``hidden_too``, a stretch seen only behind
+        other walls is a crossing too, the last kind taken (the border is the robot's last way
+        on: the wall between may be passed round); None then only where the border was seen
+        blocked along its whole length, or in stretches too narrow for the body."""
         opened, shut, behind = self._states(row, border)
         free = ~shut
         if not free.any():
@@ -309,7 +317,10 @@ class CrossingMap(BufferViews):
             dead_bins = self.arrays["dead"][row, border, way]
             dead = np.array([bool(dead_bins[s : e + 1].any()) for s, e in runs])
         keep = np.zeros(len(runs), dtype=bool)
-        for kind in (seen_open & ~dead, ~hidden & ~dead, (seen_open | ~hidden) & dead):
+        kinds = [seen_open & ~dead, ~hidden & ~dead, (seen_open | ~hidden) & dead]
+        if hidden_too:
+            kinds += [~dead, dead]
+        for kind in kinds:
             if kind.any():
                 keep = kind
                 break

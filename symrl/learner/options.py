@@ -255,6 +255,8 @@ class SubgoalOptions(BufferViews):
         j = len(opts.borders)
         # per robot: the borders found blocked, the region graph's hops without them
         self._blocked = np.zeros((batch, j), dtype=bool)
+        # and the borders kept as a way on through stretches seen only behind other walls
+        self._behind = np.zeros((batch, j), dtype=bool)
         self._hops = np.zeros((batch, len(names)))
         for b in range(batch):
             self._rehop(b)
@@ -314,12 +316,38 @@ class SubgoalOptions(BufferViews):
         else:
             self.critic.stall(b, region, option)
 
+    def _needed(self, b: int, border: int) -> bool:
+        """Whether ``border`` is robot ``b``'s last way to the goal's region from one of the two
+        regions it joins (the region graph without it and the borders found blocked has none)."""
+        opts = self._border_options
+        others = [
+            x
+            for i, (x, shut) in enumerate(zip(opts.borders, self._blocked[b], strict=True))
+            if not shut and i != border
+        ]
+        hops = hops_from(opts.table.region_names[self._target], others)
+        joins = opts.borders[border]
+        return joins.low not in hops or joins.high not in hops
+
+    def _behind_walls(self, b: int, border: int, xy: np.ndarray) -> bool:
+        """Whether robot ``b`` at ``xy`` keeps ``border``, which it has seen only behind other
+        walls where not blocked, as a way on: it does when the border is its last way to the
+        goal's region (a room the robot starts in, its door away from the line, hides the line
+        beyond its own walls; that wall may be passed round, a wall on the line may not)."""
+        assert self.crossings is not None
+        hidden_only = self.crossings.crossing(b, border, xy, self.goal, hidden_too=True)
+        self._behind[b, border] = hidden_only is not None and self._needed(b, border)
+        return bool(self._behind[b, border])
+
     def _cross_point(self, b: int, region: int, option: int, xy: np.ndarray) -> np.ndarray | None:
         """Robot ``b``'s aim for a border option: past the line at the crossing it believes
-        best (or in front of it, to line up with it); None when it found the border blocked."""
+        best (or in front of it, to line up with it); None when it found the border blocked
+        (stretches seen only behind other walls count where it is the last way on)."""
         assert self.crossings is not None
         j = int(self._border[region, option])
-        found = self.crossings.crossing(b, j, xy, self.goal)
+        found = self.crossings.crossing(b, j, xy, self.goal, hidden_too=bool(self._behind[b, j]))
+        if found is None and not self._behind[b, j] and self._behind_walls(b, j, xy):
+            found = self.crossings.crossing(b, j, xy, self.goal, hidden_too=True)
         if found is None:
             return None
         t, first, last = found
@@ -560,6 +588,10 @@ class SubgoalOptions(BufferViews):
                     self.crossings.crossing(b, j, self._start_xy, self.goal) is None
                     for j in range(len(self._border_options.borders))
                 ]
+                self._behind[b] = False
+                for j in np.flatnonzero(self._blocked[b]).tolist():
+                    if self._behind_walls(b, j, self._start_xy):
+                        self._blocked[b, j] = False
                 self._rehop(b)
 
     # -- what the update learns from -----------------------------------------------------

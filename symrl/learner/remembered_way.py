@@ -18,10 +18,10 @@ aim clear where the way leads too (the way is for walls that hide the aim; once 
 options steer for the rest of the trial). An option explored or given up elsewhere, or a
 via-point not reached within 1.5 times the straight way's actions, hands the steering back to the
 options for the rest of the trial. After two trials in a row that took the way and ended longer
-than the best by more than a tenth (and 3 actions), the way is left to the options until a shorter trial
-gives a new one, or a trial the options steered alone ends longer than the best by as much
-(the way is taken again). A shorter successful trial replaces the way, so it is refined as the robot
-learns.
+than the best by more than a tenth (and 3 actions), the way is left to the options until a
+shorter trial gives a new one, or a trial the options steered alone ends longer than the best by
+as much (the way is taken again). A shorter successful trial replaces the way, so it is refined
+as the robot learns.
 
 Nothing here reads the walls or searches a map: only the robot's odometry, sonar readings,
 option choices and returns. ``tests/learner/test_remembered_way.py`` checks the pulled way
