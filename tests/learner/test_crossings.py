@@ -252,6 +252,54 @@ def test_a_border_found_blocked_is_routed_around():
     assert _labels(opts, "west_office") == ["goal", "offices>west_door"]
 
 
+def test_a_border_seen_only_behind_other_walls_is_routed_around_where_another_way_is():
+    """Seen only behind other walls along its whole length, the wc border is found blocked as
+    a border seen blocked is, while the west door leaves another way to the goal."""
+    opts = _office_options()
+    j = next(
+        i
+        for i, b in enumerate(opts.crossings.borders)
+        if {b.low, b.high} == {"west_office", "middle_office"}
+    )
+    opts.crossings.arrays["hidden"][0, j, :] = 5.0
+    opts.begin_trial(torch.tensor([0]))
+    assert _labels(opts, "west_office") == ["goal", "offices>west_door"]
+
+
+def _start_room_options() -> tuple[SubgoalOptions, int]:
+    """``tuning/room_start_back_door``: the robot starts in a room whose walls hide the one
+    region line (along the room's north wall, across the hall) beyond them."""
+    world = load_map("tuning/room_start_back_door")
+    told = Knowledge.told(world, "regions")
+    config = OptionsConfig(enabled=True, source="rules")
+    explore = OptionCriticConfig(epsilon=0.0, try_untried=False)
+    opts = SubgoalOptions(
+        told, 1, config, [0], None, explore, CrossingsConfig(enabled=True), ROBOT, 200
+    )
+    (j,) = range(len(opts.crossings.borders))
+    return opts, j
+
+
+@pytest.mark.parametrize("seen", ["hidden", "blocked"])
+def test_the_last_way_on_seen_only_behind_other_walls_stays_a_way_on(seen):
+    """The line's one border is the only way to the goal's region. Seen only behind the room's
+    own walls (which may be passed round) it stays offered, and the robot aims past the line;
+    seen blocked along its whole length (a wall on the line) it is found blocked."""
+    opts, j = _start_room_options()
+    opts.crossings.arrays[seen][0, j, :] = 5.0
+    opts.begin_trial(torch.tensor([0]))
+    assert _labels(opts, "south") == (["goal", "top>north"] if seen == "hidden" else ["goal"])
+    r = opts.region_names.index("south")
+    k = opts.labels[r].index("top>north")
+    opts.arrays["choice"][0, r] = k
+    _, option, _, aim, _ = opts.steer(torch.tensor([r]), torch.tensor([[4.6, 3.8, 1.57]]), False)
+    if seen == "hidden":
+        assert int(option[0]) == k
+        assert aim[0, 1].item() == pytest.approx(4.8 + 0.4, abs=1e-6)  # past the line
+    else:
+        assert int(option[0]) != k
+
+
 def test_a_robot_aims_at_the_door_it_saw_not_at_the_wall():
     opts = _office_options()
     _look(
