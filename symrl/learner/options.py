@@ -255,8 +255,14 @@ class SubgoalOptions(BufferViews):
         j = len(opts.borders)
         # per robot: the borders found blocked, the region graph's hops without them
         self._blocked = np.zeros((batch, j), dtype=bool)
-        # and the borders kept as a way on through stretches seen only behind other walls
+        # and the borders kept as a way on through stretches seen only behind other walls:
+        # those without which the rules' graph has no way to the goal's region from one side
         self._behind = np.zeros((batch, j), dtype=bool)
+        target = names[self._target]
+        self._bridges = np.zeros(j, dtype=bool)
+        for i, border in enumerate(opts.borders):
+            hops = hops_from(target, [x for k, x in enumerate(opts.borders) if k != i])
+            self._bridges[i] = border.low not in hops or border.high not in hops
         self._hops = np.zeros((batch, len(names)))
         for b in range(batch):
             self._rehop(b)
@@ -316,27 +322,15 @@ class SubgoalOptions(BufferViews):
         else:
             self.critic.stall(b, region, option)
 
-    def _needed(self, b: int, border: int) -> bool:
-        """Whether ``border`` is robot ``b``'s last way to the goal's region from one of the two
-        regions it joins (the region graph without it and the borders found blocked has none)."""
-        opts = self._border_options
-        others = [
-            x
-            for i, (x, shut) in enumerate(zip(opts.borders, self._blocked[b], strict=True))
-            if not shut and i != border
-        ]
-        hops = hops_from(opts.table.region_names[self._target], others)
-        joins = opts.borders[border]
-        return joins.low not in hops or joins.high not in hops
-
     def _behind_walls(self, b: int, border: int, xy: np.ndarray) -> bool:
         """Whether robot ``b`` at ``xy`` keeps ``border``, which it has seen only behind other
-        walls where not blocked, as a way on: it does when the border is its last way to the
-        goal's region (a room the robot starts in, its door away from the line, hides the line
-        beyond its own walls; that wall may be passed round, a wall on the line may not)."""
+        walls where not blocked, as a way on: it does when the rules' region graph has no way
+        to the goal's region without it from one of the two regions it joins (a room the robot
+        starts in, its door away from the line, hides the line beyond its own walls; that wall
+        may be passed round, a wall on the line may not)."""
         assert self.crossings is not None
         hidden_only = self.crossings.crossing(b, border, xy, self.goal, hidden_too=True)
-        self._behind[b, border] = hidden_only is not None and self._needed(b, border)
+        self._behind[b, border] = hidden_only is not None and bool(self._bridges[border])
         return bool(self._behind[b, border])
 
     def _cross_point(self, b: int, region: int, option: int, xy: np.ndarray) -> np.ndarray | None:
