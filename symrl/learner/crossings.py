@@ -20,8 +20,8 @@ A border's crossings are the stretches of bins not shown blocked that are at lea
 diameter wide; the robot aims at a point of one of them, kept a body radius plus the reward's
 close distance from its ends (the middle of a narrower stretch). Stretches seen open are
 preferred; else stretches never seen; a stretch seen only behind other walls is none (the robot
-looked that way and something stands between), unless the options ask for the border as their
-last way on (``hidden_too``). Among them it takes the one that makes the
+looked that way and something stands between), unless the options ask for the border as a way
+on the rules' graph cannot do without (``hidden_too``). Among them it takes the one that makes the
 straight way robot -> crossing -> goal shortest. A border with no crossing left is *blocked*,
 and the options (:class:`symrl.learner.options.SubgoalOptions`) route the region graph around
 it. Nothing here reads the walls: only the rules' lines, the robot's size, sensors and motion
