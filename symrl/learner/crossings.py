@@ -290,9 +290,10 @@ class CrossingMap(BufferViews):
         """Where robot ``row`` at ``xy`` should cross ``border`` on its way to ``goal``: the
         point ``t`` along the line and the stretch it lies in (first and last bin); None when
         the robot has found the border blocked. With ``hidden_too``, a stretch seen only behind
-        other walls is a crossing too, the last kind taken (the border is the robot's last way
-        on: the wall between may be passed round); None then only where the border was seen
-        blocked along its whole length, or in stretches too narrow for the body."""
+        other walls is a crossing too, the last kind taken (the options ask so for a border the
+        rules' graph cannot do without: the wall between may be passed round); None then only
+        where the border was seen blocked along its whole length, or in stretches too narrow
+        for the body."""
         opened, shut, behind = self._states(row, border)
         free = ~shut
         if not free.any():

@@ -336,7 +336,8 @@ class SubgoalOptions(BufferViews):
     def _cross_point(self, b: int, region: int, option: int, xy: np.ndarray) -> np.ndarray | None:
         """Robot ``b``'s aim for a border option: past the line at the crossing it believes
         best (or in front of it, to line up with it); None when it found the border blocked
-        (stretches seen only behind other walls count where it is the last way on)."""
+        (stretches seen only behind other walls count for a border the rules' graph cannot do
+        without: :meth:`_behind_walls`)."""
         assert self.crossings is not None
         j = int(self._border[region, option])
         found = self.crossings.crossing(b, j, xy, self.goal, hidden_too=bool(self._behind[b, j]))
