@@ -118,16 +118,26 @@ def test_a_new_trial_forgets_the_trail() -> None:
     assert np.array_equal(circle(follow, WINDOW - 1), AIM)
 
 
-def test_the_paper_robot_gets_out_of_a_cup_the_rules_draw_no_line_around() -> None:
-    """`tuning/cup_start_east`: the robot starts in a cup open away from the goal, every aim
-    beyond its end wall; without the follow its first trial circles there to the last action."""
+def test_the_paper_robot_gets_out_of_a_u_the_rules_draw_no_line_around() -> None:
+    """`tuning/u_wall`: the goal's bearing leads into a U open toward the start, in the goal's
+    own region; without the follow the first trial circles in the U to the last action."""
     steps = {}
     for follow in (False, True):
-        (trial,) = paper_trials("tuning/cup_start_east", 5000, 1, f"options.wall_follow={follow}")
+        (trial,) = paper_trials("tuning/u_wall", 5000, 1, f"options.wall_follow={follow}")
         steps[follow] = (int(trial["steps"]), bool(trial["reached_goal"]))
         assert ("wall_follows" in trial) == follow
     assert steps[False] == (200, False)
     assert steps[True][1] and steps[True][0] < 150
+
+
+def test_the_paper_robot_leaves_a_cup_whose_walls_hide_the_line_beyond_them() -> None:
+    """`tuning/cup_start_east`: the robot starts in a cup open away from the goal, the one
+    region line beyond its end wall. Seen only behind the cup's walls, that border is still its
+    way on (the rules' graph has no other): aiming past the line beyond the cup's corners, it
+    drives out of the mouth in its first trial, with the follow as without it."""
+    for follow in (False, True):
+        (trial,) = paper_trials("tuning/cup_start_east", 5000, 1, f"options.wall_follow={follow}")
+        assert bool(trial["reached_goal"]) and int(trial["steps"]) < 150
 
 
 def test_the_follow_rounds_a_door_post_out_of_the_room_the_robot_starts_in() -> None:
