@@ -221,12 +221,26 @@ def test_crossings_need_the_rules_options():
     assert load_config("paper", ["options.enabled=false"]).crossings.enabled  # inert
 
 
-def _office_options(**cfg) -> SubgoalOptions:
-    told = Knowledge.told(OFFICE, "regions")
+def _options(world, **cfg) -> SubgoalOptions:
+    """The options of one robot told ``world``'s region rules, with the crossing map."""
+    told = Knowledge.told(world, "regions")
     config = OptionsConfig(enabled=True, source="rules")
     explore = OptionCriticConfig(epsilon=0.0, try_untried=False)
     return SubgoalOptions(
         told, 1, config, [0], None, explore, CrossingsConfig(enabled=True, **cfg), ROBOT, 200
+    )
+
+
+def _office_options(**cfg) -> SubgoalOptions:
+    return _options(OFFICE, **cfg)
+
+
+def _wc_border(opts: SubgoalOptions) -> int:
+    """The border between the west and the middle office (the wall wc)."""
+    return next(
+        i
+        for i, b in enumerate(opts.crossings.borders)
+        if {b.low, b.high} == {"west_office", "middle_office"}
     )
 
 
@@ -236,32 +250,16 @@ def _labels(opts: SubgoalOptions, region: str) -> list[str]:
     return [label for label, ok in zip(opts.labels[r], offered, strict=False) if ok]
 
 
-def test_a_border_found_blocked_is_routed_around():
+@pytest.mark.parametrize("seen", ["blocked", "hidden"])
+def test_a_border_found_blocked_is_routed_around(seen):
     """The rules say the west office borders the middle office (through the wall between
     them, line wc); told so, the west door leads farther from the goal and is not offered.
-    Once the robot finds the wc border blocked, the region graph goes round by the door."""
+    Once the robot finds the wc border blocked, or sees it only behind other walls along its
+    whole length (the west door leaves another way to the goal), the region graph goes round
+    by the door."""
     opts = _office_options()
     assert _labels(opts, "west_office") == ["goal", "wc>middle_office"]
-    j = next(
-        i
-        for i, b in enumerate(opts.crossings.borders)
-        if {b.low, b.high} == {"west_office", "middle_office"}
-    )
-    opts.crossings.arrays["blocked"][0, j, :] = 5.0
-    opts.begin_trial(torch.tensor([0]))
-    assert _labels(opts, "west_office") == ["goal", "offices>west_door"]
-
-
-def test_a_border_seen_only_behind_other_walls_is_routed_around_where_another_way_is():
-    """Seen only behind other walls along its whole length, the wc border is found blocked as
-    a border seen blocked is, while the west door leaves another way to the goal."""
-    opts = _office_options()
-    j = next(
-        i
-        for i, b in enumerate(opts.crossings.borders)
-        if {b.low, b.high} == {"west_office", "middle_office"}
-    )
-    opts.crossings.arrays["hidden"][0, j, :] = 5.0
+    opts.crossings.arrays[seen][0, _wc_border(opts), :] = 5.0
     opts.begin_trial(torch.tensor([0]))
     assert _labels(opts, "west_office") == ["goal", "offices>west_door"]
 
@@ -269,13 +267,7 @@ def test_a_border_seen_only_behind_other_walls_is_routed_around_where_another_wa
 def _start_room_options() -> tuple[SubgoalOptions, int]:
     """``tuning/room_start_back_door``: the robot starts in a room whose walls hide the one
     region line (along the room's north wall, across the hall) beyond them."""
-    world = load_map("tuning/room_start_back_door")
-    told = Knowledge.told(world, "regions")
-    config = OptionsConfig(enabled=True, source="rules")
-    explore = OptionCriticConfig(epsilon=0.0, try_untried=False)
-    opts = SubgoalOptions(
-        told, 1, config, [0], None, explore, CrossingsConfig(enabled=True), ROBOT, 200
-    )
+    opts = _options(load_map("tuning/room_start_back_door"))
     (j,) = range(len(opts.crossings.borders))
     return opts, j
 
@@ -306,12 +298,7 @@ def test_a_robot_aims_at_the_door_it_saw_not_at_the_wall():
         opts.crossings,
         [(2.0, 3.0, -math.pi / 2), (1.0, 3.2, -math.pi / 2), (3.2, 3.0, -math.pi / 2)],
     )
-    j = next(
-        i
-        for i, b in enumerate(opts.crossings.borders)
-        if {b.low, b.high} == {"west_office", "middle_office"}
-    )
-    opts.crossings.arrays["blocked"][0, j, :] = 5.0
+    opts.crossings.arrays["blocked"][0, _wc_border(opts), :] = 5.0
     opts.begin_trial(torch.tensor([0]))
     r = opts.region_names.index("west_office")
     k = opts.labels[r].index("offices>west_door")
