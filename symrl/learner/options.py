@@ -34,7 +34,7 @@ from symrl.knowledge.route import Route
 from symrl.knowledge.rungs import Knowledge
 from symrl.knowledge.subgoals import SubgoalTable
 from symrl.learner.config import CrossingsConfig, OptionCriticConfig, OptionsConfig
-from symrl.learner.crossings import CrossingMap
+from symrl.learner.crossings import Crossing, CrossingMap
 from symrl.learner.goal_scans import GoalScans
 from symrl.learner.option_critic import OptionCritic
 from symrl.learner.remembered_way import RememberedWay
@@ -255,9 +255,10 @@ class SubgoalOptions(BufferViews):
         j = len(opts.borders)
         # per robot: the borders found blocked, the region graph's hops without them
         self._blocked = np.zeros((batch, j), dtype=bool)
-        # and the borders kept as a way on through stretches seen only behind other walls:
-        # those without which the rules' graph has no way to the goal's region from one side
-        self._behind = np.zeros((batch, j), dtype=bool)
+        # the borders without which the rules' graph has no way to the goal's region from one
+        # side: their stretches seen only behind other walls are still crossings (the last
+        # taken), so a room the robot starts in, which hides the line beyond its own walls, does
+        # not lose its only border for good (that wall may be passed round; one on the line not)
         target = names[self._target]
         self._bridges = np.zeros(j, dtype=bool)
         for i, border in enumerate(opts.borders):
@@ -322,27 +323,20 @@ class SubgoalOptions(BufferViews):
         else:
             self.critic.stall(b, region, option)
 
-    def _behind_walls(self, b: int, border: int, xy: np.ndarray) -> bool:
-        """Whether robot ``b`` at ``xy`` keeps ``border``, which it has seen only behind other
-        walls where not blocked, as a way on: it does when the rules' region graph has no way
-        to the goal's region without it from one of the two regions it joins (a room the robot
-        starts in, its door away from the line, hides the line beyond its own walls; that wall
-        may be passed round, a wall on the line may not)."""
+    def _crossing(self, b: int, border: int, xy: np.ndarray) -> Crossing | None:
+        """Robot ``b``'s crossing of ``border`` from ``xy`` (None: found blocked); a bridge of
+        the rules' graph counts its stretches seen only behind other walls too."""
         assert self.crossings is not None
-        hidden_only = self.crossings.crossing(b, border, xy, self.goal, hidden_too=True)
-        self._behind[b, border] = hidden_only is not None and bool(self._bridges[border])
-        return bool(self._behind[b, border])
+        hidden_too = bool(self._bridges[border])
+        return self.crossings.crossing(b, border, xy, self.goal, hidden_too=hidden_too)
 
     def _cross_point(self, b: int, region: int, option: int, xy: np.ndarray) -> np.ndarray | None:
         """Robot ``b``'s aim for a border option: past the line at the crossing it believes
         best (or in front of it, to line up with it); None when it found the border blocked
-        (stretches seen only behind other walls count for a border the rules' graph cannot do
-        without: :meth:`_behind_walls`)."""
+        (:meth:`_crossing`)."""
         assert self.crossings is not None
         j = int(self._border[region, option])
-        found = self.crossings.crossing(b, j, xy, self.goal, hidden_too=bool(self._behind[b, j]))
-        if found is None and not self._behind[b, j] and self._behind_walls(b, j, xy):
-            found = self.crossings.crossing(b, j, xy, self.goal, hidden_too=True)
+        found = self._crossing(b, j, xy)
         if found is None:
             return None
         t, first, last = found
@@ -580,13 +574,9 @@ class SubgoalOptions(BufferViews):
             self._trial_stalled[r] = False
             for b in r.tolist():
                 self._blocked[b] = [
-                    self.crossings.crossing(b, j, self._start_xy, self.goal) is None
+                    self._crossing(b, j, self._start_xy) is None
                     for j in range(len(self._border_options.borders))
                 ]
-                self._behind[b] = False
-                for j in np.flatnonzero(self._blocked[b]).tolist():
-                    if self._behind_walls(b, j, self._start_xy):
-                        self._blocked[b, j] = False
                 self._rehop(b)
 
     # -- what the update learns from -----------------------------------------------------
