@@ -13,15 +13,20 @@ way to that one did the one before, and so on back to the start.
 The way belongs to the options that trial chose: a later trial steers at the via-points in turn,
 then at the goal, while the option chosen in every region it has entered is one the best trial
 chose there (the one it entered the region with, or the one in force at its end, when the first
-was given up), and until the robot's latest scan shows the straight way to the options' own
-aim clear where the way leads too (the way is for walls that hide the aim; once none does, the
-options steer for the rest of the trial). An option explored or given up elsewhere, or a
-via-point not reached within 1.5 times the straight way's actions, hands the steering back to the
-options for the rest of the trial. After two trials in a row that took the way and ended longer
-than the best by more than a tenth (and 3 actions), the way is left to the options until a
-shorter trial gives a new one, or a trial the options steered alone ends longer than the best by
-as much (the way is taken again). A shorter successful trial replaces the way, so it is refined
-as the robot learns.
+was given up), and until the robot's latest scan shows the straight way to the options' own aim
+clear where the way leads too (the way is for walls that hide the aim; once none does, the
+options steer). A wall may hide the next region's aim where none hid this one's (past a door, a
+thin wall across the goal's bearing): once a trial the options steered from plain sight ends
+longer than the way itself (its legs over the step, by a tenth and 3 actions), the robot takes
+its way again at each new region or option it meets on the way (within the body and the
+clearance of a leg), from that leg's end; until then the options steer for the rest of the
+trial, which is as good wherever nothing hides the next aim. An option explored or given up
+elsewhere, or a via-point not reached within 1.5 times the straight way's actions, hands the
+steering back to the options for the rest of the trial. After two trials in a row that took the
+way and ended longer than the best by more than a tenth (and 3 actions), the way is left to the
+options until a shorter trial gives a new one, or a trial the options steered alone ends longer
+than the best by as much (the way is taken again). A shorter successful trial replaces the way,
+so it is refined as the robot learns.
 
 Nothing here reads the walls or searches a map: only the robot's odometry, sonar readings,
 option choices and returns. ``tests/learner/test_remembered_way.py`` checks the pulled way
@@ -53,7 +58,9 @@ class RememberedWay(BufferViews):
 
     Buffers (learned, saved): ``points`` (B, M, 2) the via-points, ``count`` (B,) how many,
     ``choices`` (B, R) the option the best trial chose in each region (-1: not entered),
-    ``best`` (B,) its actions, ``misses`` (B,) the trials in a row that took the way and did worse.
+    ``best`` (B,) its actions, ``misses`` (B,) the trials in a row that took the way and did worse,
+    ``origin`` (B, 2) where the best trial began, ``length`` (B,) the way's actions (its legs over
+    the step), ``past_sight`` (B,) whether the way is taken again past the options' plain sight.
     """
 
     points: torch.Tensor
@@ -61,6 +68,9 @@ class RememberedWay(BufferViews):
     choices: torch.Tensor
     best: torch.Tensor
     misses: torch.Tensor
+    origin: torch.Tensor
+    length: torch.Tensor
+    past_sight: torch.Tensor
 
     def __init__(
         self,
@@ -99,11 +109,16 @@ class RememberedWay(BufferViews):
         self.register_buffer("first", torch.full((batch, regions), -1, dtype=torch.long))
         self.register_buffer("best", torch.full((batch,), _NONE, dtype=torch.long))
         self.register_buffer("misses", torch.zeros(batch, dtype=torch.long))
+        self.register_buffer("past_sight", torch.zeros(batch, dtype=torch.bool))
+        self.register_buffer("origin", torch.zeros(batch, 2, dtype=torch.float64))
+        self.register_buffer("length", torch.zeros(batch, dtype=torch.float64))
         # per trial (not saved: a trial starts afresh)
         self._trial = {
             "next": np.zeros(batch, dtype=np.int64),  # the via-point aimed at
             "left": np.full(batch, -1.0),  # actions left to reach it (-1: not set yet)
             "off": np.zeros(batch, dtype=bool),  # the way given up for this trial
+            "seen": np.zeros(batch, dtype=bool),  # the options' aim in plain sight
+            "seen_at": np.full((batch, regions), -1, dtype=np.int64),  # the choices then
             "used": np.zeros(batch, dtype=bool),  # on the way at some step of the trial
             "following": np.zeros(batch, dtype=bool),  # on the way at the last step
         }
@@ -119,7 +134,7 @@ class RememberedWay(BufferViews):
         t = self._trial
         t["next"][rows] = 0
         t["left"][rows] = -1.0
-        for name in ("off", "used", "following"):
+        for name in ("off", "seen", "used", "following"):
             t[name][rows] = False
 
     # -- acting ---------------------------------------------------------------------------
@@ -138,13 +153,23 @@ class RememberedWay(BufferViews):
         next point within the body and the clearance of that straight way), the way hands the
         steering back to the options for the rest of the trial: the way is for walls that hide
         the aim, and where nothing does, the options' aim (lined up with a crossing, refined by
-        the experts) does better than the best trial's path, wiggles and all."""
+        the experts) does better than the best trial's path, wiggles and all. A robot whose
+        options did worse from plain sight than its way (``past_sight``) takes the way again at
+        the next region or option, if it is still on it."""
         xy = pose[:, :2]
         a, t = self.arrays, self._trial
         entered = choice >= 0
         other = (choice != a["choices"]) & (choice != a["first"])
         t["off"] |= (entered & other).any(axis=1)
-        use = (a["best"] < _NONE) & ~t["off"] & (a["misses"] < _MISSES)
+        moved_on = t["seen"] & a["past_sight"] & (choice != t["seen_at"]).any(axis=1)
+        for b in np.flatnonzero(moved_on).tolist():  # a new region or option
+            t["seen_at"][b] = choice[b]
+            ahead, gap = self._ahead(b, xy[b])
+            if gap <= self.radius + self.clearance:  # still on the way: it steers again
+                t["seen"][b] = False
+                t["next"][b] = ahead
+                t["left"][b] = -1.0
+        use = (a["best"] < _NONE) & ~t["off"] & ~t["seen"] & (a["misses"] < _MISSES)
         out = aim.copy()
         if sonar is not None and use.any():
             for b in np.flatnonzero(use).tolist():
@@ -155,7 +180,8 @@ class RememberedWay(BufferViews):
                 if self._clear(xy[b], target, echoes, both_ends=True) and self._agrees(
                     b, xy[b], target
                 ):
-                    t["off"][b] = True
+                    t["seen"][b] = True
+                    t["seen_at"][b] = choice[b]
                     use[b] = False
         for b in np.flatnonzero(use).tolist():
             n, points = int(a["count"][b]), a["points"][b]
@@ -193,6 +219,10 @@ class RememberedWay(BufferViews):
         steps = len(pose) - 1
         best = int(a["best"][row])
         worse = not reached or steps > best + max(3, 0.1 * best)
+        length = float(a["length"][row])
+        sighted = self._trial["seen"][row] and not self._trial["off"][row] and best < _NONE
+        if sighted and (not reached or steps > length + max(3, 0.1 * length)):
+            a["past_sight"][row] = True  # the options from plain sight did worse than the way
         if self._trial["used"][row]:  # it took the way: did worse, or as well (misses end)
             a["misses"][row] = a["misses"][row] + 1 if worse else 0
         elif worse and a["misses"][row] >= _MISSES:
@@ -209,6 +239,10 @@ class RememberedWay(BufferViews):
         a["count"][row] = len(way)
         if way:
             a["points"][row, : len(way)] = np.array(way)
+        a["origin"][row] = pose[0, :2]
+        ends = np.vstack((pose[:1, :2], *(np.asarray(p)[None] for p in way), self.goal[None]))
+        legs = float(np.linalg.norm(np.diff(ends, axis=0), axis=1).sum())
+        a["length"][row] = max(legs - self.goal_radius, 0.0) / self.step
 
     def _pulled(self, pose: np.ndarray, sonar: np.ndarray) -> list[np.ndarray]:
         """The via-points from the first pose to the last (where the trial reached the goal, in
@@ -226,6 +260,22 @@ class RememberedWay(BufferViews):
             target = pose[i, :2].copy()
             vias.append(target)
             end = i
+
+    def _ahead(self, b: int, xy: np.ndarray) -> tuple[int, float]:
+        """The via-point robot ``b`` at ``xy`` steers at when it takes its way again, and how
+        far off the way it is: the end of the way's leg nearest it (index ``count``: the goal)."""
+        a = self.arrays
+        n = int(a["count"][b])
+        way = np.vstack((a["origin"][b][None], a["points"][b, :n], self.goal[None]))
+        ahead, nearest = 0, math.inf
+        for k in range(n + 1):
+            d = way[k + 1] - way[k]
+            length2 = float(d @ d)
+            f = 0.0 if length2 < 1e-18 else min(max(float((xy - way[k]) @ d) / length2, 0.0), 1.0)
+            gap = math.dist(xy, way[k] + f * d)
+            if gap <= nearest:
+                ahead, nearest = k, gap
+        return ahead, nearest
 
     def _agrees(self, b: int, xy: np.ndarray, target: np.ndarray) -> bool:
         """Whether robot ``b``'s way leads where the straight way to ``target`` does: its next

@@ -379,3 +379,70 @@ def test_a_way_through_a_door_narrower_than_the_clearance_is_kept() -> None:
     for p, q in zip(ends[:-1], ends[1:], strict=True):
         for wall in door:
             assert segment_distance(p, q, wall) >= RADIUS - 1e-9
+
+
+def _legs(points: list[tuple[float, float]], step: float = 0.2) -> list[tuple[float, float]]:
+    """The poses of a drive along straight legs through ``points``, one per ``step``."""
+    out = [points[0]]
+    for p, q in zip(points, points[1:], strict=False):
+        k = max(1, round(math.dist(p, q) / step))
+        out += [
+            (p[0] + (q[0] - p[0]) * i / k, p[1] + (q[1] - p[1]) * i / k) for i in range(1, k + 1)
+        ]
+    return out
+
+
+LOITERED = PATH[:-1] + [PATH[-2]] * 28 + PATH[-1:]  # 60 actions: far longer than the way
+TIGHT = _legs([PATH[0], (2.7, 0.5), (3.72, 2.63)])  # the way itself, to the goal's disc
+
+
+def _sighted_after(path: list[tuple[float, float]]) -> tuple[RememberedWay, np.ndarray]:
+    """A robot with the way under the wall's end whose options steered from plain sight at the
+    start (their aim, the via-point, clear and on the way) through a trial driven as ``path``;
+    the next trial begins the same way."""
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    start = np.array([[0.5, 0.5, 0.0]])
+    for k in range(2):
+        via = w.points[0, 0].numpy()
+        w.begin_trial(np.array([0]))
+        out = w.aim(np.array([[1, -1]]), start, via[None], scan(start[0], [WALL])[None])
+        np.testing.assert_array_equal(out[0], via)  # the options' own aim
+        assert not w.following[0]
+        if k == 0:
+            w.learn(0, *trial(path), np.array([1, 0]), reached=True)
+    return w, via
+
+
+def test_the_way_length_is_its_legs_over_the_step() -> None:
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    via = w.points[0, 0].numpy()
+    legs = math.dist(PATH[0], via) + math.dist(via, GOAL) - 0.4
+    assert float(w.length[0]) == pytest.approx(legs / 0.2)
+    np.testing.assert_array_equal(w.origin[0].numpy(), PATH[0])
+
+
+@pytest.mark.parametrize(("path", "taken"), [(LOITERED, True), (TIGHT, False)])
+def test_options_worse_from_plain_sight_than_the_way_take_it_again_in_the_next_region(
+    path: list[tuple[float, float]], taken: bool
+) -> None:
+    """Under the wall, on the way's first leg, the robot enters its next region, whose aim (the
+    goal) the wall's end hides: after a trial the options steered from plain sight that ended
+    far longer than the way, it steers by the way again (its leg's end, the via-point); after
+    one as short as the way, the options keep the steering for the rest of the trial."""
+    w, via = _sighted_after(path)
+    assert bool(w.past_sight[0]) == taken
+    under = np.array([[1.5, 0.5, 0.0]])
+    goal = np.array([GOAL])
+    out = w.aim(np.array([[1, 0]]), under, goal, scan(under[0], [WALL])[None])
+    np.testing.assert_array_equal(out[0], via if taken else GOAL)
+    assert w.following[0] == taken
+
+
+def test_a_robot_off_its_way_is_not_steered_back_onto_it() -> None:
+    w, _ = _sighted_after(LOITERED)
+    off = np.array([[1.5, 1.2, 0.0]])  # 0.7 m off the first leg: beyond the body and clearance
+    goal = np.array([GOAL])
+    out = w.aim(np.array([[1, 0]]), off, goal, scan(off[0], [WALL])[None])
+    np.testing.assert_array_equal(out[0], GOAL)
