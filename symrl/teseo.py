@@ -68,7 +68,7 @@ def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor]) -> l
         extra.update(temperature=temperature[j], replaced=replaced[j], improved=improved[j])
         crossings = policy.options.crossings if policy.options is not None else None
         if crossings is not None:
-            extra.update(crossings.summary(int(index[j])))
+            extra.update(crossings.summary(int(index[j]), hidden_too=policy.options.bridges))
         goal_scans = policy.options.goal_scans if policy.options is not None else None
         if goal_scans is not None:
             extra.update(goal_scans.summary(int(index[j])))

@@ -358,12 +358,13 @@ class CrossingMap(BufferViews):
             state[self.arrays["dead"][row, border, :, :n].any(axis=0) & ~shut] = 3
         return centres, state
 
-    def summary(self, row: int) -> dict[str, object]:
+    def summary(self, row: int, hidden_too: np.ndarray | None = None) -> dict[str, object]:
         """Robot ``row``'s belief in a few numbers and as stretches (trial records, TensorBoard,
         figures): metres of the borders seen open and seen blocked (and, with ``dead_ends``,
-        that led into a dead end, not counted open), the borders with no crossing left, and
-        ``stretches``: per border, runs ``[t0, t1, state]`` of one state
-        (:meth:`seen`'s codes)."""
+        that led into a dead end, not counted open), the borders with no crossing left (those
+        of ``hidden_too`` (J,) bool counting their stretches seen only behind other walls, as
+        :meth:`crossing` does for them), and ``stretches``: per border, runs
+        ``[t0, t1, state]`` of one state (:meth:`seen`'s codes)."""
         opened = shut = dead = 0.0
         blocked = 0
         stretches = []
@@ -373,7 +374,8 @@ class CrossingMap(BufferViews):
             shut += float((state == 2).sum()) * self.resolution
             dead += float((state == 3).sum()) * self.resolution
             goal = (0.0, 0.0)
-            blocked += self.crossing(row, j, np.zeros(2), goal) is None
+            hidden = hidden_too is not None and bool(hidden_too[j])
+            blocked += self.crossing(row, j, np.zeros(2), goal, hidden_too=hidden) is None
             edges = np.flatnonzero(np.diff(state)) + 1
             runs = []
             for a, b in zip(np.r_[0, edges], np.r_[edges, len(state)], strict=True):

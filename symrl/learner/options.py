@@ -323,6 +323,12 @@ class SubgoalOptions(BufferViews):
         else:
             self.critic.stall(b, region, option)
 
+    @property
+    def bridges(self) -> np.ndarray:
+        """The borders (J,) bool without which the rules' region graph has no way to the
+        goal's region from one side (their stretches seen only behind walls stay crossings)."""
+        return self._bridges
+
     def _crossing(self, b: int, border: int, xy: np.ndarray) -> Crossing | None:
         """Robot ``b``'s crossing of ``border`` from ``xy`` (None: found blocked); a bridge of
         the rules' graph counts its stretches seen only behind other walls too."""

@@ -290,6 +290,9 @@ def test_the_last_way_on_seen_only_behind_other_walls_stays_a_way_on(seen):
         assert aim[0, 1].item() == pytest.approx(4.8 + 0.4, abs=1e-6)  # past the line
     else:
         assert int(option[0]) != k
+    # the trial records count it blocked as the options do
+    record = opts.crossings.summary(0, hidden_too=opts.bridges)
+    assert record["borders_blocked"] == (0 if seen == "hidden" else 1)
 
 
 def test_a_robot_aims_at_the_door_it_saw_not_at_the_wall():
