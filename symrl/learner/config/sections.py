@@ -189,10 +189,12 @@ class OptionsConfig(Section):
     remembered_way: StrictBool = False
     """With ``crossings``: steer along the best trial's way, pulled tight where the trial's own
     echoes left room, while the options chosen are that trial's and until the options' aim is
-    in plain sight where the way leads too (``symrl.learner.remembered_way``). It steers over
+    in plain sight where the way leads too (once a trial the options steered from there did
+    worse than the way, taken again at each new region met on it: a wall may hide the next
+    region's aim) (``symrl.learner.remembered_way``). It steers over
     the crossings' options: without ``crossings.enabled`` (or ``options.enabled``) it is
     inert, as the crossings are without options. On in ``paper``: 24 tuning worlds 1.147 ->
-    1.113 x optimum, the paper's world unchanged (docs/explanation/regions-learner.md)."""
+    1.113 x optimum, the paper's world unchanged (docs/journal/regions-learner-results.md)."""
     goal_scans: StrictBool = False
     """Keep the scans read on arriving at the goal, and once the robot has driven onto its
     believed goal's disc and off it again without arriving (its odometry has drifted), steer
