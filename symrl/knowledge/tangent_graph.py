@@ -9,10 +9,12 @@ segments and arcs that :class:`~symrl.knowledge.path_checks.PathChecker` finds f
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 
 import networkx as nx
 import numpy as np
 
+from symrl.knowledge.circle_tables import SAME_ANGLE as SAME
 from symrl.knowledge.path_checks import PathChecker, prefetch_start_and_goal, target_circles
 from symrl.knowledge.tangents import on_circle, tangent_angles
 
@@ -33,6 +35,11 @@ class TangentGraph:
         self.pos: dict = {"S": s}
         n = len(self.centres)
         self.arcs_on: dict[int, list[tuple[float, object]]] = {i: [] for i in range(n)}
+        # each circle's tangent nodes by angle (sorted), and the keys of tangent points that
+        # are one of them (:meth:`add_tangent_node`)
+        self._angles: dict[int, list[float]] = {i: [] for i in range(n)}
+        self._keys: dict[int, list[object]] = {i: [] for i in range(n)}
+        self._same: dict[object, object] = {}
         self.edges_geom: dict = {}
         self.targets: list[tuple[str, int]] = []
         # the circles each target may have a tangent or lie on, by circle (a target made at
@@ -41,13 +48,32 @@ class TangentGraph:
         self.current = 0
 
     def add_tangent_node(self, ci: int, a: float) -> object | None:
+        """The node of the tangent point at angle ``a`` on vertex ``ci``'s circle (None if it
+        is not free). A point within ``SAME_ANGLE`` of a node already on the circle is that node,
+        as in the lazy search's tables (:mod:`symrl.knowledge.circle_tables`): a point computed
+        twice (the goal centre's tangent and the tangent from its leg's rim cut) may differ in
+        the last bit, and the keys' rounding then tell them apart, and two nodes at one point
+        would cut the circle's arcs there."""
         node = self.chk.tangent_node(ci, a)
         if node is None:
             return None
         p, key = node
-        if key not in self.pos:
-            self.pos[key] = p
-            self.arcs_on[ci].append((math.remainder(a, 2 * math.pi), key))
+        if key in self.pos:
+            return key
+        same = self._same.get(key)
+        if same is not None:
+            return same
+        a = math.remainder(a, 2 * math.pi)
+        angles, keys = self._angles[ci], self._keys[ci]
+        k = bisect_left(angles, a)
+        for j in (k - 1, k, 0, len(angles) - 1):  # the first and last: the same point near +-pi
+            if 0 <= j < len(angles) and abs(math.remainder(angles[j] - a, 2 * math.pi)) <= SAME:
+                self._same[key] = keys[j]
+                return keys[j]
+        angles.insert(k, a)
+        keys.insert(k, key)
+        self.pos[key] = p
+        self.arcs_on[ci].append((a, key))
         return key
 
     def add_segment(self, u: object, v: object) -> None:

@@ -1,9 +1,11 @@
 """The planner's lazy A* gives the whole graph's length on every shipped world and on random
-pillar halls, plans a floor of over 2,000 corners, screens long lines by the walls near their
-ends without changing an answer, and still refuses bad input in one line."""
+pillar halls (the whole graph, like its tables, makes one node of a tangent point computed
+twice), plans a floor of over 2,000 corners, screens long lines by the walls near their ends
+without changing an answer, and still refuses bad input in one line."""
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -105,6 +107,21 @@ def test_on_random_pillar_halls_the_lengths_agree_and_the_path_keeps_clear(seed,
     assert Walls(world.segments).clearance(points).min() >= r - 1e-4
     assert np.hypot(*(points[-1] - g)) <= rg + 1e-9
     assert np.hypot(*(points[0] - s)) == 0.0
+
+
+def test_a_tangent_point_computed_twice_is_one_node_of_the_whole_graph():
+    # the goal centre's tangent to a circle and the tangent from its leg's rim cut are one point,
+    # computed twice: two floats a bit apart that the nodes' keys (12 decimals) may tell apart
+    world = load_map(_hall([(5.0, 5.0, 0.5)], 10.0, (1.0, 1.0), (9.0, 9.0)))
+    chk = path_checker(world, 0.316)
+    ci = int(np.argmin(np.hypot(*(chk.walls.vertices - (5.5, 5.5)).T)))
+    a = round(math.pi / 4, 12) + 5e-13  # the pillar's outer corner, facing away from it
+    b = math.nextafter(a, -math.inf)
+    node_a, node_b = chk.tangent_node(ci, a), chk.tangent_node(ci, b)
+    assert node_a is not None and node_b is not None and node_a[1] != node_b[1]
+    graph = TangentGraph(chk, *_ends(world))
+    assert graph.add_tangent_node(ci, a) == graph.add_tangent_node(ci, b) == node_a[1]
+    assert graph.arcs_on[ci] == [(a, node_a[1])]  # one node: the circle's arcs are not cut there
 
 
 def _big_hall(k: int) -> dict:
