@@ -155,12 +155,13 @@ class TangentGraph:
                     self.add_segment(k, t)
 
     def _add_arcs(self) -> None:
-        """Arcs between neighbouring nodes on each circle (shorter than an edge already there)."""
+        """Arcs between neighbouring nodes on each circle (shorter than an edge already there);
+        two nodes are neighbours both ways round, and the shorter free arc joins them."""
         for ci, nodes in self.arcs_on.items():
             nodes.sort(key=lambda t: t[0])
             m = len(nodes)
             arcs = []
-            for idx in range(m if m > 2 else m - 1):
+            for idx in range(m):
                 (a0, u), (a1, v) = nodes[idx], nodes[(idx + 1) % m]
                 if idx == m - 1:
                     a1 += 2 * math.pi

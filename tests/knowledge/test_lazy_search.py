@@ -6,6 +6,7 @@ without changing an answer, and still refuses bad input in one line."""
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 import time
 
 import numpy as np
@@ -122,6 +123,21 @@ def test_a_tangent_point_computed_twice_is_one_node_of_the_whole_graph():
     graph = TangentGraph(chk, *_ends(world))
     assert graph.add_tangent_node(ci, a) == graph.add_tangent_node(ci, b) == node_a[1]
     assert graph.arcs_on[ci] == [(a, node_a[1])]  # one node: the circle's arcs are not cut there
+
+
+@pytest.mark.parametrize("angles", [(0.1, 6.0), (-3.0, 3.0), (-1.0, 1.0)])
+def test_two_nodes_on_a_circle_are_joined_by_the_shorter_arc(angles):
+    """Two nodes are neighbours both ways round their circle: the edge between them is the
+    shorter arc (across the angles' seam at +-pi, or not), free or not checked against."""
+    world = load_map(_hall([(5.0, 5.0, 0.5)], 10.0, (1.0, 1.0), (9.0, 9.0)))
+    chk = path_checker(world, 0.316)
+    graph = TangentGraph(chk, *_ends(world))
+    graph.chk = SimpleNamespace(arcs_ok=lambda ci, arcs: [True] * len(arcs))  # every arc free
+    a0, a1 = angles
+    graph.arcs_on = {0: [(a1, "v"), (a0, "u")]}
+    graph._add_arcs()
+    gap = min(a1 - a0, 2 * math.pi - (a1 - a0))
+    assert graph.graph["u"]["v"]["weight"] == pytest.approx(graph.r * gap)
 
 
 def _big_hall(k: int) -> dict:
