@@ -6,8 +6,8 @@ without changing an answer, and still refuses bad input in one line."""
 from __future__ import annotations
 
 import math
-from types import SimpleNamespace
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
