@@ -305,10 +305,15 @@ def test_the_way_is_learned_with_the_experts_off() -> None:
     assert ways[-1] < 200  # a success kept as the way
 
 
-def test_a_run_with_the_way_resumes_as_if_uninterrupted(tmp_path) -> None:
-    """Its via-points, choices, best and misses are saved per robot with the controller."""
-    args = ["--seed", "5000", "--map", "tuning/island_room", "options.remembered_way=true"]
-    a, b = whole_and_resumed(tmp_path, args, trials=6, stop=3)
+@pytest.mark.parametrize(
+    ("world", "seed", "stop"), [("tuning/island_room", 5000, 3), ("tuning/partition_end", 5002, 4)]
+)
+def test_a_run_with_the_way_resumes_as_if_uninterrupted(tmp_path, world, seed, stop) -> None:
+    """Its via-points, choices, best, misses, origin, length and whether it is taken past
+    plain sight are saved per robot with the controller (`partition_end` seed 5002 stopped just
+    after the trial that showed the options worse than the way there)."""
+    args = ["--seed", str(seed), "--map", world, "options.remembered_way=true"]
+    a, b = whole_and_resumed(tmp_path, args, trials=6, stop=stop)
     assert a == b
 
 
