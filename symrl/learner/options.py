@@ -251,6 +251,7 @@ class SubgoalOptions(BufferViews):
                 n_sensors=robot.n_sensors,
                 step=robot.step,
                 max_points=max_actions,
+                take_past_sight=self.config.way_past_sight,
             )
         j = len(opts.borders)
         # per robot: the borders found blocked, the region graph's hops without them

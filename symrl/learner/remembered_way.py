@@ -87,12 +87,15 @@ class RememberedWay(BufferViews):
         max_points: int,
         reach: float = 0.5,
         slack: float = 1.5,
+        take_past_sight: bool = True,
     ) -> None:
         """``goal`` (the point steered at after the last via-point) and the radius of its disc;
         the robot's ``radius``, the ``clearance`` kept from the echoes beyond it, its sonar and
         ``step`` length; room for ``max_points`` via-points (the actions of a trial: a way has
         at most one per pose); a via-point nearer than ``reach`` is passed; one not reached
-        within ``slack`` times the straight way's actions ends the way for the trial."""
+        within ``slack`` times the straight way's actions ends the way for the trial; with
+        ``take_past_sight``, the way is taken again past the options' plain sight once they did
+        worse from there than the way (``options.way_past_sight``)."""
         super().__init__()
         self.goal = np.array(goal, dtype=np.float64)
         self.goal_radius = float(goal_radius)
@@ -102,6 +105,7 @@ class RememberedWay(BufferViews):
         self.step = float(step)
         self.reach = float(reach)
         self.slack = float(slack)
+        self.take_past_sight = bool(take_past_sight)
         self._angles = np.arange(n_sensors, dtype=np.float64) * (2 * math.pi / n_sensors)
         self.register_buffer("points", torch.zeros(batch, max_points, 2, dtype=torch.float64))
         self.register_buffer("count", torch.zeros(batch, dtype=torch.long))
@@ -221,6 +225,7 @@ class RememberedWay(BufferViews):
         worse = not reached or steps > best + max(3, 0.1 * best)
         length = float(a["length"][row])
         sighted = self._trial["seen"][row] and not self._trial["off"][row] and best < _NONE
+        sighted = sighted and self.take_past_sight
         if sighted and (not reached or steps > length + max(3, 0.1 * length)):
             a["past_sight"][row] = True  # the options from plain sight did worse than the way
         if self._trial["used"][row]:  # it took the way: did worse, or as well (misses end)

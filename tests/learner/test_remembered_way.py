@@ -453,11 +453,15 @@ def test_a_robot_off_its_way_is_not_steered_back_onto_it() -> None:
     np.testing.assert_array_equal(out[0], GOAL)
 
 
-def test_the_paper_robot_takes_its_way_round_a_partition_past_a_door() -> None:
+@pytest.mark.parametrize("past_sight", [True, False])
+def test_the_paper_robot_takes_its_way_round_a_partition_past_a_door(past_sight: bool) -> None:
     """`tuning/partition_end`: past the door a thin partition hides the goal, and the reflex
     turns up its dead-end lane (about 72 actions). Seed 5002's trials all did so, but its way,
     pulled tight, rounds the partition's end; once a trial the options steered from plain sight
-    has done worse than that way, the robot takes the way past the door: about 38 actions."""
-    steps = [int(t["steps"]) for t in paper_trials("tuning/partition_end", 5002, 6)]
+    has done worse than that way, the robot takes the way past the door (about 38 actions),
+    and without ``options.way_past_sight`` it never does."""
+    trials = paper_trials("tuning/partition_end", 5002, 6, f"options.way_past_sight={past_sight}")
+    steps = [int(t["steps"]) for t in trials]
     assert min(steps[:4]) > 60
-    assert max(steps[4:]) < 45
+    assert (max(steps[4:]) < 45) == past_sight
+    assert (min(steps[4:]) > 60) != past_sight

@@ -189,12 +189,19 @@ class OptionsConfig(Section):
     remembered_way: StrictBool = False
     """With ``crossings``: steer along the best trial's way, pulled tight where the trial's own
     echoes left room, while the options chosen are that trial's and until the options' aim is
-    in plain sight where the way leads too (once a trial the options steered from there did
-    worse than the way, taken again at each new region met on it: a wall may hide the next
-    region's aim) (``symrl.learner.remembered_way``). It steers over
+    in plain sight where the way leads too (``symrl.learner.remembered_way``). It steers over
     the crossings' options: without ``crossings.enabled`` (or ``options.enabled``) it is
     inert, as the crossings are without options. On in ``paper``: 24 tuning worlds 1.147 ->
     1.113 x optimum, the paper's world unchanged (docs/journal/regions-learner-results.md)."""
+    way_past_sight: StrictBool = False
+    """With ``remembered_way``: once a trial the options steered from plain sight ends longer
+    than the way itself (its legs over the step, by a tenth and 3 actions), the robot takes its
+    way again at each new region or option it meets on it, where a wall may hide the next
+    region's aim (a thin wall across the goal's bearing past a door). Off: the options steer
+    for the rest of the trial once their aim is in plain sight. On in ``paper``: the tuning
+    suite 1.111 / 1.122 -> 1.087 / 1.090 x optimum (``tuning/partition_end`` 1.85 / 2.01 ->
+    1.07 / 1.07), the paper's world the same trial for trial
+    (docs/journal/crossings.md, "The way again past plain sight")."""
     goal_scans: StrictBool = False
     """Keep the scans read on arriving at the goal, and once the robot has driven onto its
     believed goal's disc and off it again without arriving (its odometry has drifted), steer
