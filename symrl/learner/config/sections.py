@@ -199,7 +199,7 @@ class OptionsConfig(Section):
     way again at each new region or option it meets on it, where a wall may hide the next
     region's aim (a thin wall across the goal's bearing past a door). Off: the options steer
     for the rest of the trial once their aim is in plain sight. On in ``paper``: the tuning
-    suite 1.111 / 1.122 -> 1.087 / 1.090 x optimum (``tuning/partition_end`` 1.85 / 2.01 ->
+    suite 1.112 / 1.121 -> 1.087 / 1.090 x optimum (``tuning/partition_end`` 1.85 / 2.01 ->
     1.07 / 1.07), the paper's world the same trial for trial
     (docs/journal/crossings.md, "The way again past plain sight")."""
     goal_scans: StrictBool = False
