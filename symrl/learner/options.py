@@ -327,8 +327,9 @@ class SubgoalOptions(BufferViews):
     @property
     def bridges(self) -> np.ndarray:
         """The borders (J,) bool without which the rules' region graph has no way to the
-        goal's region from one side (their stretches seen only behind walls stay crossings)."""
-        return self._bridges
+        goal's region from one side (their stretches seen only behind walls stay crossings); a
+        copy, read by the trial records."""
+        return self._bridges.copy()
 
     def _crossing(self, b: int, border: int, xy: np.ndarray) -> Crossing | None:
         """Robot ``b``'s crossing of ``border`` from ``xy`` (None: found blocked); a bridge of
