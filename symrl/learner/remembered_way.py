@@ -59,8 +59,8 @@ class RememberedWay(BufferViews):
     Buffers (learned, saved): ``points`` (B, M, 2) the via-points, ``count`` (B,) how many,
     ``choices`` (B, R) the option the best trial chose in each region (-1: not entered),
     ``best`` (B,) its actions, ``misses`` (B,) the trials in a row that took the way and did worse,
-    ``origin`` (B, 2) where the best trial began, ``length`` (B,) the way's actions (its legs over
-    the step), ``past_sight`` (B,) whether the way is taken again past the options' plain sight.
+    ``origin`` (B, 2) where the best trial began, ``past_sight`` (B,) whether the way is taken
+    again past the options' plain sight.
     """
 
     points: torch.Tensor
@@ -69,7 +69,6 @@ class RememberedWay(BufferViews):
     best: torch.Tensor
     misses: torch.Tensor
     origin: torch.Tensor
-    length: torch.Tensor
     past_sight: torch.Tensor
 
     def __init__(
@@ -115,7 +114,6 @@ class RememberedWay(BufferViews):
         self.register_buffer("misses", torch.zeros(batch, dtype=torch.long))
         self.register_buffer("past_sight", torch.zeros(batch, dtype=torch.bool))
         self.register_buffer("origin", torch.zeros(batch, 2, dtype=torch.float64))
-        self.register_buffer("length", torch.zeros(batch, dtype=torch.float64))
         # per trial (not saved: a trial starts afresh)
         self._trial = {
             "next": np.zeros(batch, dtype=np.int64),  # the via-point aimed at
@@ -223,9 +221,9 @@ class RememberedWay(BufferViews):
         steps = len(pose) - 1
         best = int(a["best"][row])
         worse = not reached or steps > best + max(3, 0.1 * best)
-        length = float(a["length"][row])
-        sighted = self._trial["seen"][row] and not self._trial["off"][row] and best < _NONE
-        sighted = sighted and self.take_past_sight
+        t = self._trial
+        sighted = self.take_past_sight and t["seen"][row] and not t["off"][row] and best < _NONE
+        length = self._actions(row) if sighted else 0.0
         if sighted and (not reached or steps > length + max(3, 0.1 * length)):
             a["past_sight"][row] = True  # the options from plain sight did worse than the way
         if self._trial["used"][row]:  # it took the way: did worse, or as well (misses end)
@@ -245,9 +243,6 @@ class RememberedWay(BufferViews):
         if way:
             a["points"][row, : len(way)] = np.array(way)
         a["origin"][row] = pose[0, :2]
-        ends = np.vstack((pose[:1, :2], *(np.asarray(p)[None] for p in way), self.goal[None]))
-        legs = float(np.linalg.norm(np.diff(ends, axis=0), axis=1).sum())
-        a["length"][row] = max(legs - self.goal_radius, 0.0) / self.step
 
     def _pulled(self, pose: np.ndarray, sonar: np.ndarray) -> list[np.ndarray]:
         """The via-points from the first pose to the last (where the trial reached the goal, in
@@ -266,21 +261,31 @@ class RememberedWay(BufferViews):
             vias.append(target)
             end = i
 
+    def _polyline(self, b: int) -> np.ndarray:
+        """Robot ``b``'s way (count + 2, 2): where its best trial began, its via-points, the
+        goal."""
+        a = self.arrays
+        n = int(a["count"][b])
+        return np.vstack((a["origin"][b][None], a["points"][b, :n], self.goal[None]))
+
+    def _actions(self, b: int) -> float:
+        """Robot ``b``'s way in actions: its legs over the step, to the goal's disc."""
+        legs = float(np.linalg.norm(np.diff(self._polyline(b), axis=0), axis=1).sum())
+        return max(legs - self.goal_radius, 0.0) / self.step
+
+    @property
+    def length(self) -> np.ndarray:
+        """Each robot's way in actions (B,) (its legs over the step; 0 before a success)."""
+        best = self.arrays["best"]
+        return np.array([self._actions(b) if best[b] < _NONE else 0.0 for b in range(len(best))])
+
     def _ahead(self, b: int, xy: np.ndarray) -> tuple[int, float]:
         """The via-point robot ``b`` at ``xy`` steers at when it takes its way again, and how
         far off the way it is: the end of the way's leg nearest it (index ``count``: the goal)."""
-        a = self.arrays
-        n = int(a["count"][b])
-        way = np.vstack((a["origin"][b][None], a["points"][b, :n], self.goal[None]))
-        ahead, nearest = 0, math.inf
-        for k in range(n + 1):
-            d = way[k + 1] - way[k]
-            length2 = float(d @ d)
-            f = 0.0 if length2 < 1e-18 else min(max(float((xy - way[k]) @ d) / length2, 0.0), 1.0)
-            gap = math.dist(xy, way[k] + f * d)
-            if gap <= nearest:
-                ahead, nearest = k, gap
-        return ahead, nearest
+        way = self._polyline(b)
+        gaps = [_gap(xy, way[k], way[k + 1]) for k in range(len(way) - 1)]
+        ahead = len(gaps) - 1 - int(np.argmin(gaps[::-1]))  # the later leg of two as near
+        return ahead, gaps[ahead]
 
     def _agrees(self, b: int, xy: np.ndarray, target: np.ndarray) -> bool:
         """Whether robot ``b``'s way leads where the straight way to ``target`` does: its next
@@ -290,10 +295,7 @@ class RememberedWay(BufferViews):
         a, t = self.arrays, self._trial
         n = int(a["count"][b])
         point = a["points"][b, t["next"][b]] if t["next"][b] < n else self.goal
-        d = target - xy
-        length2 = float(d @ d)
-        f = 0.0 if length2 < 1e-18 else min(max(float((point - xy) @ d) / length2, 0.0), 1.0)
-        return math.dist(point, xy + f * d) <= self.radius + self.clearance
+        return _gap(point, xy, target) <= self.radius + self.clearance
 
     def _goal_edge(self, xy: np.ndarray) -> np.ndarray:
         """Where the straight way from ``xy`` to the goal meets the goal's disc."""
@@ -334,3 +336,11 @@ class RememberedWay(BufferViews):
         room = np.minimum(along, length - along) if both_ends else along
         need = self.radius + self.clearance * np.minimum(room / margin, 1.0)
         return not bool(((along > 0) & (along < length) & (across < need)).any())
+
+
+def _gap(p: np.ndarray, start: np.ndarray, end: np.ndarray) -> float:
+    """The distance from ``p`` to the segment ``start`` - ``end``."""
+    d = end - start
+    length2 = float(d @ d)
+    f = 0.0 if length2 < 1e-18 else min(max(float((p - start) @ d) / length2, 0.0), 1.0)
+    return math.dist(p, start + f * d)

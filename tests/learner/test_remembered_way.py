@@ -309,9 +309,9 @@ def test_the_way_is_learned_with_the_experts_off() -> None:
     ("world", "seed", "stop"), [("tuning/island_room", 5000, 3), ("tuning/partition_end", 5002, 4)]
 )
 def test_a_run_with_the_way_resumes_as_if_uninterrupted(tmp_path, world, seed, stop) -> None:
-    """Its via-points, choices, best, misses, origin, length and whether it is taken past
-    plain sight are saved per robot with the controller (`partition_end` seed 5002 stopped just
-    after the trial that showed the options worse than the way there)."""
+    """Its via-points, choices, best, misses, origin (its length follows) and whether it is
+    taken past plain sight are saved per robot with the controller (`partition_end` seed 5002
+    stopped just after the trial that showed the options worse than the way there)."""
     args = ["--seed", str(seed), "--map", world, "options.remembered_way=true"]
     a, b = whole_and_resumed(tmp_path, args, trials=6, stop=stop)
     assert a == b
