@@ -252,6 +252,7 @@ class SubgoalOptions(BufferViews):
                 step=robot.step,
                 max_points=max_actions,
                 take_past_sight=self.config.way_past_sight,
+                start_options=k if self.config.way_per_start_option else 1,
             )
         j = len(opts.borders)
         # per robot: the borders found blocked, the region graph's hops without them

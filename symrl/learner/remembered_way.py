@@ -54,13 +54,13 @@ stale)."""
 
 
 class RememberedWay(BufferViews):
-    """The remembered ways of B robots over R regions.
+    """The remembered ways of B robots over R regions, K per robot (one per start option).
 
-    Buffers (learned, saved): ``points`` (B, M, 2) the via-points, ``count`` (B,) how many,
-    ``choices`` (B, R) the option the best trial chose in each region (-1: not entered),
-    ``best`` (B,) its actions, ``misses`` (B,) the trials in a row that took the way and did worse,
-    ``origin`` (B, 2) where the best trial began, ``past_sight`` (B,) whether the way is taken
-    again past the options' plain sight.
+    Buffers (learned, saved): ``points`` (B, K, M, 2) the via-points, ``count`` (B, K) how
+    many, ``choices`` (B, K, R) the option the best trial chose in each region (-1: not
+    entered), ``best`` (B, K) its actions, ``misses`` (B, K) the trials in a row that took the
+    way and did worse, ``origin`` (B, K, 2) where the best trial began, ``past_sight`` (B, K)
+    whether the way is taken again past the options' plain sight.
     """
 
     points: torch.Tensor
@@ -87,6 +87,7 @@ class RememberedWay(BufferViews):
         reach: float = 0.5,
         slack: float = 1.5,
         take_past_sight: bool = True,
+        start_options: int = 1,
     ) -> None:
         """``goal`` (the point steered at after the last via-point) and the radius of its disc;
         the robot's ``radius``, the ``clearance`` kept from the echoes beyond it, its sonar and
@@ -94,7 +95,10 @@ class RememberedWay(BufferViews):
         at most one per pose); a via-point nearer than ``reach`` is passed; one not reached
         within ``slack`` times the straight way's actions ends the way for the trial; with
         ``take_past_sight``, the way is taken again past the options' plain sight once they did
-        worse from there than the way (``options.way_past_sight``)."""
+        worse from there than the way (``options.way_past_sight``); ``start_options`` ways
+        per robot, one for each option its trials may start with (the start region's: row
+        ``b * start_options + k`` is robot ``b``'s way for option ``k``; 1: one way, the best
+        trial's whichever option it started with)."""
         super().__init__()
         self.goal = np.array(goal, dtype=np.float64)
         self.goal_radius = float(goal_radius)
@@ -105,15 +109,17 @@ class RememberedWay(BufferViews):
         self.reach = float(reach)
         self.slack = float(slack)
         self.take_past_sight = bool(take_past_sight)
+        self.start_options = int(start_options)
+        ways = (batch, self.start_options)
         self._angles = np.arange(n_sensors, dtype=np.float64) * (2 * math.pi / n_sensors)
-        self.register_buffer("points", torch.zeros(batch, max_points, 2, dtype=torch.float64))
-        self.register_buffer("count", torch.zeros(batch, dtype=torch.long))
-        self.register_buffer("choices", torch.full((batch, regions), -1, dtype=torch.long))
-        self.register_buffer("first", torch.full((batch, regions), -1, dtype=torch.long))
-        self.register_buffer("best", torch.full((batch,), _NONE, dtype=torch.long))
-        self.register_buffer("misses", torch.zeros(batch, dtype=torch.long))
-        self.register_buffer("past_sight", torch.zeros(batch, dtype=torch.bool))
-        self.register_buffer("origin", torch.zeros(batch, 2, dtype=torch.float64))
+        self.register_buffer("points", torch.zeros(*ways, max_points, 2, dtype=torch.float64))
+        self.register_buffer("count", torch.zeros(ways, dtype=torch.long))
+        self.register_buffer("choices", torch.full((*ways, regions), -1, dtype=torch.long))
+        self.register_buffer("first", torch.full((*ways, regions), -1, dtype=torch.long))
+        self.register_buffer("best", torch.full(ways, _NONE, dtype=torch.long))
+        self.register_buffer("misses", torch.zeros(ways, dtype=torch.long))
+        self.register_buffer("past_sight", torch.zeros(ways, dtype=torch.bool))
+        self.register_buffer("origin", torch.zeros(*ways, 2, dtype=torch.float64))
         # per trial (not saved: a trial starts afresh)
         self._trial = {
             "next": np.zeros(batch, dtype=np.int64),  # the via-point aimed at
@@ -123,7 +129,21 @@ class RememberedWay(BufferViews):
             "seen_at": np.full((batch, regions), -1, dtype=np.int64),  # the choices then
             "used": np.zeros(batch, dtype=bool),  # on the way at some step of the trial
             "following": np.zeros(batch, dtype=bool),  # on the way at the last step
+            "way": np.full(batch, -1, dtype=np.int64),  # the row of the way for this trial
+            "start": np.full(batch, -1, dtype=np.int64),  # the region it started in
         }
+
+    @property
+    def ways(self) -> dict[str, np.ndarray]:
+        """The buffers' numpy views with one row per way (B * start_options, ...): row
+        ``b * start_options + k`` is robot ``b``'s way for start option ``k`` (views of the
+        same memory: writes reach the buffers)."""
+        views = self._views.get("ways")
+        if views is None:
+            views = {n: v.reshape(-1, *v.shape[2:]) for n, v in self.arrays.items()}
+            assert all(np.shares_memory(v, self.arrays[n]) for n, v in views.items())
+            self._views["ways"] = views
+        return views
 
     @property
     def following(self) -> np.ndarray:
@@ -136,6 +156,8 @@ class RememberedWay(BufferViews):
         t = self._trial
         t["next"][rows] = 0
         t["left"][rows] = -1.0
+        t["way"][rows] = -1
+        t["start"][rows] = -1
         for name in ("off", "seen", "used", "following"):
             t[name][rows] = False
 
@@ -159,19 +181,20 @@ class RememberedWay(BufferViews):
         options did worse from plain sight than its way (``past_sight``) takes the way again at
         the next region or option, if it is still on it."""
         xy = pose[:, :2]
-        a, t = self.arrays, self._trial
+        a, t = self.ways, self._trial
         entered = choice >= 0
-        other = (choice != a["choices"]) & (choice != a["first"])
+        w = self._ways(choice)
+        other = (choice != a["choices"][w]) & (choice != a["first"][w])
         t["off"] |= (entered & other).any(axis=1)
-        moved_on = t["seen"] & a["past_sight"] & (choice != t["seen_at"]).any(axis=1)
+        moved_on = t["seen"] & a["past_sight"][w] & (choice != t["seen_at"]).any(axis=1)
         for b in np.flatnonzero(moved_on).tolist():  # a new region or option
             t["seen_at"][b] = choice[b]
-            ahead, gap = self._ahead(b, xy[b])
+            ahead, gap = self._ahead(int(w[b]), xy[b])
             if gap <= self.radius + self.clearance:  # still on the way: it steers again
                 t["seen"][b] = False
                 t["next"][b] = ahead
                 t["left"][b] = -1.0
-        use = (a["best"] < _NONE) & ~t["off"] & ~t["seen"] & (a["misses"] < _MISSES)
+        use = (a["best"][w] < _NONE) & ~t["off"] & ~t["seen"] & (a["misses"][w] < _MISSES)
         out = aim.copy()
         if sonar is not None and use.any():
             for b in np.flatnonzero(use).tolist():
@@ -180,13 +203,13 @@ class RememberedWay(BufferViews):
                 if np.array_equal(target, self.goal):  # the options aim at the goal itself
                     target = self._goal_edge(xy[b])
                 if self._clear(xy[b], target, echoes, both_ends=True) and self._agrees(
-                    b, xy[b], target
+                    b, int(w[b]), xy[b], target
                 ):
                     t["seen"][b] = True
                     t["seen_at"][b] = choice[b]
                     use[b] = False
         for b in np.flatnonzero(use).tolist():
-            n, points = int(a["count"][b]), a["points"][b]
+            n, points = int(a["count"][w[b]]), a["points"][w[b]]
             while t["next"][b] < n and math.dist(xy[b], points[t["next"][b]]) < self.reach:
                 t["next"][b] += 1
                 t["left"][b] = -1.0
@@ -203,6 +226,21 @@ class RememberedWay(BufferViews):
         t["used"] |= use
         return out
 
+    def _ways(self, choice: np.ndarray) -> np.ndarray:
+        """The row of each robot's way for its trial (B,): set at the trial's first step, when
+        the start region is the only one entered, from the option chosen there."""
+        t = self._trial
+        new = t["way"] < 0
+        for b in np.flatnonzero(new).tolist():
+            k = 0
+            if self.start_options > 1:
+                entered = np.flatnonzero(choice[b] >= 0)
+                if len(entered):
+                    t["start"][b] = entered[0]
+                    k = int(choice[b, entered[0]])
+            t["way"][b] = b * self.start_options + k
+        return t["way"]
+
     # -- learning (the update calls this at a trial's end) --------------------------------
     def learn(
         self,
@@ -216,33 +254,44 @@ class RememberedWay(BufferViews):
         """Robot ``row``'s finished trial: odometry poses (T + 1, 3), their scans (T + 1, n)
         over the range, the option chosen in each region (R,) at the trial's end and ``first``
         (R,) the one each region was entered with (the same when none was given up), whether
-        it reached the goal. A successful trial shorter than the best so far gives the way."""
-        a = self.arrays
+        it reached the goal. A successful trial shorter than the best so far gives the way
+        (with ``start_options``: the way of the start region's option it began with, and of
+        the one it ended with, if either's best was longer)."""
+        a, t = self.ways, self._trial
+        w = int(t["way"][row]) if t["way"][row] >= 0 else row * self.start_options
         steps = len(pose) - 1
-        best = int(a["best"][row])
+        best = int(a["best"][w])
         worse = not reached or steps > best + max(3, 0.1 * best)
-        t = self._trial
         sighted = self.take_past_sight and t["seen"][row] and not t["off"][row] and best < _NONE
-        length = self._actions(row) if sighted else 0.0
+        length = self._actions(w) if sighted else 0.0
         if sighted and (not reached or steps > length + max(3, 0.1 * length)):
-            a["past_sight"][row] = True  # the options from plain sight did worse than the way
-        if self._trial["used"][row]:  # it took the way: did worse, or as well (misses end)
-            a["misses"][row] = a["misses"][row] + 1 if worse else 0
-        elif worse and a["misses"][row] >= _MISSES:
-            a["misses"][row] = 0  # left to the options, it did worse still: the way again
-        if not reached or steps >= best:
+            a["past_sight"][w] = True  # the options from plain sight did worse than the way
+        if t["used"][row]:  # it took the way: did worse, or as well (misses end)
+            a["misses"][w] = a["misses"][w] + 1 if worse else 0
+        elif worse and a["misses"][w] >= _MISSES:
+            a["misses"][w] = 0  # left to the options, it did worse still: the way again
+        first = choices if first is None else first
+        start = int(t["start"][row])
+        rows = (
+            {w}
+            if start < 0
+            else {row * self.start_options + k for k in (first[start], choices[start])}
+        )
+        rows = {r for r in rows if steps < int(a["best"][r])}
+        if not reached or not rows:
             return
         way = self._pulled(pose, sonar)
         if len(way) > a["points"].shape[1]:
             return
-        a["best"][row] = steps
-        a["misses"][row] = 0
-        a["choices"][row] = choices
-        a["first"][row] = choices if first is None else first
-        a["count"][row] = len(way)
-        if way:
-            a["points"][row, : len(way)] = np.array(way)
-        a["origin"][row] = pose[0, :2]
+        for w in sorted(rows):
+            a["best"][w] = steps
+            a["misses"][w] = 0
+            a["choices"][w] = choices
+            a["first"][w] = first
+            a["count"][w] = len(way)
+            if way:
+                a["points"][w, : len(way)] = np.array(way)
+            a["origin"][w] = pose[0, :2]
 
     def _pulled(self, pose: np.ndarray, sonar: np.ndarray) -> list[np.ndarray]:
         """The via-points from the first pose to the last (where the trial reached the goal, in
@@ -261,40 +310,41 @@ class RememberedWay(BufferViews):
             vias.append(target)
             end = i
 
-    def _polyline(self, b: int) -> np.ndarray:
-        """Robot ``b``'s way (count + 2, 2): where its best trial began, its via-points, the
-        goal."""
-        a = self.arrays
-        n = int(a["count"][b])
-        return np.vstack((a["origin"][b][None], a["points"][b, :n], self.goal[None]))
+    def _polyline(self, w: int) -> np.ndarray:
+        """Way ``w`` (count + 2, 2): where its best trial began, its via-points, the goal."""
+        a = self.ways
+        n = int(a["count"][w])
+        return np.vstack((a["origin"][w][None], a["points"][w, :n], self.goal[None]))
 
-    def _actions(self, b: int) -> float:
-        """Robot ``b``'s way in actions: its legs over the step, to the goal's disc."""
-        legs = float(np.linalg.norm(np.diff(self._polyline(b), axis=0), axis=1).sum())
+    def _actions(self, w: int) -> float:
+        """Way ``w`` in actions: its legs over the step, to the goal's disc."""
+        legs = float(np.linalg.norm(np.diff(self._polyline(w), axis=0), axis=1).sum())
         return max(legs - self.goal_radius, 0.0) / self.step
 
     @property
     def length(self) -> np.ndarray:
-        """Each robot's way in actions (B,) (its legs over the step; 0 before a success)."""
-        best = self.arrays["best"]
-        return np.array([self._actions(b) if best[b] < _NONE else 0.0 for b in range(len(best))])
+        """Each way in actions (B, start_options) (its legs over the step; 0 before a
+        success)."""
+        best = self.ways["best"]
+        length = [self._actions(w) if best[w] < _NONE else 0.0 for w in range(len(best))]
+        return np.array(length).reshape(self.best.shape)
 
-    def _ahead(self, b: int, xy: np.ndarray) -> tuple[int, float]:
-        """The via-point robot ``b`` at ``xy`` steers at when it takes its way again, and how
-        far off the way it is: the end of the way's leg nearest it (index ``count``: the goal)."""
-        way = self._polyline(b)
+    def _ahead(self, w: int, xy: np.ndarray) -> tuple[int, float]:
+        """The via-point a robot at ``xy`` steers at when it takes way ``w`` again, and how far
+        off the way it is: the end of the way's leg nearest it (index ``count``: the goal)."""
+        way = self._polyline(w)
         gaps = [_gap(xy, way[k], way[k + 1]) for k in range(len(way) - 1)]
         ahead = len(gaps) - 1 - int(np.argmin(gaps[::-1]))  # the later leg of two as near
         return ahead, gaps[ahead]
 
-    def _agrees(self, b: int, xy: np.ndarray, target: np.ndarray) -> bool:
-        """Whether robot ``b``'s way leads where the straight way to ``target`` does: its next
-        via-point (or the goal after the last) lies within the body and the clearance of that
-        line. Where the best trial went elsewhere (round a wall the scan cannot show), the way
-        is kept."""
-        a, t = self.arrays, self._trial
-        n = int(a["count"][b])
-        point = a["points"][b, t["next"][b]] if t["next"][b] < n else self.goal
+    def _agrees(self, b: int, w: int, xy: np.ndarray, target: np.ndarray) -> bool:
+        """Whether robot ``b``'s way (row ``w``) leads where the straight way to ``target``
+        does: its next via-point (or the goal after the last) lies within the body and the
+        clearance of that line. Where the best trial went elsewhere (round a wall the scan
+        cannot show), the way is kept."""
+        a, t = self.ways, self._trial
+        n = int(a["count"][w])
+        point = a["points"][w, t["next"][b]] if t["next"][b] < n else self.goal
         return _gap(point, xy, target) <= self.radius + self.clearance
 
     def _goal_edge(self, xy: np.ndarray) -> np.ndarray:

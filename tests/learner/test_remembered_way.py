@@ -17,10 +17,11 @@ RADIUS, CLEAR, RANGE, N = 0.26, 0.30, 5.0, 24
 GOAL = (4.0, 3.0)
 
 
-def way(batch: int = 1, regions: int = 2) -> RememberedWay:
+def way(batch: int = 1, regions: int = 2, start_options: int = 1) -> RememberedWay:
     return RememberedWay(
         batch,
         regions,
+        start_options=start_options,
         goal=GOAL,
         goal_radius=0.4,
         radius=RADIUS,
@@ -80,7 +81,7 @@ def test_the_way_is_pulled_tight_and_keeps_its_clearance() -> None:
     w.learn(0, pose, sonar, np.array([1, 0]), reached=True)
     n = int(w.count[0])
     assert 1 <= n < len(PATH) // 4  # a handful of via-points, not the path
-    points = [np.array(pose[0, :2])] + [w.points[0, i].numpy() for i in range(n)]
+    points = [np.array(pose[0, :2])] + [w.points[0, 0, i].numpy() for i in range(n)]
     points.append(np.array(GOAL))
     for p, q in zip(points, points[1:], strict=False):
         assert segment_distance(p, q, WALL) >= RADIUS + CLEAR - 1e-9
@@ -97,11 +98,11 @@ def test_only_a_shorter_successful_trial_gives_the_way() -> None:
     w.learn(0, pose, sonar, np.array([1, 0]), reached=False)
     assert int(w.count[0]) == 0 and int(w.best[0]) > 10**6
     w.learn(0, pose, sonar, np.array([1, 0]), reached=True)
-    kept = w.points[0].clone()
+    kept = w.points[0, 0].clone()
     longer = trial(PATH + [(4.0, 3.0)] * 3)
     w.learn(0, *longer, np.array([0, 0]), reached=True)
-    assert np.array_equal(w.points[0].numpy(), kept.numpy())
-    assert w.choices[0].tolist() == [1, 0]
+    assert np.array_equal(w.points[0, 0].numpy(), kept.numpy())
+    assert w.choices[0, 0].tolist() == [1, 0]
 
 
 def test_a_straight_way_has_no_via_point() -> None:
@@ -124,12 +125,13 @@ def test_the_way_is_followed_point_by_point_then_the_goal() -> None:
     aim = np.array([[9.0, 9.0]])
     start = np.array([0.5, 0.5])
     first = w.aim(choice, start[None], aim)[0]
-    ahead = [w.points[0, i].numpy() for i in range(n) if math.dist(start, w.points[0, i]) >= 0.5]
+    points = w.points[0, 0].numpy()
+    ahead = [points[i] for i in range(n) if math.dist(start, points[i]) >= 0.5]
     np.testing.assert_allclose(first, ahead[0])  # the first via-point not yet within reach
     # within reach of each via-point in turn: the next one, and after the last the goal
     for i in range(n):
-        out = w.aim(choice, w.points[0, i].numpy()[None], aim)[0]
-        expected = w.points[0, i + 1].numpy() if i + 1 < n else np.array(GOAL)
+        out = w.aim(choice, w.points[0, 0, i].numpy()[None], aim)[0]
+        expected = w.points[0, 0, i + 1].numpy() if i + 1 < n else np.array(GOAL)
         np.testing.assert_allclose(out, expected)
 
 
@@ -156,6 +158,34 @@ def test_the_way_is_taken_with_the_option_the_best_trial_began_or_ended_a_region
         w.begin_trial(np.array([0]))
         out = w.aim(np.array([[option, -1]]), xy, aim)
         assert np.array_equal(out, aim) != taken
+
+
+def run_trial(
+    w: RememberedWay, path: list[tuple[float, float]], choice: list[int], reached: bool = True
+) -> None:
+    """Robot 0 drives ``path`` with ``choice`` (the start region's option first) and learns it."""
+    pose, sonar = trial(path)
+    w.begin_trial(np.array([0]))
+    w.aim(np.array([[choice[0], -1]]), pose[:1], np.array([[9.0, 9.0]]), sonar[:1])
+    w.learn(0, pose, sonar, np.array(choice), reached=reached)
+
+
+@pytest.mark.parametrize("start_options", [1, 2])
+def test_a_trial_starting_with_another_option_keeps_a_way_of_its_own(start_options: int) -> None:
+    """The best trial started with option 0; a longer one started with option 1. With one way
+    per start option each start steers along its own trial's way; with one way, a trial
+    starting with option 1 has none (the options steer)."""
+    w = way(start_options=start_options)
+    run_trial(w, PATH, [0, 0])
+    longer = [(0.5, 0.5 - 0.2 * i) for i in range(3)] + [(x, y - 0.4) for x, y in PATH]
+    run_trial(w, longer, [1, 0])
+    aim = np.array([[9.0, 9.0]])
+    for option, start in ((0, PATH[0]), (1, longer[0])):
+        w.begin_trial(np.array([0]))
+        out = w.aim(np.array([[option, -1]]), np.array([[*start, 0.0]]), aim)
+        taken = option == 0 or start_options == 2
+        assert np.array_equal(out, aim) != taken
+    assert np.array_equal(w.best[0].numpy() < 10**6, [True, start_options == 2][:start_options])
 
 
 def test_no_way_before_a_success() -> None:
@@ -198,7 +228,7 @@ def test_pulled_segments_never_touch_the_wall(end: float, height: float) -> None
     w = way()
     w.learn(0, pose, sonar, np.array([0, 0]), reached=True)
     n = int(w.count[0])
-    points = [pose[0, :2]] + [w.points[0, i].numpy() for i in range(n)] + [np.array(GOAL)]
+    points = [pose[0, :2]] + [w.points[0, 0, i].numpy() for i in range(n)] + [np.array(GOAL)]
     if int(w.best[0]) < 10**6:  # the body never touches the wall on the way (the clearance
         # beyond it is kept from the echoes, which sample the wall)
         for p, q in zip(points, points[1:], strict=False):
@@ -295,7 +325,7 @@ def test_the_way_is_learned_with_the_experts_off() -> None:
     ways = []
 
     def on_trial(b: int, record: dict, policy) -> None:
-        ways.append(int(policy.options.remembered_way.best[b]))
+        ways.append(int(policy.options.remembered_way.best[b, 0]))
 
     config = load_config(
         "paper",
@@ -306,13 +336,17 @@ def test_the_way_is_learned_with_the_experts_off() -> None:
 
 
 @pytest.mark.parametrize(
-    ("world", "seed", "stop"), [("tuning/island_room", 5000, 3), ("tuning/partition_end", 5002, 4)]
+    ("world", "seed", "stop", "per_start_option"),
+    [("tuning/island_room", 5000, 3, True), ("tuning/partition_end", 5002, 4, False)],
 )
-def test_a_run_with_the_way_resumes_as_if_uninterrupted(tmp_path, world, seed, stop) -> None:
+def test_a_run_with_the_way_resumes_as_if_uninterrupted(
+    tmp_path, world, seed, stop, per_start_option
+) -> None:
     """Its via-points, choices, best, misses, origin (its length follows) and whether it is
-    taken past plain sight are saved per robot with the controller (`partition_end` seed 5002
-    stopped just after the trial that showed the options worse than the way there)."""
+    taken past plain sight are saved per robot with the controller (`partition_end` seed 5002,
+    one way, stopped just after the trial that showed the options worse than the way there)."""
     args = ["--seed", str(seed), "--map", world, "options.remembered_way=true"]
+    args.append(f"options.way_per_start_option={per_start_option}")
     a, b = whole_and_resumed(tmp_path, args, trials=6, stop=stop)
     assert a == b
 
@@ -321,7 +355,7 @@ def test_the_options_steer_again_once_their_aim_is_in_plain_sight() -> None:
     w = way()
     w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
     assert int(w.count[0]) == 1  # one via-point, under the wall's end
-    via = w.points[0, 0].numpy()
+    via = w.points[0, 0, 0].numpy()
     choice = np.array([[1, -1]])
     goal = np.array([GOAL])
     start = np.array([[0.5, 0.5, 0.0]])
@@ -348,7 +382,7 @@ def test_an_aim_in_plain_sight_where_the_way_leads_elsewhere_keeps_the_way() -> 
     start = np.array([[0.5, 0.5, 0.0]])
     north = np.array([[0.5, 1.0]])
     out = w.aim(np.array([[1, -1]]), start, north, scan(start[0], [WALL])[None])
-    np.testing.assert_allclose(out[0], w.points[0, 0].numpy())
+    np.testing.assert_allclose(out[0], w.points[0, 0, 0].numpy())
     assert w.following[0]
 
 
@@ -360,7 +394,7 @@ def test_a_wall_beside_the_goal_disc_does_not_hide_the_goal() -> None:
     w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
     beside = (4.3, 2.5, 5.0, 2.5)
     choice, goal = np.array([[1, -1]]), np.array([GOAL])
-    via = w.points[0, 0].numpy()
+    via = w.points[0, 0, 0].numpy()
     w.aim(choice, np.array([[*via, 0.0]]), goal)  # the via-point passed: the goal is next
     pose = np.array([[4.0, 1.0, math.pi / 2]])
     out = w.aim(choice, pose, goal, scan(pose[0], [beside])[None])
@@ -378,7 +412,7 @@ def test_a_way_through_a_door_narrower_than_the_clearance_is_kept() -> None:
     w = way()
     w.learn(0, pose, sonar, np.array([0, 1]), reached=True)
     assert int(w.best[0]) == len(path) - 1
-    points = w.points[0, : int(w.count[0])].numpy()
+    points = w.points[0, 0, : int(w.count[0])].numpy()
     # every stretch of the way passes the door between its posts, not through the wall
     ends = np.vstack([pose[:1, :2], points, pose[-1:, :2]])
     for p, q in zip(ends[:-1], ends[1:], strict=True):
@@ -409,7 +443,7 @@ def _sighted_after(path: list[tuple[float, float]]) -> tuple[RememberedWay, np.n
     w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
     start = np.array([[0.5, 0.5, 0.0]])
     for k in range(2):
-        via = w.points[0, 0].numpy()
+        via = w.points[0, 0, 0].numpy()
         w.begin_trial(np.array([0]))
         out = w.aim(np.array([[1, -1]]), start, via[None], scan(start[0], [WALL])[None])
         np.testing.assert_array_equal(out[0], via)  # the options' own aim
@@ -422,10 +456,10 @@ def _sighted_after(path: list[tuple[float, float]]) -> tuple[RememberedWay, np.n
 def test_the_way_length_is_its_legs_over_the_step() -> None:
     w = way()
     w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
-    via = w.points[0, 0].numpy()
+    via = w.points[0, 0, 0].numpy()
     legs = math.dist(PATH[0], via) + math.dist(via, GOAL) - 0.4
-    assert float(w.length[0]) == pytest.approx(legs / 0.2)
-    np.testing.assert_array_equal(w.origin[0].numpy(), PATH[0])
+    assert float(w.length[0, 0]) == pytest.approx(legs / 0.2)
+    np.testing.assert_array_equal(w.origin[0, 0].numpy(), PATH[0])
 
 
 @pytest.mark.parametrize(("path", "taken"), [(LOITERED, True), (TIGHT, False)])
@@ -459,8 +493,15 @@ def test_the_paper_robot_takes_its_way_round_a_partition_past_a_door(past_sight:
     turns up its dead-end lane (about 72 actions). Seed 5002's trials all did so, but its way,
     pulled tight, rounds the partition's end; once a trial the options steered from plain sight
     has done worse than that way, the robot takes the way past the door (about 38 actions),
-    and without ``options.way_past_sight`` it never does."""
-    trials = paper_trials("tuning/partition_end", 5002, 6, f"options.way_past_sight={past_sight}")
+    and without ``options.way_past_sight`` it never does (one way for every start option: with
+    one per start option, trial 3 takes trial 1's way, whose start the critic chose again)."""
+    trials = paper_trials(
+        "tuning/partition_end",
+        5002,
+        6,
+        f"options.way_past_sight={past_sight}",
+        "options.way_per_start_option=false",
+    )
     steps = [int(t["steps"]) for t in trials]
     assert min(steps[:4]) > 60
     assert (max(steps[4:]) < 45) == past_sight

@@ -202,6 +202,11 @@ class OptionsConfig(Section):
     suite 1.112 / 1.121 -> 1.087 / 1.090 x optimum (``tuning/partition_end`` 1.85 / 2.01 ->
     1.07 / 1.07), the paper's world the same trial for trial
     (docs/journal/crossings.md, "The way again past plain sight")."""
+    way_per_start_option: StrictBool = False
+    """With ``remembered_way``: one way per option of the region a trial starts in, each the
+    best trial's that started with it, so a trial whose critic chose another start option than
+    the best trial did still has a way of its own (off: one way, the best trial's, and a trial
+    starting otherwise is steered by the options alone)."""
     goal_scans: StrictBool = False
     """Keep the scans read on arriving at the goal, and once the robot has driven onto its
     believed goal's disc and off it again without arriving (its odometry has drifted), steer
