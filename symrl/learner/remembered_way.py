@@ -271,12 +271,10 @@ class RememberedWay(BufferViews):
         elif worse and a["misses"][w] >= _MISSES:
             a["misses"][w] = 0  # left to the options, it did worse still: the way again
         first = choices if first is None else first
-        start = int(t["start"][row])
-        rows = (
-            {w}
-            if start < 0
-            else {row * self.start_options + k for k in (first[start], choices[start])}
-        )
+        rows = {w}
+        start = int(t["start"][row])  # set with one way per start option
+        if start >= 0:  # the ways of the option it began with and of the one it ended with
+            rows = {row * self.start_options + int(k) for k in (first[start], choices[start])}
         rows = {r for r in rows if steps < int(a["best"][r])}
         if not reached or not rows:
             return

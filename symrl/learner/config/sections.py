@@ -206,7 +206,10 @@ class OptionsConfig(Section):
     """With ``remembered_way``: one way per option of the region a trial starts in, each the
     best trial's that started with it, so a trial whose critic chose another start option than
     the best trial did still has a way of its own (off: one way, the best trial's, and a trial
-    starting otherwise is steered by the options alone)."""
+    starting otherwise is steered by the options alone). A trial whose first option was given
+    up is the way of both options. On in ``paper``: the tuning suite 1.087 / 1.090 -> 1.083 /
+    1.088 x optimum, failed trials from trial 5 1 -> 0 (docs/journal/crossings.md, "One way
+    per start option")."""
     goal_scans: StrictBool = False
     """Keep the scans read on arriving at the goal, and once the robot has driven onto its
     believed goal's disc and off it again without arriving (its odometry has drifted), steer
