@@ -132,6 +132,24 @@ def test_resume_adopts_a_foreign_checkpoint_only_when_asked(tmp_path, capsys):
     assert "recipe: reflex_only" in (ours / "config.yaml").read_text()
 
 
+def test_a_run_written_before_a_setting_was_added_resumes(tmp_path, capsys):
+    """config.yaml of an older symrl lacks the settings added since; the checkpoint's config has
+    their defaults. That is the same run; a recorded value that differs is not."""
+    import yaml
+
+    run = tmp_path / "run"
+    assert _train(["paper", "--trials", "1", "--logdir", str(run)], capsys)[0] == 0
+    recorded = yaml.safe_load((run / "config.yaml").read_text())
+    del recorded["options"]["goal_scans"]
+    (run / "config.yaml").write_text(yaml.safe_dump(recorded))
+    assert _train(["--resume", str(run), "--trials", "2"], capsys)[0] == 0
+    recorded = yaml.safe_load((run / "config.yaml").read_text())
+    recorded["options"]["goal_scans"] = not recorded["options"]["goal_scans"]
+    (run / "config.yaml").write_text(yaml.safe_dump(recorded))
+    code, err = _train(["--resume", str(run), "--trials", "3"], capsys)
+    assert code == 2 and "options.goal_scans" in err and "not this folder's run" in err
+
+
 def test_ctrl_c_in_a_command_is_one_line(monkeypatch, capsys, tmp_path):
     import symrl.studies.plan
 

@@ -133,6 +133,16 @@ class RememberedWay(BufferViews):
             "start": np.full(batch, -1, dtype=np.int64),  # the region it started in
         }
 
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):  # type: ignore[no-untyped-def]
+        # a checkpoint written before the ways per start option holds one way per robot, its
+        # buffers without the K axis: the same way as K = 1
+        for name, buffer in self._buffers.items():
+            saved = state_dict.get(prefix + name)
+            older = saved is not None and buffer is not None and saved.dim() == buffer.dim() - 1
+            if older and self.start_options == 1:
+                state_dict[prefix + name] = saved.unsqueeze(1)
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
+
     @property
     def ways(self) -> dict[str, np.ndarray]:
         """The buffers' numpy views with one row per way (B * start_options, ...): row

@@ -114,7 +114,8 @@ def load_resume(run_dir: str | Path, adopt: bool = False) -> tuple[RunConfig, in
 def check_same_run(folder: Path, config: RunConfig, seed: int) -> None:
     """The checkpoint of ``folder`` belongs to the run its ``config.yaml`` records: the same
     settings its learner reads (the trial budget aside, which ``--trials`` may extend) and
-    seed; else a one-line :class:`CheckpointError`."""
+    seed; else a one-line :class:`CheckpointError`. A setting the recorded file lacks was
+    added to symrl after the run was written (the checkpoint's config has its default)."""
     recorded_file = folder / "config.yaml"
     if not recorded_file.is_file():
         return
@@ -132,6 +133,8 @@ def check_same_run(folder: Path, config: RunConfig, seed: int) -> None:
     have = flat({k: v for k, v in recorded.items() if k != "provenance"})
     for key in ("recipe", "run.seed", "env.map", *sorted(set(saved) | set(have))):
         if key == "run.trials" or saved.get(key) == have.get(key):
+            continue
+        if key not in have and key in saved:  # a setting newer than the run
             continue
         raise CheckpointError(
             f"--resume {str(folder)!r}: checkpoint.pt has {key}={saved.get(key)!r} but the "

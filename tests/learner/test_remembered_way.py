@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from learner_helpers import paper_trials, whole_and_resumed
@@ -506,3 +507,17 @@ def test_the_paper_robot_takes_its_way_round_a_partition_past_a_door(past_sight:
     assert min(steps[:4]) > 60
     assert (max(steps[4:]) < 45) == past_sight
     assert (min(steps[4:]) > 60) != past_sight
+
+
+def test_a_checkpoint_with_one_way_per_robot_loads_as_one_way_per_start() -> None:
+    """Before the ways per start option the buffers had no K axis: such a state dict loads into
+    a way with one start option, the same way; into one with two it is refused."""
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    older = {name: value[:, 0] for name, value in w.state_dict().items()}
+    again = way()
+    again.load_state_dict(older)
+    for name, value in w.state_dict().items():
+        assert torch.equal(again.state_dict()[name], value), name
+    with pytest.raises(RuntimeError, match="size mismatch"):
+        way(start_options=2).load_state_dict(older)
