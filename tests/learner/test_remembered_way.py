@@ -189,6 +189,23 @@ def test_a_trial_starting_with_another_option_keeps_a_way_of_its_own(start_optio
     assert np.array_equal(w.best[0].numpy() < 10**6, [True, start_options == 2][:start_options])
 
 
+def test_a_start_option_given_up_gives_its_way_to_both_options() -> None:
+    """The best trial began with start option 1, gave it up and arrived with option 0: a later
+    trial starting with either takes that way (keyed to the first alone, one starting with the
+    option the critic credits with the arrival had none), and option 2's way stays empty."""
+    w = way(start_options=3)
+    pose, sonar = trial(PATH)
+    w.begin_trial(np.array([0]))
+    w.aim(np.array([[1, -1]]), pose[:1], np.array([[9.0, 9.0]]), sonar[:1])
+    w.learn(0, pose, sonar, np.array([0, 0]), reached=True, first=np.array([1, 0]))
+    assert w.best[0].tolist()[:2] == [len(PATH) - 1] * 2 and int(w.best[0, 2]) > 10**6
+    aim = np.array([[9.0, 9.0]])
+    for option, taken in ((0, True), (1, True), (2, False)):
+        w.begin_trial(np.array([0]))
+        out = w.aim(np.array([[option, -1]]), pose[:1], aim)
+        assert np.array_equal(out, aim) != taken
+
+
 def test_no_way_before_a_success() -> None:
     w = way(batch=2)
     aim = np.array([[9.0, 9.0], [8.0, 8.0]])
