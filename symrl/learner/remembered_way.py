@@ -22,7 +22,10 @@ its way again at each new region or option it meets on the way (within the body 
 clearance of a leg), from that leg's end; until then the options steer for the rest of the
 trial, which is as good wherever nothing hides the next aim. An option explored or given up
 elsewhere, or a via-point not reached within 1.5 times the straight way's actions, hands the
-steering back to the options for the rest of the trial. After two trials in a row that took the
+steering back to the options for the rest of the trial. With one way per option of the region
+the trials start in (``options.way_per_start_option``), a trial takes the way of the option it
+starts with: the best trial's that began or ended there with it, so a start the critic comes to
+prefer to the best trial's has a way of its own. After two trials in a row that took the
 way and ended longer than the best by more than a tenth (and 3 actions), the way is left to the
 options until a shorter trial gives a new one, or a trial the options steered alone ends longer
 than the best by as much (the way is taken again). A shorter successful trial replaces the way,
@@ -193,7 +196,7 @@ class RememberedWay(BufferViews):
         xy = pose[:, :2]
         a, t = self.ways, self._trial
         entered = choice >= 0
-        w = self._ways(choice)
+        w = self._trial_rows(choice)
         other = (choice != a["choices"][w]) & (choice != a["first"][w])
         t["off"] |= (entered & other).any(axis=1)
         moved_on = t["seen"] & a["past_sight"][w] & (choice != t["seen_at"]).any(axis=1)
@@ -236,7 +239,7 @@ class RememberedWay(BufferViews):
         t["used"] |= use
         return out
 
-    def _ways(self, choice: np.ndarray) -> np.ndarray:
+    def _trial_rows(self, choice: np.ndarray) -> np.ndarray:
         """The row of each robot's way for its trial (B,): set at the trial's first step, when
         the start region is the only one entered, from the option chosen there."""
         t = self._trial
@@ -281,25 +284,25 @@ class RememberedWay(BufferViews):
         elif worse and a["misses"][w] >= _MISSES:
             a["misses"][w] = 0  # left to the options, it did worse still: the way again
         first = choices if first is None else first
-        rows = {w}
+        given = {w}  # the ways this trial may give
         start = int(t["start"][row])  # set with one way per start option
         if start >= 0:  # the ways of the option it began with and of the one it ended with
-            rows = {row * self.start_options + int(k) for k in (first[start], choices[start])}
-        rows = {r for r in rows if steps < int(a["best"][r])}
-        if not reached or not rows:
+            given = {row * self.start_options + int(k) for k in (first[start], choices[start])}
+        given = {v for v in given if steps < int(a["best"][v])}
+        if not reached or not given:
             return
         way = self._pulled(pose, sonar)
         if len(way) > a["points"].shape[1]:
             return
-        for w in sorted(rows):
-            a["best"][w] = steps
-            a["misses"][w] = 0
-            a["choices"][w] = choices
-            a["first"][w] = first
-            a["count"][w] = len(way)
+        for v in sorted(given):
+            a["best"][v] = steps
+            a["misses"][v] = 0
+            a["choices"][v] = choices
+            a["first"][v] = first
+            a["count"][v] = len(way)
             if way:
-                a["points"][w, : len(way)] = np.array(way)
-            a["origin"][w] = pose[0, :2]
+                a["points"][v, : len(way)] = np.array(way)
+            a["origin"][v] = pose[0, :2]
 
     def _pulled(self, pose: np.ndarray, sonar: np.ndarray) -> list[np.ndarray]:
         """The via-points from the first pose to the last (where the trial reached the goal, in
