@@ -13,10 +13,14 @@ RESUMABLE = ("study", "ablate", "sweep")
 
 
 def stop_signals() -> tuple[int, ...]:
-    """Ctrl-C, SIGTERM and (where there is one) SIGHUP: a closed terminal stops a run too."""
+    """Ctrl-C, SIGTERM and (where there is one) SIGHUP: a closed terminal stops a run too. A
+    signal the command was started ignoring stays ignored (``nohup`` ignores SIGHUP so that a
+    closed terminal does not stop the run)."""
     import signal
 
-    return tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
+    names = ("SIGINT", "SIGTERM", "SIGHUP")
+    signals = [getattr(signal, n) for n in names if hasattr(signal, n)]
+    return tuple(s for s in signals if signal.getsignal(s) is not signal.SIG_IGN)
 
 
 def stoppable(run: Callable[[list[int]], Any]) -> int:
