@@ -187,10 +187,11 @@ class RememberedWay(BufferViews):
         best trial's), its next via-point, then the goal; else ``aim``, the options' own. Once
         the latest scan (``sonar`` (B, n) over the range) shows the straight way to the options'
         aim clear (to the goal's disc when the aim is the goal) and the way leads there too (its
-        next point within the body and the clearance of that straight way), the way hands the
-        steering back to the options for the rest of the trial: the way is for walls that hide
-        the aim, and where nothing does, the options' aim (lined up with a crossing, refined by
-        the experts) does better than the best trial's path, wiggles and all. A robot whose
+        next point farther off than the body and the clearance lies within them of that
+        straight way), the way hands the steering back to the options for the rest of the
+        trial: the way is for walls that hide the aim, and where nothing does, the options'
+        aim (lined up with a crossing, refined by the experts) does better than the best
+        trial's path, wiggles and all. A robot whose
         options did worse from plain sight than its way (``past_sight``) takes the way again at
         the next region or option, if it is still on it."""
         xy = pose[:, :2]
@@ -350,13 +351,17 @@ class RememberedWay(BufferViews):
 
     def _agrees(self, b: int, w: int, xy: np.ndarray, target: np.ndarray) -> bool:
         """Whether robot ``b``'s way (row ``w``) leads where the straight way to ``target``
-        does: its next via-point (or the goal after the last) lies within the body and the
-        clearance of that line. Where the best trial went elsewhere (round a wall the scan
-        cannot show), the way is kept."""
+        does: its next via-point farther from the robot than the body and the clearance (or
+        the goal after the last) lies within them of that line; a nearer one lies that near
+        every line from the robot and tells nothing. Where the best trial went elsewhere (round
+        a wall the scan cannot show), the way is kept."""
         a, t = self.ways, self._trial
-        n = int(a["count"][w])
-        point = a["points"][w, t["next"][b]] if t["next"][b] < n else self.goal
-        return _gap(point, xy, target) <= self.radius + self.clearance
+        n, k = int(a["count"][w]), int(t["next"][b])
+        margin = self.radius + self.clearance
+        while k < n and math.dist(xy, a["points"][w, k]) <= margin:
+            k += 1  # a point this near lies near every line from the robot: it tells nothing
+        point = a["points"][w, k] if k < n else self.goal
+        return _gap(point, xy, target) <= margin
 
     def _goal_edge(self, xy: np.ndarray) -> np.ndarray:
         """Where the straight way from ``xy`` to the goal meets the goal's disc."""

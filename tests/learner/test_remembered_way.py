@@ -538,3 +538,22 @@ def test_a_checkpoint_with_one_way_per_robot_loads_as_one_way_per_start() -> Non
         assert torch.equal(again.state_dict()[name], value), name
     with pytest.raises(RuntimeError, match="size mismatch"):
         way(start_options=2).load_state_dict(older)
+
+
+def test_a_via_point_beside_the_robot_does_not_make_any_aim_agree_with_the_way() -> None:
+    """0.3 m short of the via-point under the wall's end (nearer than the body and the
+    clearance, so near every straight way from the robot), the options aim back south-west in
+    plain sight: the way, which turns north-east there, is kept. Standing past the via-point,
+    an aim where the way leads (the goal) still takes the steering back."""
+    w = way()
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    via = w.points[0, 0, 0].numpy()
+    near = np.array([[via[0] - 0.3, via[1], 0.0]])
+    back = np.array([[via[0] - 0.7, via[1] - 0.3]])
+    out = w.aim(np.array([[1, -1]]), near, back, scan(near[0], [WALL])[None])
+    np.testing.assert_array_equal(out[0], GOAL)  # the via-point is within reach: passed
+    assert w.following[0]
+    beyond = np.array([[via[0] + 0.1, via[1] + 0.1, math.pi / 4]])
+    goal = np.array([GOAL])
+    w.aim(np.array([[1, -1]]), beyond, goal, scan(beyond[0], [WALL])[None])
+    assert not w.following[0]
