@@ -252,6 +252,7 @@ class SubgoalOptions(BufferViews):
                 step=robot.step,
                 max_points=max_actions,
                 take_past_sight=self.config.way_past_sight,
+                spare_goal_search=self.config.way_spares_goal_search,
                 start_options=k if self.config.way_per_start_option else 1,
             )
         j = len(opts.borders)

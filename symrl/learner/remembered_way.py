@@ -91,6 +91,7 @@ class RememberedWay(BufferViews):
         slack: float = 1.5,
         take_past_sight: bool = True,
         start_options: int = 1,
+        spare_goal_search: bool = False,
     ) -> None:
         """``goal`` (the point steered at after the last via-point) and the radius of its disc;
         the robot's ``radius``, the ``clearance`` kept from the echoes beyond it, its sonar and
@@ -101,7 +102,9 @@ class RememberedWay(BufferViews):
         worse from there than the way (``options.way_past_sight``); ``start_options`` ways
         per robot, one for each option its trials may start with (the start region's: row
         ``b * start_options + k`` is robot ``b``'s way for option ``k``; 1: one way, the best
-        trial's whichever option it started with)."""
+        trial's whichever option it started with); with ``spare_goal_search``, a trial that
+        had to search for its goal (:meth:`learn`'s ``goal_searched``) is no miss of the
+        way."""
         super().__init__()
         self.goal = np.array(goal, dtype=np.float64)
         self.goal_radius = float(goal_radius)
@@ -113,6 +116,7 @@ class RememberedWay(BufferViews):
         self.slack = float(slack)
         self.take_past_sight = bool(take_past_sight)
         self.start_options = int(start_options)
+        self.spare_goal_search = bool(spare_goal_search)
         ways = (batch, self.start_options)
         self._angles = np.arange(n_sensors, dtype=np.float64) * (2 * math.pi / n_sensors)
         self.register_buffer("points", torch.zeros(*ways, max_points, 2, dtype=torch.float64))
@@ -264,11 +268,14 @@ class RememberedWay(BufferViews):
         choices: np.ndarray,
         reached: bool,
         first: np.ndarray | None = None,
+        goal_searched: bool = False,
     ) -> None:
         """Robot ``row``'s finished trial: odometry poses (T + 1, 3), their scans (T + 1, n)
         over the range, the option chosen in each region (R,) at the trial's end and ``first``
         (R,) the one each region was entered with (the same when none was given up), whether
-        it reached the goal. A successful trial shorter than the best so far gives the way
+        it reached the goal, and whether it drove through its believed goal without arriving
+        (``goal_searched``: with ``spare_goal_search`` such a trial is no miss of the way, nor
+        ends a run of misses). A successful trial shorter than the best so far gives the way
         (with ``start_options``: the way of the start region's option it began with, and of
         the one it ended with, if either's best was longer)."""
         a, t = self.ways, self._trial
@@ -280,7 +287,8 @@ class RememberedWay(BufferViews):
         length = self._actions(w) if sighted else 0.0
         if sighted and (not reached or steps > length + max(3, 0.1 * length)):
             a["past_sight"][w] = True  # the options from plain sight did worse than the way
-        if t["used"][row]:  # it took the way: did worse, or as well (misses end)
+        spared = self.spare_goal_search and goal_searched  # its odometry drifted, not the way
+        if t["used"][row] and not spared:  # it took the way: did worse, or as well (misses end)
             a["misses"][w] = a["misses"][w] + 1 if worse else 0
         elif worse and a["misses"][w] >= _MISSES:
             a["misses"][w] = 0  # left to the options, it did worse still: the way again

@@ -423,10 +423,14 @@ class TeseoUpdate:
         assert self.options is not None
         choices = self.options.trial_choices(rows)
         first = self.options.trial_first_choices(rows)
+        scans = self.options.goal_scans
+        searched = scans.passed[rows] if scans is not None else np.zeros(len(rows), dtype=bool)
         for k, (b, ok) in enumerate(zip(rows.tolist(), reached.tolist(), strict=True)):
             n = int(rec.steps[b])
             pose, sonar = rec.pose[b, : n + 1], rec.sonar[b, : n + 1]
-            way.learn(b, pose, sonar, choices[k], bool(ok), first=first[k])
+            way.learn(
+                b, pose, sonar, choices[k], bool(ok), first=first[k], goal_searched=searched[k]
+            )
 
     def _trial_gradient_step(self, rows: np.ndarray) -> None:
         """mu_j += clip(rate * sum of dJ/da_t over the steps neuron j acted, +-max_step), kept

@@ -557,3 +557,33 @@ def test_a_via_point_beside_the_robot_does_not_make_any_aim_agree_with_the_way()
     goal = np.array([GOAL])
     w.aim(np.array([[1, -1]]), beyond, goal, scan(beyond[0], [WALL])[None])
     assert not w.following[0]
+
+
+@pytest.mark.parametrize("spare", [True, False])
+def test_worse_trials_that_searched_for_their_goal_are_no_misses_when_spared(spare: bool) -> None:
+    """Two trials took the way and needed 10 actions more, each after driving through its
+    believed goal (the goal scans searched for it): with ``spare_goal_search`` the way is
+    still taken; without, they are two misses and the options steer."""
+    w = RememberedWay(
+        1,
+        2,
+        goal=GOAL,
+        goal_radius=0.4,
+        radius=RADIUS,
+        clearance=CLEAR,
+        sonar_range=RANGE,
+        n_sensors=N,
+        step=0.2,
+        max_points=200,
+        spare_goal_search=spare,
+    )
+    w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
+    choice, xy, aim = np.array([[1, -1]]), np.array([[0.5, 0.5]]), np.array([[9.0, 9.0]])
+    longer = trial(PATH + [(4.0, 3.0)] * 10)
+    for _ in range(2):
+        w.begin_trial(np.array([0]))
+        assert not np.array_equal(w.aim(choice, xy, aim), aim)
+        w.learn(0, *longer, np.array([1, 0]), reached=True, goal_searched=True)
+    assert int(w.misses[0]) == (0 if spare else 2)
+    w.begin_trial(np.array([0]))
+    assert np.array_equal(w.aim(choice, xy, aim), aim) != spare
