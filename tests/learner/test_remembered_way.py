@@ -18,11 +18,14 @@ RADIUS, CLEAR, RANGE, N = 0.26, 0.30, 5.0, 24
 GOAL = (4.0, 3.0)
 
 
-def way(batch: int = 1, regions: int = 2, start_options: int = 1) -> RememberedWay:
+def way(
+    batch: int = 1, regions: int = 2, start_options: int = 1, spare_goal_search: bool = False
+) -> RememberedWay:
     return RememberedWay(
         batch,
         regions,
         start_options=start_options,
+        spare_goal_search=spare_goal_search,
         goal=GOAL,
         goal_radius=0.4,
         radius=RADIUS,
@@ -564,19 +567,7 @@ def test_worse_trials_that_searched_for_their_goal_are_no_misses_when_spared(spa
     """Two trials took the way and needed 10 actions more, each after driving through its
     believed goal (the goal scans searched for it): with ``spare_goal_search`` the way is
     still taken; without, they are two misses and the options steer."""
-    w = RememberedWay(
-        1,
-        2,
-        goal=GOAL,
-        goal_radius=0.4,
-        radius=RADIUS,
-        clearance=CLEAR,
-        sonar_range=RANGE,
-        n_sensors=N,
-        step=0.2,
-        max_points=200,
-        spare_goal_search=spare,
-    )
+    w = way(spare_goal_search=spare)
     w.learn(0, *trial(PATH), np.array([1, 0]), reached=True)
     choice, xy, aim = np.array([[1, -1]]), np.array([[0.5, 0.5]]), np.array([[9.0, 9.0]])
     longer = trial(PATH + [(4.0, 3.0)] * 10)
