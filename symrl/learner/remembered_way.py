@@ -195,9 +195,9 @@ class RememberedWay(BufferViews):
         straight way), the way hands the steering back to the options for the rest of the
         trial: the way is for walls that hide the aim, and where nothing does, the options'
         aim (lined up with a crossing, refined by the experts) does better than the best
-        trial's path, wiggles and all. A robot whose
-        options did worse from plain sight than its way (``past_sight``) takes the way again at
-        the next region or option, if it is still on it."""
+        trial's path, wiggles and all. A robot whose options did worse from plain sight than
+        its way (``past_sight``) takes the way again at the next region or option, if it is
+        still on it."""
         xy = pose[:, :2]
         a, t = self.ways, self._trial
         entered = choice >= 0

@@ -213,11 +213,11 @@ class OptionsConfig(Section):
     way_spares_goal_search: StrictBool = False
     """With ``remembered_way`` and ``goal_scans``: a trial that took the way but drove through
     its believed goal without arriving (the drifted odometry; the goal scans then searched for
-    it) is no miss of the way (:data:`symrl.learner.remembered_way._MISSES`): its extra actions
-    say where the odometry drifted, not that the way is stale. On in ``paper``: the tuning
-    suite 1.083 / 1.089 -> 1.083 / 1.087 x optimum, fresh seeds 5005-5019 1.086 either way with
-    failed trials from trial 5 6 -> 5 (docs/journal/crossings.md, "A goal search is no miss
-    of the way")."""
+    it) is no miss of the way (two misses in a row leave the way to the options for a while):
+    its extra actions say where the odometry drifted, not that the way is stale. On in
+    ``paper``: the tuning suite 1.083 / 1.089 -> 1.083 / 1.087 x optimum, fresh seeds
+    5005-5019 1.086 either way with failed trials from trial 5 6 -> 5
+    (docs/journal/crossings.md, "A goal search is no miss of the way")."""
     goal_scans: StrictBool = False
     """Keep the scans read on arriving at the goal, and once the robot has driven onto its
     believed goal's disc and off it again without arriving (its odometry has drifted), steer
