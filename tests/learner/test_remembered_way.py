@@ -578,3 +578,28 @@ def test_worse_trials_that_searched_for_their_goal_are_no_misses_when_spared(spa
     assert int(w.misses[0]) == (0 if spare else 2)
     w.begin_trial(np.array([0]))
     assert np.array_equal(w.aim(choice, xy, aim), aim) != spare
+
+
+@pytest.mark.parametrize("searched", [True, False])
+def test_the_update_tells_the_way_whether_the_trial_searched_for_its_goal(
+    monkeypatch: pytest.MonkeyPatch, searched: bool
+) -> None:
+    """At a trial's end the update hands the goal scans' own flag (the belief drove through
+    its goal without arriving) to the way's ``learn``."""
+    from symrl.learner.update import TeseoUpdate
+
+    told: list[bool] = []
+    learn, end_trial = RememberedWay.learn, TeseoUpdate.end_trial
+
+    def spy(self, *args, goal_searched: bool = False, **kwargs):  # type: ignore[no-untyped-def]
+        told.append(bool(goal_searched))
+        return learn(self, *args, goal_searched=goal_searched, **kwargs)
+
+    def flagged(self, rows, *args, **kwargs):  # type: ignore[no-untyped-def]
+        self.options.goal_scans.passed[rows.numpy()] = searched
+        return end_trial(self, rows, *args, **kwargs)
+
+    monkeypatch.setattr(RememberedWay, "learn", spy)
+    monkeypatch.setattr(TeseoUpdate, "end_trial", flagged)
+    paper_trials("hailu2001", 6000, 2)
+    assert told == [searched, searched]
