@@ -10,7 +10,10 @@ The robot has been at the goal before. At the end of each trial that reached it,
 (the readings at arrival, when the robot's true centre was on the goal's disc) is kept with the
 odometry pose it was read at, up to ``memory`` of them per robot, the newest replacing the
 oldest. A robot that drives onto its believed goal's disc and out again without the trial
-ending has shown its belief wrong there; from then on, for the rest of the trial, each step
+ending has shown its belief wrong there (with ``passing_by``, so has one that came within the
+body and the reward's close distance of the disc and went farther off again: the reflex holds
+a robot off a wall its belief does not see, and the belief then passes beside the goal); from
+then on, for the rest of the trial, each step
 matches the latest scan against each kept arrival scan and steers at the arrival point it
 finds. The match is the map localiser's Gauss-Newton fit (``symrl.knowledge.localize``), run
 on a "map" of the robot's own: the arrival scan's echoes, joined where neighbouring rays hit
@@ -101,6 +104,7 @@ class GoalScans(BufferViews):
         goal_radius: float,
         robot: RobotConfig,
         memory: int = 5,
+        passing_by: bool = False,
     ) -> None:
         super().__init__()
         if memory < 1:
@@ -108,14 +112,17 @@ class GoalScans(BufferViews):
         self.goal = np.array(goal, dtype=np.float64)
         self.goal_radius = float(goal_radius)
         self.robot = robot
+        # the belief within this of the goal's disc and off again is a pass too (0: off)
+        self.near_margin = robot.radius + robot.close_distance if passing_by else 0.0
         self.register_buffer("poses", torch.zeros(batch, memory, 3, dtype=torch.float64))
         self.register_buffer(
             "scans", torch.ones(batch, memory, robot.n_sensors, dtype=torch.float64)
         )
         self.register_buffer("count", torch.zeros(batch, dtype=torch.int64))
         # per trial (plain arrays: a checkpoint's working state): the belief has been on the
-        # goal's disc, has left it again (the goal is elsewhere), the goal found since
+        # goal's disc (and near it), has left it again (the goal is elsewhere), the goal found
         self.inside = np.zeros(batch, dtype=bool)
+        self.near = np.zeros(batch, dtype=bool)
         self.passed = np.zeros(batch, dtype=bool)
         self.found = np.full((batch, 2), np.nan)
         # per robot and slot: the matcher on that arrival's echoes (built when first needed)
@@ -124,6 +131,7 @@ class GoalScans(BufferViews):
     def begin_trial(self, rows: np.ndarray) -> None:
         """Robots ``rows`` start a trial: their belief is trusted again."""
         self.inside[rows] = False
+        self.near[rows] = False
         self.passed[rows] = False
         self.found[rows] = np.nan
 
@@ -141,11 +149,13 @@ class GoalScans(BufferViews):
         """The point each robot at odometry ``pose`` (B, 3) steers at (B, 2): ``aim``, the
         options' (and the remembered way's), until it has passed through its believed goal;
         from then on the goal as found from its arrival scans (``sonar`` (B, n) over the
-        range), where a match was found."""
+        range), where a match was found. With ``passing_by``, a belief that leaves the disc
+        widened by the body and the close distance, having been inside it, has passed too."""
         passed, found = self.passed, self.found
-        inside = np.hypot(*(pose[:, :2] - self.goal).T) < self.goal_radius
-        passed |= self.inside & ~inside & (self.arrays["count"] > 0)
-        np.logical_or(self.inside, inside, out=self.inside)
+        distance = np.hypot(*(pose[:, :2] - self.goal).T)
+        self._leave(self.inside, distance < self.goal_radius)
+        if self.near_margin > 0:
+            self._leave(self.near, distance < self.goal_radius + self.near_margin)
         if sonar is None or not passed.any():
             return aim
         out = aim.copy()
@@ -156,6 +166,13 @@ class GoalScans(BufferViews):
             if not np.isnan(found[b, 0]):
                 out[b] = found[b]
         return out
+
+    def _leave(self, was: np.ndarray, now: np.ndarray) -> None:
+        """The beliefs that have been inside a disc (``was`` (B,)) and are not now (``now`` (B,):
+        inside at this step) have passed, for a robot with an arrival scan to search by; ``was``
+        then holds whether each has been in."""
+        self.passed |= was & ~now & (self.arrays["count"] > 0)
+        np.logical_or(was, now, out=was)
 
     def _match(self, b: int, pose: np.ndarray, sonar: np.ndarray) -> np.ndarray | None:
         """The arrival point that robot ``b``'s scan matches best, in its odometry frame

@@ -133,17 +133,19 @@ class SubgoalOptions(BufferViews):
         self._planned: np.ndarray | None = None
         self._to_goal = self._ways_on(knowledge) if self._bounds_tries else None
         self._zero_turn = np.zeros(batch, dtype=bool)
+        body = robot or RobotConfig()
         self.goal_scans = (
             GoalScans(
                 batch,
                 goal=self.goal,
                 goal_radius=float(knowledge.goal.radius),
-                robot=robot or RobotConfig(),
+                robot=body,
+                passing_by=config.goal_scans_passing_by,
             )
             if config.goal_scans
             else None
         )
-        self.wall_follow = WallFollow(batch, robot or RobotConfig()) if config.wall_follow else None
+        self.wall_follow = WallFollow(batch, body) if config.wall_follow else None
         self.register_buffer("choice", torch.full((batch, r), -1, dtype=torch.long))
         self._first = np.full((batch, r), -1, dtype=np.int64)  # each region's first choice
         self.register_buffer("stage", torch.zeros(batch, dtype=torch.long))

@@ -31,8 +31,15 @@ def scan(pose: tuple[float, float, float]) -> np.ndarray:
     return np.clip(rays - ROBOT.radius, 0.0, ROBOT.sonar_range) / ROBOT.sonar_range
 
 
-def scans(memory: int = 5, batch: int = 1) -> GoalScans:
-    return GoalScans(batch, goal=GOAL, goal_radius=WORLD.goal.radius, robot=ROBOT, memory=memory)
+def scans(memory: int = 5, batch: int = 1, passing_by: bool = False) -> GoalScans:
+    return GoalScans(
+        batch,
+        goal=GOAL,
+        goal_radius=WORLD.goal.radius,
+        robot=ROBOT,
+        memory=memory,
+        passing_by=passing_by,
+    )
 
 
 ARRIVAL = (GOAL[0] + 0.2, GOAL[1] + 0.3, -1.5)  # on the goal's disc, driving south
@@ -82,6 +89,35 @@ def test_nothing_changes_before_the_belief_has_passed_through_its_goal():
     assert goal_scans.aim(far, options_aim, readings) is not options_aim  # passed through
     goal_scans.begin_trial(np.array([0]))  # a new trial trusts its belief again
     assert goal_scans.aim(far, options_aim, readings) is options_aim
+
+
+@pytest.mark.parametrize("passing_by", [False, True])
+def test_a_belief_passing_beside_its_goal_starts_the_search_only_with_passing_by(passing_by):
+    goal_scans = scans(passing_by=passing_by)
+    goal_scans.learn(0, np.array(ARRIVAL), scan(ARRIVAL))
+    goal_scans.begin_trial(np.array([0]))
+    options_aim = np.array([GOAL])
+    readings = scan((GOAL[0] - 1.0, GOAL[1], 0.0))[None]
+    body = ROBOT.radius + ROBOT.close_distance
+    beside = WORLD.goal.radius + 0.8 * body  # off the disc, within the body and clearance
+    # driving east past the goal, 'beside' north of its centre: never on the disc
+    for dx in (-2.0, -0.3, 0.0, 0.3):
+        pose = np.array([[GOAL[0] + dx, GOAL[1] + beside, 0.0]])
+        assert goal_scans.aim(pose, options_aim, readings) is options_aim
+    past = np.array([[GOAL[0] + 1.5, GOAL[1] + beside, 0.0]])  # off the widened disc
+    searched = goal_scans.aim(past, options_aim, readings) is not options_aim
+    assert searched == passing_by
+    assert goal_scans.summary(0)["goal_passed"] == int(passing_by)
+
+
+def test_passing_by_farther_than_the_body_and_clearance_is_no_pass():
+    goal_scans = scans(passing_by=True)
+    goal_scans.learn(0, np.array(ARRIVAL), scan(ARRIVAL))
+    body = ROBOT.radius + ROBOT.close_distance
+    wide = WORLD.goal.radius + 1.2 * body
+    for dx in (-2.0, 0.0, 2.0):
+        goal_scans.aim(np.array([[GOAL[0] + dx, GOAL[1] + wide, 0.0]]), np.array([GOAL]), None)
+    assert goal_scans.summary(0)["goal_passed"] == 0
 
 
 def test_a_scan_the_arrivals_do_not_explain_keeps_the_aim():
