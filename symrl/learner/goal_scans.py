@@ -10,10 +10,7 @@ The robot has been at the goal before. At the end of each trial that reached it,
 (the readings at arrival, when the robot's true centre was on the goal's disc) is kept with the
 odometry pose it was read at, up to ``memory`` of them per robot, the newest replacing the
 oldest. A robot that drives onto its believed goal's disc and out again without the trial
-ending has shown its belief wrong there (with ``passing_by``, so has one that came within the
-body and the reward's close distance of the disc and went farther off again: the reflex holds
-a robot off a wall its belief does not see, and the belief then passes beside the goal); from
-then on, for the rest of the trial, each step
+ending has shown its belief wrong there; from then on, for the rest of the trial, each step
 matches the latest scan against each kept arrival scan and steers at the arrival point it
 finds. The match is the map localiser's Gauss-Newton fit (``symrl.knowledge.localize``), run
 on a "map" of the robot's own: the arrival scan's echoes, joined where neighbouring rays hit
@@ -21,6 +18,15 @@ near each other (the same wall), in the arrival pose's frame. A match counts whe
 ``GOOD`` of the rays the remembered echoes explain fall within ``NEAR`` of them; the best
 such arrival gives the aim. Until the belief passes through its goal nothing changes, so a
 trial that arrives as it believes is untouched.
+
+With ``passing_by`` a belief that came within the body and the reward's close distance of the
+disc and went farther off again searches too: the reflex holds a robot off a wall its drifted
+belief does not see, and the belief then runs beside its goal. Such a belief may also be
+right (the goal behind a wall the robot goes round), and from the far side of a wall the
+arrival's walls match as a mirror image; so a goal found this way is steered at only if it
+lies off the believed goal's disc, no farther off than the odometry can have drifted in the
+trial's actions (two standard deviations of the robot's own motion model), and in plain sight
+of the latest scan.
 
 Nothing here reads the walls or the free space: only the robot's odometry, its sonar readings
 and which trials reached the goal.
@@ -120,20 +126,30 @@ class GoalScans(BufferViews):
         )
         self.register_buffer("count", torch.zeros(batch, dtype=torch.int64))
         # per trial (plain arrays: a checkpoint's working state): the belief has been on the
-        # goal's disc (and near it), has left it again (the goal is elsewhere), the goal found
+        # goal's disc (and near it), has left the disc again (through) or only the wider one
+        # (beside), so the goal is elsewhere; the goal found since
         self.inside = np.zeros(batch, dtype=bool)
         self.near = np.zeros(batch, dtype=bool)
-        self.passed = np.zeros(batch, dtype=bool)
+        self.through = np.zeros(batch, dtype=bool)
+        self.beside = np.zeros(batch, dtype=bool)
         self.found = np.full((batch, 2), np.nan)
+        self.steps = np.zeros(batch, dtype=np.int64)  # the trial's actions so far
         # per robot and slot: the matcher on that arrival's echoes (built when first needed)
         self._matchers: dict[tuple[int, int], MapLocalizer | None] = {}
 
     def begin_trial(self, rows: np.ndarray) -> None:
         """Robots ``rows`` start a trial: their belief is trusted again."""
-        self.inside[rows] = False
-        self.near[rows] = False
-        self.passed[rows] = False
+        for flags in (self.inside, self.near, self.through, self.beside):
+            flags[rows] = False
         self.found[rows] = np.nan
+        self.steps[rows] = 0
+
+    @property
+    def passed(self) -> np.ndarray:
+        """(B,) bool: whether each robot's belief has shown itself wrong in this trial: it
+        passed through its goal without arriving, or beside it and the goal was then found
+        elsewhere (a belief passing beside its goal may be right: the goal behind a wall)."""
+        return self.through | (self.beside & ~np.isnan(self.found[:, 0]))
 
     def summary(self, row: int) -> dict[str, int]:
         """Robot ``row``'s trial so far, for its trial record: whether its belief passed through
@@ -150,29 +166,64 @@ class GoalScans(BufferViews):
         options' (and the remembered way's), until it has passed through its believed goal;
         from then on the goal as found from its arrival scans (``sonar`` (B, n) over the
         range), where a match was found. With ``passing_by``, a belief that leaves the disc
-        widened by the body and the close distance, having been inside it, has passed too."""
-        passed, found = self.passed, self.found
+        widened by the body and the close distance, having been inside it, has passed too;
+        but the belief may be right there (the goal behind a wall the robot goes round), so
+        only a goal found off the believed goal's disc and within the drift the odometry can
+        have gathered (:meth:`drift`) is steered at."""
+        self.steps += 1
         distance = np.hypot(*(pose[:, :2] - self.goal).T)
-        self._leave(self.inside, distance < self.goal_radius)
+        searching = self.arrays["count"] > 0  # an arrival scan to search by
+        self.through |= self.inside & (distance >= self.goal_radius) & searching
+        self.inside |= distance < self.goal_radius
         if self.near_margin > 0:
-            self._leave(self.near, distance < self.goal_radius + self.near_margin)
-        if sonar is None or not passed.any():
+            near = distance < self.goal_radius + self.near_margin
+            self.beside |= self.near & ~near & searching
+            self.near |= near
+        searching, found = self.through | self.beside, self.found
+        if sonar is None or not searching.any():
             return aim
         out = aim.copy()
-        for b in np.flatnonzero(passed).tolist():
+        for b in np.flatnonzero(searching).tolist():
             point = self._match(b, pose[b], sonar[b])
-            if point is not None:
+            if point is not None and (
+                self.through[b] or self._plausible(b, pose[b], sonar[b], point)
+            ):
                 found[b] = point
             if not np.isnan(found[b, 0]):
                 out[b] = found[b]
         return out
 
-    def _leave(self, was: np.ndarray, now: np.ndarray) -> None:
-        """The beliefs that have been inside a disc (``was`` (B,)) and are not now (``now`` (B,):
-        inside at this step) have passed, for a robot with an arrival scan to search by; ``was``
-        then holds whether each has been in."""
-        self.passed |= was & ~now & (self.arrays["count"] > 0)
-        np.logical_or(was, now, out=was)
+    def drift(self, n: np.ndarray | int) -> np.ndarray:
+        """Two standard deviations (m) of the odometry's position error after ``n`` actions,
+        from the robot's motion model: the translation noise and the heading's random walk
+        integrated along the path (as the crossing map counts it)."""
+        robot, n = self.robot, np.asarray(n, dtype=np.float64)
+        turn = math.radians(robot.rotation_noise_deg)
+        move = robot.translation_noise
+        return 2.0 * robot.step * np.sqrt(move**2 * n + turn**2 * n**3 / 3.0)
+
+    def _plausible(self, b: int, pose: np.ndarray, sonar: np.ndarray, point: np.ndarray) -> bool:
+        """Whether robot ``b``'s goal found at ``point`` (its odometry frame) from beside the
+        believed goal can be the goal: off the believed goal's disc (else the belief is right),
+        no farther than the odometry can have drifted this trial, and in plain sight of the
+        latest scan (a wall between says the scan matched the arrival's walls from their other
+        side)."""
+        off = math.dist(point, self.goal)
+        if not self.goal_radius <= off <= self.goal_radius + float(self.drift(self.steps[b])):
+            return False
+        robot = self.robot
+        angles = pose[2] + np.arange(robot.n_sensors) * (2.0 * math.pi / robot.n_sensors)
+        reach = np.asarray(sonar, dtype=np.float64) * robot.sonar_range + robot.radius
+        echo = sonar < 0.999
+        d = point - pose[:2]
+        length = math.hypot(*d)
+        if length < 1e-9:
+            return True
+        ex, ey = d / length
+        rx, ry = reach[echo] * np.cos(angles[echo]), reach[echo] * np.sin(angles[echo])
+        along = rx * ex + ry * ey
+        across = np.abs(rx * ey - ry * ex)
+        return not bool(((along > 0) & (along < length) & (across < robot.radius)).any())
 
     def _match(self, b: int, pose: np.ndarray, sonar: np.ndarray) -> np.ndarray | None:
         """The arrival point that robot ``b``'s scan matches best, in its odometry frame

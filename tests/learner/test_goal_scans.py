@@ -91,23 +91,51 @@ def test_nothing_changes_before_the_belief_has_passed_through_its_goal():
     assert goal_scans.aim(far, options_aim, readings) is options_aim
 
 
-@pytest.mark.parametrize("passing_by", [False, True])
-def test_a_belief_passing_beside_its_goal_starts_the_search_only_with_passing_by(passing_by):
-    goal_scans = scans(passing_by=passing_by)
+def _pass_beside(goal_scans: GoalScans, warm_up: int) -> np.ndarray:
+    """A trial whose odometry is SHIFT off drives down the corridor, its belief 0.6 m east of
+    the believed goal, after ``warm_up`` actions far up the corridor: the aim once past."""
     goal_scans.learn(0, np.array(ARRIVAL), scan(ARRIVAL))
     goal_scans.begin_trial(np.array([0]))
     options_aim = np.array([GOAL])
-    readings = scan((GOAL[0] - 1.0, GOAL[1], 0.0))[None]
-    body = ROBOT.radius + ROBOT.close_distance
-    beside = WORLD.goal.radius + 0.8 * body  # off the disc, within the body and clearance
-    # driving east past the goal, 'beside' north of its centre: never on the disc
-    for dx in (-2.0, -0.3, 0.0, 0.3):
-        pose = np.array([[GOAL[0] + dx, GOAL[1] + beside, 0.0]])
-        assert goal_scans.aim(pose, options_aim, readings) is options_aim
-    past = np.array([[GOAL[0] + 1.5, GOAL[1] + beside, 0.0]])  # off the widened disc
-    searched = goal_scans.aim(past, options_aim, readings) is not options_aim
-    assert searched == passing_by
-    assert goal_scans.summary(0)["goal_passed"] == int(passing_by)
+    for y in [1.5] * warm_up + [-2.0, -3.0]:  # the belief at x 4.6: 0.6 m off the goal, then 1.2
+        true = (5.2, y, -math.pi / 2)
+        belief = np.array([[true[0] + SHIFT[0], y + SHIFT[1], true[2]]])
+        aim = goal_scans.aim(belief, options_aim, scan(true)[None])
+    return aim
+
+
+SHIFT = (-0.6, 0.0)  # the belief 0.6 m west of the truth: the goal found 0.72 m off the believed
+
+
+@pytest.mark.parametrize("passing_by", [False, True])
+def test_a_belief_passing_beside_its_goal_steers_at_the_goal_found_only_with_passing_by(
+    passing_by,
+):
+    goal_scans = scans(passing_by=passing_by)
+    aim = _pass_beside(goal_scans, warm_up=40)  # 40 actions: 0.5 m of drift is possible
+    if passing_by:
+        assert aim[0] == pytest.approx(np.array(ARRIVAL[:2]) + SHIFT, abs=0.05)
+        assert goal_scans.summary(0) == {"goal_passed": 1, "goal_refound": 1}
+    else:  # never on the believed disc: nothing changes
+        assert aim[0] == pytest.approx(GOAL)
+        assert goal_scans.summary(0) == {"goal_passed": 0, "goal_refound": 0}
+
+
+def test_a_goal_found_beside_it_farther_than_the_odometry_can_have_drifted_is_not_taken():
+    goal_scans = scans(passing_by=True)
+    aim = _pass_beside(goal_scans, warm_up=0)  # 2 actions: the 0.72 m cannot be drift
+    assert aim[0] == pytest.approx(GOAL)
+    assert goal_scans.summary(0) == {"goal_passed": 0, "goal_refound": 0}
+
+
+def test_the_drift_bound_grows_with_the_actions_as_the_heading_error_integrates():
+    goal_scans = scans()
+    bound = goal_scans.drift(np.array([0, 25, 100]))
+    assert bound[0] == 0.0 and 0.2 < bound[1] < 0.3 and 1.9 < bound[2] < 2.1
+    noiseless = GoalScans(
+        1, goal=GOAL, goal_radius=0.4, robot=RobotConfig(translation_noise=0, rotation_noise_deg=0)
+    )
+    assert float(noiseless.drift(100)) == 0.0
 
 
 def test_passing_by_farther_than_the_body_and_clearance_is_no_pass():
