@@ -224,13 +224,13 @@ class OptionsConfig(Section):
     at the arrival point its latest scan matches (``symrl.learner.goal_scans``)."""
     goal_scans_passing_by: StrictBool = False
     """With ``goal_scans``: a belief that came within the body and the reward's close distance
-    of its goal's disc and went farther off again without arriving starts the search too. The
-    reflex holds the robot off a wall its believed pose does not see there, so a drifted belief
-    can pass beside its goal without entering the disc, and circle the room from then on. On in
-    ``paper``: on the paper's world (seeds 5000-5039 / 6000-6039) trials 1-10 take 35.9 / 33.8
-    -> 31.4 / 31.5 actions on average, the last five the same within noise; the tuning suite
-    1.083 / 1.087 -> 1.083 / 1.088 x optimum (docs/journal/crossings.md, "Passing beside the
-    goal")."""
+    of its goal's disc and went farther off again without arriving searches too. The reflex
+    holds the robot off a wall its drifted belief does not see, so the belief can pass beside
+    its goal without entering the disc, and circle the room from then on. A goal found so is
+    steered at only off the believed disc, within the drift the odometry can have gathered and
+    in plain sight (from behind a wall the arrival's walls match as a mirror image). On in
+    ``paper``: the tuning suite 1.083 / 1.087 either way; both trials `check` lost from trial
+    10 end (docs/journal/crossings.md, "Passing beside the goal")."""
     wall_follow: StrictBool = False
     """A robot whose believed positions stayed within 1 m for 40 actions (2 m for 80) is
     trapped: it follows the nearest wall until it is 1 m from the trap and sees the straight
