@@ -153,8 +153,9 @@ class GoalScans(BufferViews):
 
     def summary(self, row: int) -> dict[str, int]:
         """Robot ``row``'s trial so far, for its trial record: whether its belief passed through
-        the goal without arriving (``goal_passed``) and whether an arrival scan then gave the
-        goal (``goal_refound``)."""
+        the goal without arriving, or beside it with the goal then found elsewhere
+        (``goal_passed``: :attr:`passed`), and whether an arrival scan then gave the goal
+        (``goal_refound``)."""
         return {
             "goal_passed": int(self.passed[row]),
             "goal_refound": int(not np.isnan(self.found[row, 0])),
