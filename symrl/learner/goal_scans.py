@@ -52,6 +52,10 @@ NEAR = 0.05
 """A ray is explained when the remembered echoes predict it to within this (m; 5 sonar sigmas)."""
 MIN_RAYS = 6
 """Fewest usable rays for a match (two walls' worth of a 24-sonar ring)."""
+BESIDE_STEPS = 10
+"""Actions (2 m) a belief that passed beside its goal searches for it after each pass (the
+goal, where it can be, is in sight then; a search every step for the rest of the trial costs
+a scan match per step of every long exploring trial that brushed past the goal)."""
 
 
 def echo_segments(robot: RobotConfig, sonar: np.ndarray) -> np.ndarray:
@@ -132,6 +136,7 @@ class GoalScans(BufferViews):
         self.near = np.zeros(batch, dtype=bool)
         self.through = np.zeros(batch, dtype=bool)
         self.beside = np.zeros(batch, dtype=bool)
+        self.beside_steps = np.zeros(batch, dtype=np.int64)  # search steps left from beside
         self.found = np.full((batch, 2), np.nan)
         self.steps = np.zeros(batch, dtype=np.int64)  # the trial's actions so far
         # per robot and slot: the matcher on that arrival's echoes (built when first needed)
@@ -143,6 +148,7 @@ class GoalScans(BufferViews):
             flags[rows] = False
         self.found[rows] = np.nan
         self.steps[rows] = 0
+        self.beside_steps[rows] = 0
 
     @property
     def passed(self) -> np.ndarray:
@@ -173,23 +179,27 @@ class GoalScans(BufferViews):
         have gathered (:meth:`drift`) is steered at."""
         self.steps += 1
         distance = np.hypot(*(pose[:, :2] - self.goal).T)
-        searching = self.arrays["count"] > 0  # an arrival scan to search by
-        self.through |= self.inside & (distance >= self.goal_radius) & searching
+        arrived = self.arrays["count"] > 0  # an arrival scan to search by
+        self.through |= self.inside & (distance >= self.goal_radius) & arrived
         self.inside |= distance < self.goal_radius
         if self.near_margin > 0:
             near = distance < self.goal_radius + self.near_margin
-            self.beside |= self.near & ~near & searching
-            self.near |= near
+            left = self.near & ~near & arrived  # each time the belief leaves the wider disc
+            self.beside |= left
+            self.beside_steps[left] = BESIDE_STEPS
+            self.beside_steps[~left] -= 1
+            self.near[:] = near
         searching, found = self.through | self.beside, self.found
         if sonar is None or not searching.any():
             return aim
         out = aim.copy()
         for b in np.flatnonzero(searching).tolist():
-            point = self._match(b, pose[b], sonar[b])
-            if point is not None and (
-                self.through[b] or self._plausible(b, pose[b], sonar[b], point)
-            ):
-                found[b] = point
+            if self.through[b] or self.beside_steps[b] > 0:  # from beside: just after passing
+                point = self._match(b, pose[b], sonar[b])
+                if point is not None and (
+                    self.through[b] or self._plausible(b, pose[b], sonar[b], point)
+                ):
+                    found[b] = point
             if not np.isnan(found[b, 0]):
                 out[b] = found[b]
         return out
