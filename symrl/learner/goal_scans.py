@@ -20,8 +20,9 @@ such arrival gives the aim. Until the belief passes through its goal nothing cha
 trial that arrives as it believes is untouched.
 
 With ``passing_by`` a belief that came within the body and the reward's close distance of the
-disc and went farther off again searches too: the reflex holds a robot off a wall its drifted
-belief does not see, and the belief then runs beside its goal. Such a belief may also be
+disc and went farther off again searches too, for :data:`BESIDE_STEPS` actions after each such
+pass: the reflex holds a robot off a wall its drifted belief does not see, and the belief then
+runs beside its goal. Such a belief may also be
 right (the goal behind a wall the robot goes round), and from the far side of a wall the
 arrival's walls match as a mirror image; so a goal found this way is steered at only if it
 lies off the believed goal's disc, no farther off than the odometry can have drifted in the

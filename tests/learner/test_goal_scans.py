@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from learner_helpers import whole_and_resumed
 
-from symrl.learner.goal_scans import GoalScans, echo_segments
+from symrl.learner.goal_scans import BESIDE_STEPS, GoalScans, echo_segments
 from symrl.world import load_map
 from symrl.world.geometry import Walls
 from symrl.world.robot import RobotConfig
@@ -126,6 +126,26 @@ def test_a_goal_found_beside_it_farther_than_the_odometry_can_have_drifted_is_no
     aim = _pass_beside(goal_scans, warm_up=0)  # 2 actions: the 0.72 m cannot be drift
     assert aim[0] == pytest.approx(GOAL)
     assert goal_scans.summary(0) == {"goal_passed": 0, "goal_refound": 0}
+
+
+def test_a_search_from_beside_lasts_its_steps_after_each_pass():
+    goal_scans = scans(passing_by=True)
+    goal_scans.learn(0, np.array(ARRIVAL), scan(ARRIVAL))
+    options_aim = np.array([GOAL])
+    room = scan((-1.0, 1.0, 0.0))[None]  # a scan no arrival explains
+    true = (5.2, -3.0, -math.pi / 2)
+    belief = np.array([[true[0] + SHIFT[0], true[1], true[2]]])
+    near = np.array([[GOAL[0] + 0.6, GOAL[1], 0.0]])  # inside the widened disc
+    for _ in range(40):  # the drift the goal found needs
+        goal_scans.aim(belief + [0.0, 5.0, 0.0], options_aim, room)
+    goal_scans.aim(near, options_aim, room)
+    for _ in range(BESIDE_STEPS):  # passed: it searches, but finds nothing in the room scan
+        goal_scans.aim(belief, options_aim, room)
+    aim = goal_scans.aim(belief, options_aim, scan(true)[None])  # matchable, but too late
+    assert aim[0] == pytest.approx(GOAL)
+    goal_scans.aim(near, options_aim, room)  # a second pass searches again
+    aim = goal_scans.aim(belief, options_aim, scan(true)[None])
+    assert aim[0] == pytest.approx(np.array(ARRIVAL[:2]) + SHIFT, abs=0.05)
 
 
 def test_the_drift_bound_grows_with_the_actions_as_the_heading_error_integrates():

@@ -224,7 +224,8 @@ class OptionsConfig(Section):
     at the arrival point its latest scan matches (``symrl.learner.goal_scans``)."""
     goal_scans_passing_by: StrictBool = False
     """With ``goal_scans``: a belief that came within the body and the reward's close distance
-    of its goal's disc and went farther off again without arriving searches too. The reflex
+    of its goal's disc and went farther off again without arriving searches too (for 10
+    actions after each such pass). The reflex
     holds the robot off a wall its drifted belief does not see, so the belief can pass beside
     its goal without entering the disc, and circle the room from then on. A goal found so is
     steered at only off the believed disc, within the drift the odometry can have gathered and
