@@ -596,7 +596,7 @@ def test_the_update_tells_the_way_whether_the_trial_searched_for_its_goal(
         return learn(self, *args, goal_searched=goal_searched, **kwargs)
 
     def flagged(self, rows, *args, **kwargs):  # type: ignore[no-untyped-def]
-        self.options.goal_scans.passed[rows.numpy()] = searched
+        self.options.goal_scans.through[rows.numpy()] = searched  # drove through its goal
         return end_trial(self, rows, *args, **kwargs)
 
     monkeypatch.setattr(RememberedWay, "learn", spy)
