@@ -38,6 +38,7 @@ import torch
 
 from symrl.buffers import BufferViews
 from symrl.knowledge.borders import Border
+from symrl.world.robot import odometry_drift
 
 __all__ = ["CrossingMap", "Crossing"]
 
@@ -166,7 +167,7 @@ class CrossingMap(BufferViews):
         # position's (the heading's error integrated along the path) and the heading's at s
         n = self._seen_steps[rows].astype(np.float64)
         heading = self._turn * np.sqrt(n)
-        position = self._step * np.sqrt(self._move**2 * n + self._turn**2 * n**3 / 3)
+        position = odometry_drift(n, self._step, self._move, self._turn)
         with np.errstate(invalid="ignore"):
             drift = np.sqrt(position[:, None, None] ** 2 + (s * heading[:, None, None]) ** 2)
         tolerance = self.tolerance + 2 * drift

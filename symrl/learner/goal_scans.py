@@ -43,7 +43,7 @@ import torch
 from symrl.buffers import BufferViews
 from symrl.knowledge.localize import MapLocalizer
 from symrl.world.geometry import Walls
-from symrl.world.robot import RobotConfig
+from symrl.world.robot import RobotConfig, odometry_drift
 
 __all__ = ["GoalScans"]
 
@@ -59,17 +59,27 @@ goal, where it can be, is in sight then; a search every step for the rest of the
 a scan match per step of every long exploring trial that brushed past the goal)."""
 
 
+def _echo_points(
+    robot: RobotConfig, sonar: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each ray of one scan (``sonar`` (n,) over the range) ends, (n, 2) in the frame of
+    the pose it was read at, how far from the robot's centre (n,), and which rays echoed (n,)
+    bool (else nothing within range)."""
+    n = robot.n_sensors
+    angles = np.arange(n) * (2.0 * math.pi / n)
+    reading = np.asarray(sonar, dtype=np.float64) * robot.sonar_range
+    reach = reading + robot.radius
+    points = np.stack((reach * np.cos(angles), reach * np.sin(angles)), axis=1)
+    return points, reach, reading < robot.sonar_range * 0.999
+
+
 def echo_segments(robot: RobotConfig, sonar: np.ndarray) -> np.ndarray:
     """(k, 2, 2) segments through one scan's echoes (``sonar`` (n,) over the range) in the
     frame of the pose it was read at: two neighbouring rays' echoes are joined when they lie
     nearer each other than half their mean distance from the robot (or 0.5 m), i.e. when they
     are likely the same wall."""
     n = robot.n_sensors
-    angles = np.arange(n) * (2.0 * math.pi / n)
-    reading = np.asarray(sonar, dtype=np.float64) * robot.sonar_range
-    echo = reading < robot.sonar_range * 0.999
-    reach = reading + robot.radius
-    points = np.stack((reach * np.cos(angles), reach * np.sin(angles)), axis=1)
+    points, reach, echo = _echo_points(robot, sonar)
     nxt = np.roll(np.arange(n), -1)
     gap = np.hypot(*(points - points[nxt]).T)
     joined = echo & echo[nxt] & (gap < np.maximum(0.5, 0.25 * (reach + reach[nxt])))
@@ -211,8 +221,7 @@ class GoalScans(BufferViews):
         integrated along the path (as the crossing map counts it)."""
         robot, n = self.robot, np.asarray(n, dtype=np.float64)
         turn = math.radians(robot.rotation_noise_deg)
-        move = robot.translation_noise
-        return 2.0 * robot.step * np.sqrt(move**2 * n + turn**2 * n**3 / 3.0)
+        return 2.0 * odometry_drift(n, robot.step, robot.translation_noise, turn)
 
     def _plausible(self, b: int, pose: np.ndarray, sonar: np.ndarray, point: np.ndarray) -> bool:
         """Whether robot ``b``'s goal found at ``point`` (its odometry frame) from beside the
@@ -223,19 +232,16 @@ class GoalScans(BufferViews):
         off = math.dist(point, self.goal)
         if not self.goal_radius <= off <= self.goal_radius + float(self.drift(self.steps[b])):
             return False
-        robot = self.robot
-        angles = pose[2] + np.arange(robot.n_sensors) * (2.0 * math.pi / robot.n_sensors)
-        reach = np.asarray(sonar, dtype=np.float64) * robot.sonar_range + robot.radius
-        echo = sonar < 0.999
-        d = point - pose[:2]
-        length = math.hypot(*d)
+        points, _, echo = _echo_points(self.robot, sonar)
+        target = _relative(pose, np.array([point[0], point[1], 0.0]))[:2]  # the robot's frame
+        length = math.hypot(*target)
         if length < 1e-9:
             return True
-        ex, ey = d / length
-        rx, ry = reach[echo] * np.cos(angles[echo]), reach[echo] * np.sin(angles[echo])
+        ex, ey = target / length
+        rx, ry = points[echo].T
         along = rx * ex + ry * ey
         across = np.abs(rx * ey - ry * ex)
-        return not bool(((along > 0) & (along < length) & (across < robot.radius)).any())
+        return not bool(((along > 0) & (along < length) & (across < self.robot.radius)).any())
 
     def _match(self, b: int, pose: np.ndarray, sonar: np.ndarray) -> np.ndarray | None:
         """The arrival point that robot ``b``'s scan matches best, in its odometry frame

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["RobotConfig"]
+__all__ = ["RobotConfig", "odometry_drift"]
 
 
 @dataclass(frozen=True)
@@ -125,3 +125,13 @@ class RobotConfig:
         """IR reflectance 100*(1 - d/ir_range)^3 for d < ir_range, else 0 (numpy or float)."""
         d = np.clip(np.asarray(rim_distance, dtype=np.float64), 0.0, self.ir_range)
         return 100.0 * (1.0 - d / self.ir_range) ** 3
+
+
+def odometry_drift(
+    n: np.ndarray, step: float, translation_noise: float, rotation_noise: float
+) -> np.ndarray:
+    """One standard deviation (m) of the odometry's position error after ``n`` actions of
+    ``step`` metres: the translation noise (a fraction of the step) and the heading's random
+    walk (``rotation_noise`` radians an action) integrated along the path. The robot's own
+    model of how far its belief can have drifted (the crossing map and the goal scans use it)."""
+    return step * np.sqrt(translation_noise**2 * n + rotation_noise**2 * n**3 / 3)
