@@ -77,6 +77,7 @@ class CrossingMap(BufferViews):
         step: float = 0.0,
         translation_noise: float = 0.0,
         rotation_noise: float = 0.0,
+        region_names: Sequence[str] = (),
     ) -> None:
         """``radius``: the robot's body radius; ``close_distance``: the reward's wall distance
         (a crossing is aimed at that far from a stretch's ends, past the body); ``origin``: the
@@ -85,7 +86,10 @@ class CrossingMap(BufferViews):
         (a fraction of the step) and ``rotation_noise`` (radians): the robot's model of its own
         motion, whose odometry drifts as a trial goes on: a ray counts as passing the line
         only when its echo lies beyond it by more than the drift could account for;
-        ``dead_ends``: mark the stretches that led into a dead end (:meth:`cross`)."""
+        ``dead_ends``: mark the stretches that led into a dead end (:meth:`cross`);
+        ``region_names``: the regions' names in the order of the region indices :meth:`observe`
+        is given (a ray hidden before a border counts only from one of the border's two
+        regions)."""
         super().__init__()
         self.borders = tuple(borders)
         self.radius = float(radius)
@@ -134,19 +138,39 @@ class CrossingMap(BufferViews):
         self._entry_way = np.zeros(batch, dtype=np.int64)
         self._trapped = np.zeros(batch, dtype=bool)  # trapped on its way on since then
         self._following = np.zeros(batch, dtype=bool)  # following a wall at the last step
+        # (R, J): region r is one of border j's two regions
+        self._joins = np.array(
+            [[name in (b.low, b.high) for b in self.borders] for name in region_names],
+            dtype=bool,
+        ).reshape(len(region_names), j)
         self._between: dict[tuple[str, str], list[int]] = {}
         for i, b in enumerate(self.borders):
             self._between.setdefault((b.low, b.high), []).append(i)
             self._between.setdefault((b.high, b.low), []).append(i)
 
     # -- evidence (the update calls these) -------------------------------------------------
-    def observe(self, pose: np.ndarray, sonar: np.ndarray) -> None:
+    def observe(
+        self, pose: np.ndarray, sonar: np.ndarray, region: np.ndarray | None = None
+    ) -> None:
         """Every robot's sonar rays (``sonar`` (B, n) rim distances in metres, capped at the
-        range) from its believed ``pose`` (B, 3), as evidence on every border they meet."""
-        self.observe_rows(self._rows, pose, sonar)
+        range) from its believed ``pose`` (B, 3), as evidence on every border they meet;
+        ``region`` (B,) the region each robot is in (indices into ``region_names``).
 
-    def observe_rows(self, rows: np.ndarray, pose: np.ndarray, sonar: np.ndarray) -> None:
-        """:meth:`observe` for robots ``rows`` (k,) only (``pose`` (k, 3), ``sonar`` (k, n))."""
+        A ray stopped before a border shows it hidden only when cast from one of the border's
+        two regions: there something stands between that region and the line. Cast from a
+        third region it says nothing of the line (the wall in between may be one the robot
+        would pass round on its way to that region), so the border stays unseen there."""
+        self.observe_rows(self._rows, pose, sonar, region)
+
+    def observe_rows(
+        self,
+        rows: np.ndarray,
+        pose: np.ndarray,
+        sonar: np.ndarray,
+        region: np.ndarray | None = None,
+    ) -> None:
+        """:meth:`observe` for robots ``rows`` (k,) only (``pose`` (k, 3), ``sonar`` (k, n),
+        ``region`` (k,))."""
         if not len(self.borders) or not len(rows):
             return
         angle = pose[:, 2:3] + self._angles  # (B, n)
@@ -178,6 +202,8 @@ class CrossingMap(BufferViews):
             passed = valid & (~seen | (echo > s + tolerance))
             stopped = valid & seen & (echo >= s - self.radius) & (echo <= s + tolerance)
             hidden = valid & seen & (echo < s - self.radius)
+        if region is not None and len(self._joins):
+            hidden &= self._joins[region][:, :, None]
         self._seen_steps[rows] += 1
         a, one = self.arrays, np.ones_like(weight)
         for name, mask in (("open", passed), ("blocked", stopped), ("hidden", hidden)):

@@ -235,6 +235,7 @@ class SubgoalOptions(BufferViews):
             step=robot.step,
             translation_noise=robot.translation_noise,
             rotation_noise=math.radians(robot.rotation_noise_deg),
+            region_names=knowledge.regions.names,
         )
         self._beyond = 0.4
         self._start_xy = np.array([float(start.x), float(start.y)])

@@ -323,17 +323,17 @@ class TeseoUpdate:
         scale = self.robot.sonar_range
         pose = read(td, k.pose).numpy().astype(np.float64)
         pose_next = read(nxt, k.pose).numpy().astype(np.float64)
+        region, region_next = read(td, k.region).numpy(), read(nxt, k.region).numpy()
         first = read(td, "is_init", None)
         if first is not None and first.any():
             rows = np.flatnonzero(first.numpy().reshape(-1))
             sonar = read(td, k.sonar).numpy()[rows].astype(np.float64) * scale
-            crossings.observe_rows(rows, pose[rows], sonar)
+            crossings.observe_rows(rows, pose[rows], sonar, region[rows])
         sonar_next = read(nxt, k.sonar).numpy().astype(np.float64) * scale
-        crossings.observe(pose_next, sonar_next)
+        crossings.observe(pose_next, sonar_next, region_next)
         following = read(td, k.wall_follow, None)
         if following is not None:
             crossings.watch(following.numpy().reshape(-1), read(td, k.option_border).numpy())
-        region, region_next = read(td, k.region).numpy(), read(nxt, k.region).numpy()
         moved = region != region_next
         if moved.any():
             names = policy.region_names

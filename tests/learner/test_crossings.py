@@ -295,6 +295,52 @@ def test_the_last_way_on_seen_only_behind_other_walls_stays_a_way_on(seen):
     assert record["borders_blocked"] == (0 if seen == "hidden" else 1)
 
 
+def _loop_scans(opts: SubgoalOptions, region: str | None) -> None:
+    """``tuning/block_loop_north``: the robot's noise-free scans from the east end of the
+    south corridor (the block hides the line between the north and the east corridor beyond
+    it), observed as cast from ``region`` (None: the region not given)."""
+    env = Hailu2001Env(load_map("tuning/block_loop_north"), noise=False)
+    index = None if region is None else np.array([opts.region_names.index(region)])
+    for x in (6.5, 7.0, 7.5):
+        for h in np.linspace(-math.pi, math.pi, 8, endpoint=False):
+            rim, _ = env.sense(x, 1.0, h)
+            pose = np.array([[x, 1.0, h]])
+            opts.crossings.observe(pose, rim[None, :].astype(np.float64), index)
+
+
+def _north_east(opts: SubgoalOptions) -> int:
+    return next(
+        i for i, b in enumerate(opts.crossings.borders) if {b.low, b.high} == {"north", "east"}
+    )
+
+
+@pytest.mark.parametrize("region", ["south", "north"])
+def test_a_border_hidden_from_a_third_region_stays_unseen(region):
+    """Rays that meet the block before the north/east line say that line is hidden only when
+    cast from one of its two regions: from the south corridor (a third region) the line stays
+    unseen, so the north keeps its way on to the goal's region and the west corridor offers
+    the short way round the north; cast from the north, something stands between that region
+    and the line, and the region graph goes round the south."""
+    opts = _options(load_map("tuning/block_loop_north"))
+    _loop_scans(opts, region)
+    hidden = opts.crossings.arrays["hidden"][0, _north_east(opts)]
+    opts.begin_trial(torch.tensor([0]))
+    if region == "south":
+        assert not hidden.any()
+        assert "left>north" in _labels(opts, "west")
+    else:
+        assert hidden.sum() > 1.0
+        assert _labels(opts, "west") == ["goal", "left>south"]
+
+
+def test_without_regions_every_stopped_ray_shows_its_border_hidden():
+    """A map not told the regions the rays were cast from counts them all (as a robot that
+    never leaves one region would)."""
+    opts = _options(load_map("tuning/block_loop_north"))
+    _loop_scans(opts, None)
+    assert opts.crossings.arrays["hidden"][0, _north_east(opts)].sum() > 1.0
+
+
 def test_a_robot_aims_at_the_door_it_saw_not_at_the_wall():
     opts = _office_options()
     _look(
