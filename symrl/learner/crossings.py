@@ -6,7 +6,9 @@ but not whether a wall stands on it or where its door is. A robot told only the 
 says something about the point where it meets it. A ray whose echo comes from beyond the line
 shows the line *open* there; an echo from the line itself, or from less than a body radius before
 it, shows it *blocked* there (the robot could not reach the line at that point); an echo from
-farther before the line shows the point *hidden* behind another wall. Where the robot crosses a
+farther before the line shows the point *hidden* behind another wall, when the ray was cast from
+one of the border's two regions (from a third region the wall in between may be one the robot
+would pass round on its way to them, so the line stays unseen). Where the robot crosses a
 border (its believed pose changes region across the line) the line is open for a body width.
 
 The evidence is kept per robot and border, in bins of ``resolution`` metres along the line,
