@@ -23,6 +23,8 @@ from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from symrl.knowledge.subgoals import SubgoalTable, find_passages
 from symrl.world.worldmap import Goal, RegionSpec, WorldMap
 
@@ -31,6 +33,7 @@ __all__ = [
     "region_borders",
     "passages_of",
     "region_hops",
+    "goal_region",
     "hops_from",
     "border_subgoals",
     "BorderOptions",
@@ -111,7 +114,26 @@ def passages_of(world: WorldMap) -> tuple[Border, ...]:
 def region_hops(spec: RegionSpec, borders: Sequence[Border], goal: Goal) -> dict[str, int]:
     """Each region's distance from the goal's region in the region graph, in borders crossed
     (a region with no way there is left out)."""
-    return hops_from(spec.region_of(goal.x, goal.y), borders)
+    return hops_from(goal_region(spec, goal), borders)
+
+
+_NUDGE = 1e-6
+"""Metres off the goal's centre at which :func:`goal_region` looks round it."""
+
+
+def goal_region(spec: RegionSpec, goal: Goal) -> str:
+    """The region of the goal's centre, unless none of the four points a micrometre off it
+    diagonally lies in that region: the centre is on a line, which the rules' strict
+    comparisons leave to a later rule (often the default, elsewhere on the map); then the
+    region most of those four points lie in (on a tie, the one north-east of the centre)."""
+    x, y, e = float(goal.x), float(goal.y), _NUDGE
+    centre = spec.region_of(x, y)
+    around = spec.regions_of(
+        np.array([x + e, x - e, x + e, x - e]), np.array([y + e, y + e, y - e, y - e])
+    )
+    if centre in around:
+        return centre
+    return max(around, key=lambda name: (around.count(name), -around.index(name)))
 
 
 def hops_from(target: str, borders: Sequence[Border]) -> dict[str, int]:

@@ -28,7 +28,7 @@ import torch
 
 from symrl.buffers import BufferViews
 from symrl.grad import no_grad
-from symrl.knowledge.borders import border_options, hops_from
+from symrl.knowledge.borders import border_options, goal_region, hops_from
 from symrl.knowledge.option_sources import ROUTE, option_table
 from symrl.knowledge.route import Route
 from symrl.knowledge.rungs import Knowledge
@@ -241,7 +241,7 @@ class SubgoalOptions(BufferViews):
         self._start_xy = np.array([float(start.x), float(start.y)])
         names = list(knowledge.regions.names)
         self._region_of = {n: i for i, n in enumerate(names)}
-        self._target = names.index(knowledge.regions.region_of(knowledge.goal.x, knowledge.goal.y))
+        self._target = names.index(goal_region(knowledge.regions, knowledge.goal))
         if self.config.remembered_way:
             self.remembered_way = RememberedWay(
                 batch,

@@ -10,7 +10,13 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from symrl.knowledge.borders import Border, border_subgoals, region_borders, region_hops
+from symrl.knowledge.borders import (
+    Border,
+    border_subgoals,
+    goal_region,
+    region_borders,
+    region_hops,
+)
 from symrl.knowledge.option_tables import map_options
 from symrl.knowledge.route import ROUTE, option_table
 from symrl.knowledge.rungs import Knowledge
@@ -30,6 +36,42 @@ def test_the_paper_worlds_borders_from_its_rules():
         Border("l3", 0, 3.75, -INF, -1.0, "concave", "corridor"),
         Border("l3", 0, 3.75, -1.0, INF, "door", "corridor"),
     ]
+
+
+def _two_boxes(goal_x: float) -> dict:
+    """Two rooms side by side in a hall, written as box rules with strict comparisons on both
+    sides (as ``regions: auto`` writes them): the line x = 5 between them matches neither box
+    and falls to the default region, the hall south of them."""
+    return {
+        "name": "two_boxes",
+        "boundary": [[0, 0], [10, 0], [10, 8], [0, 8]],
+        "start": {"x": 5.0, "y": 1.0, "heading": 0.0},
+        "goal": {"x": goal_x, "y": 6.0, "radius": 0.4},
+        "regions": {
+            "names": ["hall", "west", "east"],
+            "lines": {"mid": {"x": 5.0}, "top": {"y": 4.0}},
+            "rules": [
+                {"region": "west", "when": ["x < mid", "y > top"]},
+                {"region": "east", "when": ["x > mid", "y > top"]},
+                {"region": "hall"},
+            ],
+        },
+    }
+
+
+@pytest.mark.parametrize(
+    ("goal_x", "centre", "region"), [(5.0, "hall", "east"), (5.3, "east", "east")]
+)
+def test_a_goal_on_a_line_belongs_to_the_region_round_it(goal_x, centre, region):
+    """A goal whose centre lies on the line between the two rooms is, by the rules' strict
+    comparisons, in the hall; the region round it (a micrometre off, diagonally) is a room (on
+    a tie, the one north-east of the centre), and that is the region the hops count from. Off
+    the line the centre's region stands."""
+    world = parse_map(_two_boxes(goal_x))
+    assert world.regions.region_of(world.goal.x, world.goal.y) == centre
+    assert goal_region(world.regions, world.goal) == region
+    hops = region_hops(world.regions, region_borders(world.regions), world.goal)
+    assert hops[region] == 0
 
 
 def test_hops_count_borders_to_the_goals_region():
