@@ -29,6 +29,12 @@ lies off the believed goal's disc, no farther off than the odometry can have dri
 trial's actions (two standard deviations of the robot's own motion model), and in plain sight
 of the latest scan.
 
+With ``within_drift`` a belief also searches at every step it is within that drift of the
+goal's disc, once the drift exceeds the disc's radius (before that the real goal is on the
+believed disc): on a long route the goal can be in sight before the belief reaches it, and a
+goal found then (held to the same checks) spares the drive onto the drifted belief and the
+search after it.
+
 Nothing here reads the walls or the free space: only the robot's odometry, its sonar readings
 and which trials reached the goal.
 """
@@ -126,6 +132,7 @@ class GoalScans(BufferViews):
         robot: RobotConfig,
         memory: int = 5,
         passing_by: bool = False,
+        within_drift: bool = False,
     ) -> None:
         super().__init__()
         if memory < 1:
@@ -135,6 +142,7 @@ class GoalScans(BufferViews):
         self.robot = robot
         # the belief within this of the goal's disc and off again is a pass too (0: off)
         self.near_margin = robot.radius + robot.close_distance if passing_by else 0.0
+        self.within_drift = bool(within_drift)
         self.register_buffer("poses", torch.zeros(batch, memory, 3, dtype=torch.float64))
         self.register_buffer(
             "scans", torch.ones(batch, memory, robot.n_sensors, dtype=torch.float64)
@@ -142,8 +150,10 @@ class GoalScans(BufferViews):
         self.register_buffer("count", torch.zeros(batch, dtype=torch.int64))
         # per trial (plain arrays: a checkpoint's working state): the belief has been on the
         # goal's disc (and near it), has left the disc again (through) or only the wider one
-        # (beside), so the goal is elsewhere; the goal found since
+        # (beside), or come within the odometry's drift of the disc (approached); the goal
+        # found since
         self.inside = np.zeros(batch, dtype=bool)
+        self.approached = np.zeros(batch, dtype=bool)
         self.near = np.zeros(batch, dtype=bool)
         self.through = np.zeros(batch, dtype=bool)
         self.beside = np.zeros(batch, dtype=bool)
@@ -155,7 +165,7 @@ class GoalScans(BufferViews):
 
     def begin_trial(self, rows: np.ndarray) -> None:
         """Robots ``rows`` start a trial: their belief is trusted again."""
-        for flags in (self.inside, self.near, self.through, self.beside):
+        for flags in (self.inside, self.near, self.through, self.beside, self.approached):
             flags[rows] = False
         self.found[rows] = np.nan
         self.steps[rows] = 0
@@ -165,8 +175,9 @@ class GoalScans(BufferViews):
     def passed(self) -> np.ndarray:
         """(B,) bool: whether each robot's belief has shown itself wrong in this trial: it
         passed through its goal without arriving, or beside it and the goal was then found
-        elsewhere (a belief passing beside its goal may be right: the goal behind a wall)."""
-        return self.through | (self.beside & ~np.isnan(self.found[:, 0]))
+        elsewhere (a belief passing beside its goal may be right: the goal behind a wall), or
+        came within its drift of the goal and found it off the believed disc."""
+        return self.through | ((self.beside | self.approached) & ~np.isnan(self.found[:, 0]))
 
     def summary(self, row: int) -> dict[str, int]:
         """Robot ``row``'s trial so far, for its trial record: whether its belief passed through
@@ -200,12 +211,18 @@ class GoalScans(BufferViews):
             self.beside_steps[left] = BESIDE_STEPS
             self.beside_steps[~left] -= 1
             self.near[:] = near
-        searching, found = self.through | self.beside, self.found
+        close = np.zeros_like(arrived)
+        if self.within_drift:  # within the drift of the disc, once the drift exceeds it
+            reach = self.drift(self.steps)
+            close = arrived & (reach > self.goal_radius) & (distance < self.goal_radius + reach)
+            self.approached |= close
+        searching, found = self.through | self.beside | self.approached, self.found
         if sonar is None or not searching.any():
             return aim
         out = aim.copy()
         for b in np.flatnonzero(searching).tolist():
-            if self.through[b] or self.beside_steps[b] > 0:  # from beside: just after passing
+            # from beside: just after passing; within the drift: while there
+            if self.through[b] or self.beside_steps[b] > 0 or close[b]:
                 point = self._match(b, pose[b], sonar[b])
                 if point is not None and (
                     self.through[b] or self._plausible(b, pose[b], sonar[b], point)

@@ -141,6 +141,7 @@ class SubgoalOptions(BufferViews):
                 goal_radius=float(knowledge.goal.radius),
                 robot=body,
                 passing_by=config.goal_scans_passing_by,
+                within_drift=config.goal_scans_within_drift,
             )
             if config.goal_scans
             else None

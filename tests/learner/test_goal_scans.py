@@ -31,7 +31,9 @@ def scan(pose: tuple[float, float, float]) -> np.ndarray:
     return np.clip(rays - ROBOT.radius, 0.0, ROBOT.sonar_range) / ROBOT.sonar_range
 
 
-def scans(memory: int = 5, batch: int = 1, passing_by: bool = False) -> GoalScans:
+def scans(
+    memory: int = 5, batch: int = 1, passing_by: bool = False, within_drift: bool = False
+) -> GoalScans:
     return GoalScans(
         batch,
         goal=GOAL,
@@ -39,6 +41,7 @@ def scans(memory: int = 5, batch: int = 1, passing_by: bool = False) -> GoalScan
         robot=ROBOT,
         memory=memory,
         passing_by=passing_by,
+        within_drift=within_drift,
     )
 
 
@@ -146,6 +149,43 @@ def test_a_search_from_beside_lasts_its_steps_after_each_pass():
     goal_scans.aim(near, options_aim, room)  # a second pass searches again
     aim = goal_scans.aim(belief, options_aim, scan(true)[None])
     assert aim[0] == pytest.approx(np.array(ARRIVAL[:2]) + SHIFT, abs=0.05)
+
+
+def _approach(goal_scans: GoalScans, warm_up: int) -> np.ndarray:
+    """A trial whose odometry is SHIFT off comes down the corridor toward the goal after
+    ``warm_up`` actions far up it, its belief 0.64 m from the believed goal (not on its disc,
+    and with no pass beside it searched for): the aim there."""
+    goal_scans.learn(0, np.array(ARRIVAL), scan(ARRIVAL))
+    goal_scans.begin_trial(np.array([0]))
+    options_aim = np.array([GOAL])
+    for x, y in [(5.2, 1.5)] * warm_up + [(5.0, -1.5)]:
+        true = (x, y, -math.pi / 2)
+        belief = np.array([[true[0] + SHIFT[0], y + SHIFT[1], true[2]]])
+        aim = goal_scans.aim(belief, options_aim, scan(true)[None])
+    return aim
+
+
+@pytest.mark.parametrize("within_drift", [False, True])
+def test_a_belief_within_its_drift_of_the_goal_steers_at_the_goal_found_only_with_the_setting(
+    within_drift,
+):
+    goal_scans = scans(within_drift=within_drift)
+    aim = _approach(goal_scans, warm_up=60)  # 60 actions: 0.94 m of drift is possible
+    if within_drift:
+        assert aim[0] == pytest.approx(np.array(ARRIVAL[:2]) + SHIFT, abs=0.05)
+        assert goal_scans.summary(0) == {"goal_passed": 1, "goal_refound": 1}
+    else:
+        assert aim[0] == pytest.approx(GOAL)
+        assert goal_scans.summary(0) == {"goal_passed": 0, "goal_refound": 0}
+
+
+def test_no_search_within_the_drift_before_the_drift_exceeds_the_goals_radius():
+    """After 20 actions the odometry can be 0.18 m off: the real goal is still on the believed
+    disc, and the belief 0.64 m off it does not search."""
+    goal_scans = scans(within_drift=True)
+    aim = _approach(goal_scans, warm_up=20)
+    assert aim[0] == pytest.approx(GOAL)
+    assert not goal_scans.approached[0]
 
 
 def test_the_drift_bound_grows_with_the_actions_as_the_heading_error_integrates():

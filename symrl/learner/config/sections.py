@@ -232,6 +232,13 @@ class OptionsConfig(Section):
     in plain sight (from behind a wall the arrival's walls match as a mirror image). On in
     ``paper``: the tuning suite 1.083 / 1.087 either way; both trials `check` lost from trial
     10 end (docs/journal/crossings.md, "Passing beside the goal")."""
+    goal_scans_within_drift: StrictBool = False
+    """With ``goal_scans``: a belief within the drift its odometry can have gathered (two
+    standard deviations of the robot's motion model after the trial's actions) of its goal's
+    disc searches at every step, once that drift exceeds the disc's radius: the goal may be in
+    sight before the belief reaches it, and found then the robot steers at it instead of
+    driving onto its drifted belief. Held to the same checks as a search from beside. On in
+    ``paper`` (docs/journal/crossings.md, "Searching within the drift")."""
     wall_follow: StrictBool = False
     """A robot whose believed positions stayed within 1 m for 40 actions (2 m for 80) is
     trapped: it follows the nearest wall until it is 1 m from the trap and sees the straight
