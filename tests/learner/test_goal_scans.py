@@ -94,14 +94,20 @@ def test_nothing_changes_before_the_belief_has_passed_through_its_goal():
     assert goal_scans.aim(far, options_aim, readings) is options_aim
 
 
-def _pass_beside(goal_scans: GoalScans, warm_up: int) -> np.ndarray:
-    """A trial whose odometry is SHIFT off drives down the corridor, its belief 0.6 m east of
-    the believed goal, after ``warm_up`` actions far up the corridor: the aim once past."""
+BESIDE = [(5.2, -2.0), (5.2, -3.0)]
+"""A drive down the corridor whose belief (SHIFT off) runs 0.6 m beside the goal, then 1.2 m."""
+APPROACH = [(5.0, -1.5)]
+"""A drive whose belief comes 0.64 m from the goal: not on its disc, and no pass beside it."""
+
+
+def _drive(goal_scans: GoalScans, warm_up: int, route: list[tuple[float, float]]) -> np.ndarray:
+    """A trial whose odometry is SHIFT off drives down the corridor (true positions ``route``,
+    heading south) after ``warm_up`` actions far up it: the aim at the end."""
     goal_scans.learn(0, np.array(ARRIVAL), scan(ARRIVAL))
     goal_scans.begin_trial(np.array([0]))
     options_aim = np.array([GOAL])
-    for y in [1.5] * warm_up + [-2.0, -3.0]:  # the belief at x 4.6: 0.6 m off the goal, then 1.2
-        true = (5.2, y, -math.pi / 2)
+    for x, y in [(5.2, 1.5)] * warm_up + route:
+        true = (x, y, -math.pi / 2)
         belief = np.array([[true[0] + SHIFT[0], y + SHIFT[1], true[2]]])
         aim = goal_scans.aim(belief, options_aim, scan(true)[None])
     return aim
@@ -110,13 +116,19 @@ def _pass_beside(goal_scans: GoalScans, warm_up: int) -> np.ndarray:
 SHIFT = (-0.6, 0.0)  # the belief 0.6 m west of the truth: the goal found 0.72 m off the believed
 
 
-@pytest.mark.parametrize("passing_by", [False, True])
-def test_a_belief_passing_beside_its_goal_steers_at_the_goal_found_only_with_passing_by(
-    passing_by,
+@pytest.mark.parametrize("on", [False, True])
+@pytest.mark.parametrize(
+    ("setting", "route", "warm_up"),
+    [("passing_by", BESIDE, 40), ("within_drift", APPROACH, 60)],  # 0.5 m / 0.94 m of drift
+)
+def test_a_drifted_belief_steers_at_the_goal_found_only_with_its_setting(
+    setting, route, warm_up, on
 ):
-    goal_scans = scans(passing_by=passing_by)
-    aim = _pass_beside(goal_scans, warm_up=40)  # 40 actions: 0.5 m of drift is possible
-    if passing_by:
+    """Passing beside the believed goal, or coming within the drift of it, the belief never
+    enters its disc: only the setting makes it search, and the goal found is steered at."""
+    goal_scans = scans(**{setting: on})
+    aim = _drive(goal_scans, warm_up, route)
+    if on:
         assert aim[0] == pytest.approx(np.array(ARRIVAL[:2]) + SHIFT, abs=0.05)
         assert goal_scans.summary(0) == {"goal_passed": 1, "goal_refound": 1}
     else:  # never on the believed disc: nothing changes
@@ -126,7 +138,7 @@ def test_a_belief_passing_beside_its_goal_steers_at_the_goal_found_only_with_pas
 
 def test_a_goal_found_beside_it_farther_than_the_odometry_can_have_drifted_is_not_taken():
     goal_scans = scans(passing_by=True)
-    aim = _pass_beside(goal_scans, warm_up=0)  # 2 actions: the 0.72 m cannot be drift
+    aim = _drive(goal_scans, 0, BESIDE)  # 2 actions: the 0.72 m cannot be drift
     assert aim[0] == pytest.approx(GOAL)
     assert goal_scans.summary(0) == {"goal_passed": 0, "goal_refound": 0}
 
@@ -151,39 +163,11 @@ def test_a_search_from_beside_lasts_its_steps_after_each_pass():
     assert aim[0] == pytest.approx(np.array(ARRIVAL[:2]) + SHIFT, abs=0.05)
 
 
-def _approach(goal_scans: GoalScans, warm_up: int) -> np.ndarray:
-    """A trial whose odometry is SHIFT off comes down the corridor toward the goal after
-    ``warm_up`` actions far up it, its belief 0.64 m from the believed goal (not on its disc,
-    and with no pass beside it searched for): the aim there."""
-    goal_scans.learn(0, np.array(ARRIVAL), scan(ARRIVAL))
-    goal_scans.begin_trial(np.array([0]))
-    options_aim = np.array([GOAL])
-    for x, y in [(5.2, 1.5)] * warm_up + [(5.0, -1.5)]:
-        true = (x, y, -math.pi / 2)
-        belief = np.array([[true[0] + SHIFT[0], y + SHIFT[1], true[2]]])
-        aim = goal_scans.aim(belief, options_aim, scan(true)[None])
-    return aim
-
-
-@pytest.mark.parametrize("within_drift", [False, True])
-def test_a_belief_within_its_drift_of_the_goal_steers_at_the_goal_found_only_with_the_setting(
-    within_drift,
-):
-    goal_scans = scans(within_drift=within_drift)
-    aim = _approach(goal_scans, warm_up=60)  # 60 actions: 0.94 m of drift is possible
-    if within_drift:
-        assert aim[0] == pytest.approx(np.array(ARRIVAL[:2]) + SHIFT, abs=0.05)
-        assert goal_scans.summary(0) == {"goal_passed": 1, "goal_refound": 1}
-    else:
-        assert aim[0] == pytest.approx(GOAL)
-        assert goal_scans.summary(0) == {"goal_passed": 0, "goal_refound": 0}
-
-
 def test_no_search_within_the_drift_before_the_drift_exceeds_the_goals_radius():
     """After 20 actions the odometry can be 0.18 m off: the real goal is still on the believed
     disc, and the belief 0.64 m off it does not search."""
     goal_scans = scans(within_drift=True)
-    aim = _approach(goal_scans, warm_up=20)
+    aim = _drive(goal_scans, 20, APPROACH)
     assert aim[0] == pytest.approx(GOAL)
     assert not goal_scans.approached[0]
 
