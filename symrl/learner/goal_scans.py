@@ -181,9 +181,9 @@ class GoalScans(BufferViews):
 
     def summary(self, row: int) -> dict[str, int]:
         """Robot ``row``'s trial so far, for its trial record: whether its belief passed through
-        the goal without arriving, or beside it with the goal then found elsewhere
-        (``goal_passed``: :attr:`passed`), and whether an arrival scan then gave the goal
-        (``goal_refound``)."""
+        the goal without arriving, or beside or within its drift of it with the goal then found
+        elsewhere (``goal_passed``: :attr:`passed`), and whether an arrival scan then gave the
+        goal (``goal_refound``)."""
         return {
             "goal_passed": int(self.passed[row]),
             "goal_refound": int(not np.isnan(self.found[row, 0])),
@@ -198,7 +198,9 @@ class GoalScans(BufferViews):
         widened by the body and the close distance, having been inside it, has passed too;
         but the belief may be right there (the goal behind a wall the robot goes round), so
         only a goal found off the believed goal's disc and within the drift the odometry can
-        have gathered (:meth:`drift`) is steered at."""
+        have gathered (:meth:`drift`) is steered at. With ``within_drift``, a belief within
+        that drift of the disc searches at every step there, once the drift exceeds the disc's
+        radius, held to the same checks."""
         self.steps += 1
         distance = np.hypot(*(pose[:, :2] - self.goal).T)
         arrived = self.arrays["count"] > 0  # an arrival scan to search by
@@ -242,7 +244,7 @@ class GoalScans(BufferViews):
 
     def _plausible(self, b: int, pose: np.ndarray, sonar: np.ndarray, point: np.ndarray) -> bool:
         """Whether robot ``b``'s goal found at ``point`` (its odometry frame) from beside the
-        believed goal can be the goal: off the believed goal's disc (else the belief is right),
+        believed goal, or within its drift, can be the goal: off the believed goal's disc (else the belief is right),
         no farther than the odometry can have drifted this trial, and in plain sight of the
         latest scan (a wall between says the scan matched the arrival's walls from their other
         side)."""
