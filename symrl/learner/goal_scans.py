@@ -244,10 +244,10 @@ class GoalScans(BufferViews):
 
     def _plausible(self, b: int, pose: np.ndarray, sonar: np.ndarray, point: np.ndarray) -> bool:
         """Whether robot ``b``'s goal found at ``point`` (its odometry frame) from beside the
-        believed goal, or within its drift, can be the goal: off the believed goal's disc (else the belief is right),
-        no farther than the odometry can have drifted this trial, and in plain sight of the
-        latest scan (a wall between says the scan matched the arrival's walls from their other
-        side)."""
+        believed goal, or within its drift, can be the goal: off the believed goal's disc (else
+        the belief is right), no farther than the odometry can have drifted this trial, and in
+        plain sight of the latest scan (a wall between says the scan matched the arrival's walls
+        from their other side)."""
         off = math.dist(point, self.goal)
         if not self.goal_radius <= off <= self.goal_radius + float(self.drift(self.steps[b])):
             return False
