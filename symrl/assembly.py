@@ -7,7 +7,7 @@ perception transform from that knowledge and appends it to the env, then the pol
 the knowledge and the transform), the collector and the update. Each part gets the config
 sections it uses and nothing more:
 
-    perception   env.robot, experts, localize, gate.partition
+    perception   env.robot, experts, localize, gate.partition, scan_odometry
     policy       experts; the reflex (reflex), the options (options, option_critic, crossings,
                  env.robot, env.max_actions), the shield (shield, env.robot), update.temperature0
     update       update, trial_gradient, env.robot, env.max_actions
@@ -137,7 +137,13 @@ def build_policy(
     seeds = [int(s) for s in seeds] if seeds is not None else [config.run.seed]
     batch, robot = len(seeds), config.env.robot
     perception = Perception(
-        knowledge, batch, robot, config.experts, config.localize, config.gate.partition
+        knowledge,
+        batch,
+        robot,
+        config.experts,
+        config.localize,
+        config.gate.partition,
+        config.scan_odometry,
     )
     reflex = FuzzyReflex(config.reflex)  # built before the options: the module order
     options = None

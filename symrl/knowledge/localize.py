@@ -137,11 +137,13 @@ class MapLocalizer:
         sonar: np.ndarray,
         start: np.ndarray | None = None,
         iterations: int | None = None,
+        prior: np.ndarray | None = None,
     ) -> np.ndarray:
         """``odometry`` (B, 3) poses and ``sonar`` (B, n) readings normalised by the sonar
         range, as the env gives them; returns the believed poses (B, 3) float64. ``start``:
         where the Gauss-Newton steps begin (default: the odometry pose); ``iterations``: how
-        many (default: the localiser's)."""
+        many (default: the localiser's); ``prior``: the prior's (3, 3) weights for this call
+        (default: the localiser's, from ``prior_xy`` and ``prior_heading``)."""
         prior_pose = np.asarray(odometry, dtype=np.float64)
         measured = np.asarray(sonar, dtype=np.float64) * self.robot.sonar_range
         # a reading at the range cap says only "nothing nearer": no information on the pose
@@ -153,7 +155,7 @@ class MapLocalizer:
             pose = np.array(start, dtype=np.float64)
             geometry = None
         for _ in range(self.iterations if iterations is None else iterations):
-            pose = self._step(pose, prior_pose, measured, usable, geometry)
+            pose = self._step(pose, prior_pose, measured, usable, geometry, prior)
             geometry = None
         return pose
 
@@ -213,9 +215,10 @@ class MapLocalizer:
         measured: np.ndarray,
         usable: np.ndarray,
         geometry: tuple[np.ndarray, ...] | None = None,
+        prior: np.ndarray | None = None,
     ) -> np.ndarray:
         """One Gauss-Newton step of the estimate at ``pose`` (``geometry``: :meth:`_geometry`
-        there, if known)."""
+        there, if known; ``prior``: the prior's weights, if not the localiser's)."""
         fixed, cross, neg_dy, dx, dt_dphi, predicted = (
             self._geometry(pose) if geometry is None else geometry
         )
@@ -235,8 +238,9 @@ class MapLocalizer:
         jw_t = np.swapaxes(jac * weight[..., None], 1, 2)  # (B, 3, n)
         offset = pose - prior_pose
         offset[:, 2] = wrap_angle(offset[:, 2])
-        gradient = (jw_t @ residual[..., None])[..., 0] + offset @ self.prior
-        move = np.linalg.solve(jw_t @ jac + self.prior, -gradient[..., None])[..., 0]
+        weights = self.prior if prior is None else prior
+        gradient = (jw_t @ residual[..., None])[..., 0] + offset @ weights
+        move = np.linalg.solve(jw_t @ jac + weights, -gradient[..., None])[..., 0]
         if self.max_move is not None:  # a trust region: the whole step scaled down to it
             shift = np.hypot(move[:, 0], move[:, 1])
             if (shift > self.max_move).any():

@@ -48,55 +48,21 @@ import torch
 
 from symrl.buffers import BufferViews
 from symrl.knowledge.localize import MapLocalizer
-from symrl.world.geometry import Walls
+from symrl.knowledge.scan_odometry import (
+    GOOD,
+    echo_matcher,
+    echo_points,
+    explained_share,
+    relative_pose,
+)
 from symrl.world.robot import RobotConfig, odometry_drift
 
 __all__ = ["GoalScans"]
 
-GOOD = 0.7
-"""Least share of the usable rays a match must explain to within :data:`NEAR`."""
-NEAR = 0.05
-"""A ray is explained when the remembered echoes predict it to within this (m; 5 sonar sigmas)."""
-MIN_RAYS = 6
-"""Fewest usable rays for a match (two walls' worth of a 24-sonar ring)."""
 BESIDE_STEPS = 10
 """Actions (2 m) a belief that passed beside its goal searches for it after each pass (the
 goal, where it can be, is in sight then; a search every step for the rest of the trial costs
 a scan match per step of every long exploring trial that brushed past the goal)."""
-
-
-def _echo_points(
-    robot: RobotConfig, sonar: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Where each ray of one scan (``sonar`` (n,) over the range) ends, (n, 2) in the frame of
-    the pose it was read at, how far from the robot's centre (n,), and which rays echoed (n,)
-    bool (else nothing within range)."""
-    n = robot.n_sensors
-    angles = np.arange(n) * (2.0 * math.pi / n)
-    reading = np.asarray(sonar, dtype=np.float64) * robot.sonar_range
-    reach = reading + robot.radius
-    points = np.stack((reach * np.cos(angles), reach * np.sin(angles)), axis=1)
-    return points, reach, reading < robot.sonar_range * 0.999
-
-
-def echo_segments(robot: RobotConfig, sonar: np.ndarray) -> np.ndarray:
-    """(k, 2, 2) segments through one scan's echoes (``sonar`` (n,) over the range) in the
-    frame of the pose it was read at: two neighbouring rays' echoes are joined when they lie
-    nearer each other than half their mean distance from the robot (or 0.5 m), i.e. when they
-    are likely the same wall."""
-    n = robot.n_sensors
-    points, reach, echo = _echo_points(robot, sonar)
-    nxt = np.roll(np.arange(n), -1)
-    gap = np.hypot(*(points - points[nxt]).T)
-    joined = echo & echo[nxt] & (gap < np.maximum(0.5, 0.25 * (reach + reach[nxt])))
-    return np.stack((points[joined], points[nxt[joined]]), axis=1)
-
-
-def _relative(frame: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """``pose`` (3,) in the frame of ``frame`` (3,)."""
-    dx, dy = pose[0] - frame[0], pose[1] - frame[1]
-    c, s = math.cos(frame[2]), math.sin(frame[2])
-    return np.array([c * dx + s * dy, -s * dx + c * dy, pose[2] - frame[2]])
 
 
 def _origin_seen_from(pose: np.ndarray, estimate: np.ndarray) -> np.ndarray:
@@ -251,8 +217,8 @@ class GoalScans(BufferViews):
         off = math.dist(point, self.goal)
         if not self.goal_radius <= off <= self.goal_radius + float(self.drift(self.steps[b])):
             return False
-        points, _, echo = _echo_points(self.robot, sonar)
-        target = _relative(pose, np.array([point[0], point[1], 0.0]))[:2]  # the robot's frame
+        points, _, echo = echo_points(self.robot, sonar)
+        target = relative_pose(pose, np.array([point[0], point[1], 0.0]))[:2]  # the robot's frame
         length = math.hypot(*target)
         if length < 1e-9:
             return True
@@ -266,20 +232,14 @@ class GoalScans(BufferViews):
         """The arrival point that robot ``b``'s scan matches best, in its odometry frame
         (None: no arrival explains the scan)."""
         a = self.arrays
-        reading = sonar * self.robot.sonar_range
-        usable = reading < self.robot.sonar_range * 0.999
         best, best_share = None, GOOD
         for slot in range(min(int(a["count"][b]), a["poses"].shape[1])):
             matcher = self._matcher(b, slot)
             if matcher is None:
                 continue
-            start = _relative(a["poses"][b, slot], pose)[None]
+            start = relative_pose(a["poses"][b, slot], pose)[None]
             estimate = matcher(start, sonar[None])
-            explained, predicted = matcher.predict(estimate)
-            used = usable & explained[0]
-            if used.sum() < MIN_RAYS:
-                continue
-            share = float(np.mean(np.abs(predicted[0][used] - reading[used]) < NEAR))
+            share = explained_share(matcher, estimate[0], self.robot, sonar)
             if share >= best_share:
                 best, best_share = _origin_seen_from(pose, estimate[0]), share
         return best
@@ -287,20 +247,7 @@ class GoalScans(BufferViews):
     def _matcher(self, b: int, slot: int) -> MapLocalizer | None:
         key = (b, slot)
         if key not in self._matchers:
-            segments = echo_segments(self.robot, self.arrays["scans"][b, slot])
-            self._matchers[key] = (
-                MapLocalizer(
-                    Walls(segments),
-                    self.robot,
-                    iterations=20,
-                    prior_xy=1.0,
-                    prior_heading=0.3,
-                    max_move=0.2,
-                    outlier=0.5,
-                )
-                if len(segments) >= 3
-                else None
-            )
+            self._matchers[key] = echo_matcher(self.robot, self.arrays["scans"][b, slot], 20)
         return self._matchers[key]
 
     # -- learning (the update calls this at a trial's end) --------------------------------

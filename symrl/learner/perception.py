@@ -3,8 +3,10 @@
 Once per observation (on reset, partial resets included, and on step), from what the robot is
 told (its :class:`~symrl.knowledge.rungs.Knowledge`) and its config:
 
-- ``pose`` (B, 3): the pose it believes, the odometry's or, with map localisation, the pose its
-  sonar scan gives in the map (``symrl.knowledge.localize``, warm-started along each trial);
+- ``pose`` (B, 3): the pose it believes, the odometry's, or the odometry corrected by matching
+  each scan against one read a few actions before (``symrl.knowledge.scan_odometry``), or, with
+  map localisation, the pose its sonar scan gives in the map (``symrl.knowledge.localize``,
+  warm-started along each trial);
 - ``belief_goal`` (B, 2): the goal's (distance, angle) from that pose;
 - ``region`` (B,): the map region of that pose by the region rules; ``expert`` (B,): the
   expert it gates to (the region with partition, else 0);
@@ -18,7 +20,8 @@ The transform is part of the agent, not of the world: the assembly (:mod:`symrl.
 builds it from what the robot is told, appends it to the batched env and hands it to the
 policy; the policy and the update read its keys (root: the state acted in; ``"next"``: the
 state reached). It takes the config sections it uses: the robot's (``env.robot``),
-``experts`` (the input and its codes), ``localize`` and the gate's ``partition``.
+``experts`` (the input and its codes), ``localize``, the gate's ``partition`` and
+``scan_odometry``.
 """
 
 from __future__ import annotations
@@ -34,7 +37,8 @@ from torchrl.envs.transforms import Transform
 from symrl.knowledge.localize import MapLocalizer, PoseTracker
 from symrl.knowledge.regions import RegionMapper
 from symrl.knowledge.rungs import Knowledge
-from symrl.learner.config import ExpertsConfig, LocalizeSection
+from symrl.knowledge.scan_odometry import ScanOdometry
+from symrl.learner.config import ExpertsConfig, LocalizeSection, ScanOdometrySection
 from symrl.tensordicts import read, write
 from symrl.world.geometry import Walls
 from symrl.world.physics import goal_reading
@@ -59,16 +63,19 @@ class Perception(Transform):
         experts: ExpertsConfig,
         localize: LocalizeSection,
         partition: bool,
+        scan_odometry: ScanOdometrySection | None = None,
     ) -> None:
         """B = ``batch`` robots told ``knowledge``, with the sections ``env.robot``,
-        ``experts``, ``localize`` and ``gate.partition`` of their config."""
+        ``experts``, ``localize``, ``gate.partition`` and ``scan_odometry`` (None: off) of
+        their config."""
         super().__init__(
             in_keys=["sonar", "odometry", "goal"], out_keys=[*PERCEPTION_KEYS, INIT_KEY]
         )
         xc, lc = experts, localize
         self.batch = batch
         self.goal = (float(knowledge.goal.x), float(knowledge.goal.y))
-        self.tracker = (
+        so = scan_odometry
+        self.tracker: PoseTracker | ScanOdometry | None = (
             PoseTracker(
                 MapLocalizer(
                     Walls(knowledge.geometry("localize").segments),
@@ -82,6 +89,8 @@ class Perception(Transform):
                 batch,
             )
             if lc.enabled
+            else ScanOdometry(robot, batch, so.keyframe_actions, so.iterations)
+            if so is not None and so.enabled
             else None
         )
         self.mapper = RegionMapper(knowledge.regions)
@@ -100,7 +109,8 @@ class Perception(Transform):
         self, sonar: torch.Tensor, odometry: torch.Tensor, goal: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """The pose the robot steers by and the goal's (distance, angle) from it: the odometry's
-        as observed, or with map localisation the pose its sonar scan gives in the map."""
+        as observed, or corrected by its scans (scan odometry), or with map localisation the
+        pose its sonar scan gives in the map."""
         if self.tracker is None:
             return odometry, goal
         pose = self.tracker(odometry.numpy(), sonar.numpy())

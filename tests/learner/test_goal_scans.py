@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from learner_helpers import whole_and_resumed
 
-from symrl.learner.goal_scans import BESIDE_STEPS, GoalScans, echo_segments
+from symrl.knowledge.scan_odometry import echo_segments
+from symrl.learner.goal_scans import BESIDE_STEPS, GoalScans
 from symrl.world import load_map
 from symrl.world.geometry import Walls
 from symrl.world.robot import RobotConfig

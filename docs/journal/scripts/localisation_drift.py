@@ -1,6 +1,6 @@
-"""How far the odometry drifts along a trial, and how far the map localisation's pose is from
-the true one (a script, not a test: the numbers behind docs/journal/learning.md,
-"Map localisation").
+"""How far the odometry drifts along a trial, and how far the map localisation's pose (or, with
+``--tracker scan``, the scan odometry's) is from the true one (a script, not a test: the numbers
+behind docs/journal/learning.md, "Map localisation", and docs/journal/scan-odometry.md).
 
 For each map, ``drives`` robots (noise seeds ``seed`` ...) start at the map's start, and the
 shielded reflex drives them toward the goal by their odometry, as ``reflex_only`` does. At every
@@ -9,9 +9,12 @@ the odometry pose and the sonar scan into a believed pose, which is only recorde
 keeps steering by the odometry, so the drift is the one the learner would face without it.
 Prints the position error of the odometry and of the belief over all steps and at each
 trial's end; ``--figure PATH`` draws one robot's true, odometry and believed paths per map.
+With ``--tracker scan`` the belief is the scan odometry's (``symrl.knowledge.scan_odometry``,
+the settings of ``paper``), which reads no map, and the table gives both errors after 20, 40, 60
+and 80 actions.
 
     python docs/journal/scripts/localisation_drift.py [--maps hailu2001,l_corridor,maze]
-        [--drives 30]
+        [--drives 30] [--tracker map|scan]
 """
 
 from __future__ import annotations
@@ -23,26 +26,37 @@ import torch
 
 from symrl.knowledge.localize import MapLocalizer, PoseTracker
 from symrl.knowledge.reflex import FuzzyReflex
+from symrl.knowledge.scan_odometry import ScanOdometry
 from symrl.knowledge.shield import IRShield, ShieldConfig
 from symrl.learner.config import load_config
 from symrl.world import load_map
 from symrl.world.physics import RobotBatch
 
 
-def drift(name: str, drives: int, seed: int) -> dict[str, np.ndarray]:
-    """True, odometry and believed poses (T + 1, B, 3) and the steps each robot was driving."""
-    config = load_config("paper_map", [f"env.map={name}"])
+def drift(name: str, drives: int, seed: int, scan: bool = False) -> dict[str, np.ndarray]:
+    """True, odometry and believed poses (T + 1, B, 3) and the steps each robot was driving
+    (``scan``: the belief the scan odometry's, else the map localisation's)."""
+    config = load_config("paper" if scan else "paper_map", [f"env.map={name}"])
     world, robot = load_map(name), config.env.robot
     physics = RobotBatch(world, robot, drives, noise=True, max_actions=config.env.max_actions)
     rngs = [np.random.default_rng(seed + b) for b in range(drives)]
     start = np.tile([world.start.x, world.start.y, world.start.heading], (drives, 1))
     r = physics.reset(np.arange(drives), start, rngs)
-    lc = config.localize
-    tracker = PoseTracker(
-        MapLocalizer(
-            physics.walls, robot, lc.iterations, lc.prior_xy, lc.prior_heading, max_move=lc.max_move
-        ),
-        drives,
+    lc, so = config.localize, config.scan_odometry
+    tracker = (
+        ScanOdometry(robot, drives, so.keyframe_actions, so.iterations)
+        if scan
+        else PoseTracker(
+            MapLocalizer(
+                physics.walls,
+                robot,
+                lc.iterations,
+                lc.prior_xy,
+                lc.prior_heading,
+                max_move=lc.max_move,
+            ),
+            drives,
+        )
     )
     reflex, shield = FuzzyReflex(config.reflex), IRShield(ShieldConfig(), robot)
     true, odometry, belief, alive = [], [], [], []
@@ -78,7 +92,21 @@ def summary(name: str, d: dict[str, np.ndarray]) -> str:
     )
 
 
-def figure(runs: dict[str, dict[str, np.ndarray]], path: str) -> None:
+def growth(name: str, d: dict[str, np.ndarray], at: tuple[int, ...] = (20, 40, 60, 80)) -> str:
+    """The odometry's and the belief's mean position error (m) after each of ``at`` actions,
+    over the drives still driving then."""
+    cells = []
+    for key in ("odometry", "belief"):
+        e = np.hypot(*(d[key][..., :2] - d["true"][..., :2]).transpose(2, 0, 1))
+        for n in at:
+            live = d["alive"][n] if n < len(e) else np.zeros(e.shape[1], dtype=bool)
+            cells.append(f"{e[n][live].mean():.3f}" if live.any() else "-")
+    return f"| `{name}` | {d['alive'].sum(0).mean():.1f} | " + " | ".join(cells) + " |"
+
+
+def figure(
+    runs: dict[str, dict[str, np.ndarray]], path: str, belief: str = "map localisation"
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -99,7 +127,7 @@ def figure(runs: dict[str, dict[str, np.ndarray]], path: str) -> None:
         for key, color, label in (
             ("true", "black", "true path"),
             ("odometry", "tab:red", "odometry"),
-            ("belief", "tab:blue", "map localisation"),
+            ("belief", "tab:blue", belief),
         ):
             xy = d[key][:n, b, :2]
             ax.plot(
@@ -125,13 +153,27 @@ def main() -> None:
     ap.add_argument("--drives", type=int, default=30)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--figure", default=None, metavar="PATH")
+    ap.add_argument("--tracker", choices=("map", "scan"), default="map")
     args = ap.parse_args()
     torch.set_num_threads(1)
-    runs = {name: drift(name, args.drives, args.seed) for name in args.maps.split(",")}
+    scan = args.tracker == "scan"
+    runs = {name: drift(name, args.drives, args.seed, scan) for name in args.maps.split(",")}
     print(
         f"{args.drives} drives per map of the shielded reflex, noise seeds {args.seed}-"
         f"{args.seed + args.drives - 1}; position errors against the true pose"
     )
+    if scan:
+        print(
+            "| world | actions | odometry after 20 | 40 | 60 | 80 "
+            "| scan odometry after 20 | 40 | 60 | 80 |"
+        )
+        print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+        for name, d in runs.items():
+            print(growth(name, d))
+        if args.figure:
+            figure(runs, args.figure, "scan odometry")
+            print(f"wrote {args.figure}")
+        return
     print(
         "| world | actions | odometry at the end, mean (m) | max (m) "
         "| belief, every step: mean (mm) | 99 % (mm) | max (mm) | belief at the end (mm) |"

@@ -20,6 +20,7 @@ from symrl.learner.config.sections import (
     OptionCriticConfig,
     OptionsConfig,
     RunSection,
+    ScanOdometrySection,
     Section,
     ShieldSection,
     TrialGradientConfig,
@@ -43,6 +44,7 @@ class RunConfig(Section):
     setting that needs a higher rung is an error."""
     env: EnvConfig = Field(default_factory=EnvConfig)
     localize: LocalizeSection = Field(default_factory=LocalizeSection)
+    scan_odometry: ScanOdometrySection = Field(default_factory=ScanOdometrySection)
     gate: GateConfig = Field(default_factory=GateConfig)
     experts: ExpertsConfig = Field(default_factory=ExpertsConfig)
     update: UpdateConfig = Field(default_factory=UpdateConfig)
@@ -77,6 +79,11 @@ class RunConfig(Section):
                     f"{what} needs knowledge={needed} or higher, but the recipe declares "
                     f"knowledge={self.knowledge}"
                 )
+        if self.scan_odometry.enabled and self.localize.enabled:
+            raise ValueError(
+                "scan_odometry.enabled=true and localize.enabled=true: the pose comes from one "
+                "of them; turn one off"
+            )
         if self.crossings.enabled and o.enabled and o.source != "rules":
             raise ValueError(
                 "crossings.enabled=true learns where the region rules' borders can be crossed: "

@@ -301,6 +301,22 @@ class LocalizeSection(Section):
     belief to the next door."""
 
 
+class ScanOdometrySection(Section):
+    """The odometry corrected by the robot's own scans (``symrl.knowledge.scan_odometry``):
+    each scan matched against the one read a few actions before, the odometry's increment the
+    match's prior. Reads only the robot's sonar and odometry, so any rung may use it; not with
+    map localisation (``localize``), which gives the pose from the map instead."""
+
+    enabled: StrictBool = False
+    """False: the robot believes its odometry (the paper)."""
+    keyframe_actions: StrictInt = Field(5, ge=1, le=50)
+    """Actions between two kept scans (each later scan is matched against the last kept one):
+    fewer add a match's error more often, more leave too little of the kept scan's walls in
+    sight."""
+    iterations: StrictInt = Field(4, ge=1, le=20)
+    """Gauss-Newton steps of each match."""
+
+
 class ShieldSection(Section):
     """The IR safety shield (``symrl.knowledge.shield``)."""
 
