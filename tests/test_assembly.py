@@ -11,6 +11,7 @@ import symrl.train
 from symrl.assembly import assemble, assemble_greedy, build_policy, build_update, make_env
 from symrl.knowledge.reflex import FuzzyReflex
 from symrl.knowledge.rungs import Knowledge
+from symrl.knowledge.scan_odometry import ScanOdometry
 from symrl.learner.config import load_config
 from symrl.learner.perception import PERCEPTION_KEYS, Perception
 from symrl.learner.policy import MixtureOfExpertsPolicy
@@ -32,7 +33,8 @@ def test_a_regions_recipe_assembles_parts_that_hold_no_walls():
     assert policy.knowledge.rung == "regions" and policy.knowledge.world is None
     assert env.world.segments.shape[0] > 0  # the env has the walls
     assert policy.perception_transform() is run.perception
-    assert run.perception.tracker is None  # no localiser: it would need the walls
+    # no map localiser (it would need the walls): the odometry corrected by the robot's scans
+    assert isinstance(run.perception.tracker, ScanOdometry)
     assert policy.options is not None and policy.options.route is None
     assert policy.knowledge.regions == env.world.regions
     with pytest.raises(ValueError, match="knowledge=regions"):
