@@ -22,7 +22,10 @@ of ``--rounds`` is reported, with the spread of the ratio to the raw env over th
 
 ``--compare DIR``: also measure the bare loop and train.py's loop of another checkout of the
 repository (e.g. ``git worktree add /tmp/base main``) in the same run, in a child process per
-round interleaved with this code's rounds (its ``symrl`` imported from ``DIR``). The load
+round interleaved with this code's rounds (its ``symrl`` imported from ``DIR``; its recipe
+``--compare-recipe``, by default ``--recipe``: a built-in name resolves to the installed
+package's recipes, so for another checkout's own recipe pass its file, e.g.
+``--compare-recipe /tmp/base/recipes/paper.yaml``). The load
 average is printed with the tables (the machine may be shared: ``nice`` does not keep other
 processes off the cores).
 """
@@ -272,6 +275,12 @@ def main() -> None:
         metavar="DIR",
         help="another checkout of the repository, measured in the same run",
     )
+    parser.add_argument(
+        "--compare-recipe",
+        default=None,
+        metavar="RECIPE",
+        help="the recipe (name or file) the --compare checkout runs (default: --recipe)",
+    )
     parser.add_argument("--one-round", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -291,7 +300,8 @@ def main() -> None:
     other: list[dict[str, Any]] = []
     for _ in range(args.rounds):
         if args.compare:
-            other.append(other_round(args.compare, args.recipe, sizes, args.trials))
+            recipe = args.compare_recipe or args.recipe
+            other.append(other_round(args.compare, recipe, sizes, args.trials))
         mine.append(one_round(args.recipe, sizes, args.trials, loops))
     load = ", ".join(f"{v:.2f}" for v in os.getloadavg())
     how = (
