@@ -218,7 +218,15 @@ def test_the_newest_arrivals_are_kept():
 def test_a_run_that_re_finds_its_goal_resumes_as_if_uninterrupted(tmp_path) -> None:
     """The arrival scans are saved per robot with the controller: on this world and seed the
     third trial's belief passes through its goal and an arrival of trials 1-2 gives the goal."""
-    args = ["--seed", "5000", "--map", "tuning/pillar_grid", "options.wall_follow=false"]
+    # the raw odometry drifts enough here for the belief to pass its goal (scan odometry off)
+    args = [
+        "--seed",
+        "5000",
+        "--map",
+        "tuning/pillar_grid",
+        "options.wall_follow=false",
+        "scan_odometry.enabled=false",
+    ]
     a, b = whole_and_resumed(tmp_path, args, trials=4, stop=2)
     assert [(r["goal_passed"], r["goal_refound"]) for r in a][2] == (1, 1)
     assert a == b
