@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from test_localize import scan as localize_scan
 
 from symrl.knowledge.localize import MapLocalizer
 from symrl.knowledge.scan_odometry import ScanOdometry, relative_pose
@@ -19,18 +20,12 @@ from symrl.world.robot import RobotConfig
 ROBOT = RobotConfig()
 WORLD = load_map("hailu2001")
 WALLS = Walls(WORLD.segments)
-N = ROBOT.n_sensors
 START = np.array([WORLD.start.x, WORLD.start.y, WORLD.start.heading])
 
 
 def scan(pose: np.ndarray) -> np.ndarray:
-    """Noise-free rim readings over the range (N,) at a true ``pose`` of the paper's world."""
-    x, y, h = pose
-    angles = h + np.arange(N) * (2 * math.pi / N)
-    rays = WALLS.cast_many(
-        np.array([x]), np.array([y]), angles[None], ROBOT.radius + ROBOT.sonar_range
-    )[0]
-    return np.clip(rays - ROBOT.radius, 0.0, ROBOT.sonar_range) / ROBOT.sonar_range
+    """Noise-free readings over the range (n,) at a true ``pose`` of the paper's world."""
+    return localize_scan(WALLS, pose[None])[0]
 
 
 def drive(true: np.ndarray, odometry_error: np.ndarray, actions: int) -> list[np.ndarray]:
@@ -81,7 +76,7 @@ def test_without_echoes_the_odometry_stands():
     tracker = ScanOdometry(ROBOT, 1)
     for k in range(7):
         pose = np.array([[1.0 + 0.2 * k, 2.0, 0.1 * k]], dtype=np.float32)
-        belief = tracker(pose, np.ones((1, N)))
+        belief = tracker(pose, np.ones((1, ROBOT.n_sensors)))
         assert belief[0] == pytest.approx(pose[0].astype(np.float64), abs=1e-6)
 
 

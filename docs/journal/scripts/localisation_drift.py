@@ -163,26 +163,24 @@ def main() -> None:
         f"{args.seed + args.drives - 1}; position errors against the true pose"
     )
     if scan:
-        print(
+        header = (
             "| world | actions | odometry after 20 | 40 | 60 | 80 "
-            "| scan odometry after 20 | 40 | 60 | 80 |"
+            "| scan odometry after 20 | 40 | 60 | 80 |\n"
+            "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
         )
-        print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
-        for name, d in runs.items():
-            print(growth(name, d))
-        if args.figure:
-            figure(runs, args.figure, "scan odometry")
-            print(f"wrote {args.figure}")
-        return
-    print(
-        "| world | actions | odometry at the end, mean (m) | max (m) "
-        "| belief, every step: mean (mm) | 99 % (mm) | max (mm) | belief at the end (mm) |"
-    )
-    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+        row, label = growth, "scan odometry"
+    else:
+        header = (
+            "| world | actions | odometry at the end, mean (m) | max (m) "
+            "| belief, every step: mean (mm) | 99 % (mm) | max (mm) | belief at the end (mm) |\n"
+            "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+        )
+        row, label = summary, "map localisation"
+    print(header)
     for name, d in runs.items():
-        print(summary(name, d))
+        print(row(name, d))
     if args.figure:
-        figure(runs, args.figure)
+        figure(runs, args.figure, label)
         print(f"wrote {args.figure}")
 
 
