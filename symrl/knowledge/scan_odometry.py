@@ -161,11 +161,24 @@ class ScanOdometry:
         # the last two observations (odometry, sonar) of each robot and their estimates
         self.seen = np.full((2, batch, 3 + n), np.nan, dtype=np.float32)
         self.estimate = np.zeros((2, batch, 3))
+        # how far (m) the belief lay from the odometry at the last observation of each robot's
+        # last finished trial: what the scans corrected (its trial record)
+        self.correction = np.zeros(batch)
         self._matchers: dict[int, tuple[bytes, MapLocalizer | None]] = {}
 
     def begin_trial(self, rows: np.ndarray) -> None:
+        """Robots ``rows`` start a trial (the env's reset, after their last trial's final
+        observation): the finished trial's correction is kept for its record."""
+        off = np.hypot(*(self.estimate[0, rows, :2] - self.seen[0, rows, :2]).T)
+        self.correction[rows] = np.nan_to_num(off)  # no observation yet: no correction
         self.since[rows] = -1
         self.seen[:, rows] = np.nan
+
+    def summary(self, row: int) -> dict[str, float]:
+        """Robot ``row``'s last finished trial, for its trial record: how far the scans had
+        moved its belief from the odometry at the trial's last observation
+        (``scan_correction_m``)."""
+        return {"scan_correction_m": float(self.correction[row])}
 
     def __call__(self, odometry: np.ndarray, sonar: np.ndarray) -> np.ndarray:
         """``odometry`` (B, 3) and ``sonar`` (B, n) as the env gives them: believed poses (B, 3)."""

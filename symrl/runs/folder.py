@@ -37,6 +37,7 @@ _SCALARS = (
     ("goal/passed", "goal_passed"),
     ("goal/refound", "goal_refound"),
     ("trap/wall_follows", "wall_follows"),
+    ("odometry/scan_correction_m", "scan_correction_m"),
 )
 """TensorBoard tag of each trial column logged per trial."""
 

@@ -42,6 +42,8 @@ def trial_columns(config: RunConfig, world: Any) -> list[str]:
         columns += ["goal_passed", "goal_refound"]
     if config.options.enabled and config.options.wall_follow:
         columns += ["wall_follows"]
+    if config.scan_odometry.enabled:
+        columns += ["scan_correction_m"]
     return columns
 
 

@@ -142,3 +142,17 @@ def test_bad_settings_are_named(key):
         RunConfig.model_validate({"scan_odometry": {key: 0}})
     with pytest.raises(ValueError, match="keyframe_actions"):
         ScanOdometry(ROBOT, 1, keyframe_actions=0)
+
+
+def test_a_finished_trials_record_holds_how_far_the_scans_moved_the_belief():
+    """At the next trial's start the last observation's belief-to-odometry distance is kept for
+    the finished trial's record; before any trial it is 0."""
+    true = drive(START, np.zeros(3), 8)
+    odometry = drive(START, np.array([0.0, 0.01, 0.0]), 8)  # drifting north 1 cm an action
+    tracker = ScanOdometry(ROBOT, 1)
+    assert tracker.summary(0) == {"scan_correction_m": 0.0}
+    believed = beliefs(tracker, true, odometry)
+    tracker.begin_trial(np.array([0]))
+    moved = math.dist(believed[-1][:2], odometry[-1][:2])
+    assert tracker.summary(0)["scan_correction_m"] == pytest.approx(moved, abs=1e-5)
+    assert 0.04 < moved < 0.12  # most of the 8 cm the odometry drifted

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 import torch
-from learner_helpers import config_of, policy
+from learner_helpers import config_of, paper_trials, policy
 from torchrl.envs import TransformedEnv
 
 from symrl.learner.perception import PERCEPTION_KEYS, Perception
@@ -141,3 +141,12 @@ def test_is_init_marks_the_first_state_of_each_trial_and_the_policy_begins_it():
     # robot 1 forgot its choices (it may choose again in the region it starts in)
     assert int((choice[1] == -1).sum()) >= choice.shape[1] - 1
     assert (choice[[0, 2]] == 0).all()
+
+
+def test_a_paper_trials_record_says_how_far_its_scans_moved_its_belief():
+    """`paper` corrects its odometry by its scans: each trial's row has the correction at the
+    trial's end (TensorBoard `odometry/scan_correction_m`); without the scan odometry, none."""
+    on = paper_trials("tuning/t_wrong_arm", 5000, 2)
+    off = paper_trials("tuning/t_wrong_arm", 5000, 1, "scan_odometry.enabled=false")
+    assert all(t["scan_correction_m"] > 0.05 for t in on)  # a 16 m route drifts decimetres
+    assert "scan_correction_m" not in off[0]
