@@ -12,7 +12,7 @@ from test_localize import scan as localize_scan
 
 from symrl.knowledge.localize import MapLocalizer
 from symrl.knowledge.scan_odometry import ScanOdometry, relative_pose
-from symrl.learner.config import RunConfig
+from symrl.learner.config import ConfigError, RunConfig, load_config
 from symrl.world import load_map
 from symrl.world.geometry import Walls
 from symrl.world.robot import RobotConfig
@@ -156,3 +156,8 @@ def test_a_finished_trials_record_holds_how_far_the_scans_moved_the_belief():
     moved = math.dist(believed[-1][:2], odometry[-1][:2])
     assert tracker.summary(0)["scan_correction_m"] == pytest.approx(moved, abs=1e-5)
     assert 0.04 < moved < 0.12  # most of the 8 cm the odometry drifted
+
+
+def test_a_config_with_both_pose_sources_is_one_line_refused():
+    with pytest.raises(ConfigError, match="scan_odometry.enabled=true and localize.enabled=true"):
+        load_config("paper_map", ["scan_odometry.enabled=true"])
