@@ -11,7 +11,6 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 
-from symrl.knowledge.scan_odometry import ScanOdometry
 from symrl.tensordicts import read
 
 __all__ = ["TeseoAgent"]
@@ -76,8 +75,7 @@ def _trial_extras(policy, rows: torch.Tensor, out: dict[str, torch.Tensor]) -> l
         wall_follow = policy.options.wall_follow if policy.options is not None else None
         if wall_follow is not None:
             extra.update(wall_follow.summary(int(index[j])))
-        if isinstance(policy.perception.tracker, ScanOdometry):
-            extra.update(policy.perception.tracker.summary(int(index[j])))
+        extra.update(policy.perception.summary(int(index[j])))
         if choices is not None:
             labels = policy.options.labels
             for r, name in enumerate(policy.region_names):

@@ -37,6 +37,7 @@ __all__ = [
     "MIN_RAYS",
     "NEAR",
     "ScanOdometry",
+    "echo_matcher",
     "echo_points",
     "echo_segments",
     "explained_share",
@@ -95,12 +96,11 @@ def _moved(frame: np.ndarray, offset: np.ndarray) -> np.ndarray:
     )
 
 
-def explained_share(
-    matcher: MapLocalizer, estimate: np.ndarray, robot: RobotConfig, sonar: np.ndarray
-) -> float:
+def explained_share(matcher: MapLocalizer, estimate: np.ndarray, sonar: np.ndarray) -> float:
     """The share of one scan's usable rays (``sonar`` (n,) over the range) that ``matcher``'s
     echoes predict to within :data:`NEAR` at ``estimate`` (3,); 0 with fewer than
     :data:`MIN_RAYS` rays to go by."""
+    robot = matcher.robot
     reading = sonar * robot.sonar_range
     explained, predicted = matcher.predict(estimate[None])
     used = (reading < robot.sonar_range * 0.999) & explained[0]
@@ -204,7 +204,7 @@ class ScanOdometry:
         matcher = self._matcher(b)
         if matcher is not None:
             fit = matcher(step[None], sonar[None], prior=self._priors[int(self.since[b])])[0]
-            good = explained_share(matcher, fit, self.robot, sonar) >= GOOD
+            good = explained_share(matcher, fit, sonar) >= GOOD
             if good:
                 step = fit
         belief = _moved(self.key_belief[b], step)

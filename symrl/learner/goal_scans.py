@@ -239,7 +239,7 @@ class GoalScans(BufferViews):
                 continue
             start = relative_pose(a["poses"][b, slot], pose)[None]
             estimate = matcher(start, sonar[None])
-            share = explained_share(matcher, estimate[0], self.robot, sonar)
+            share = explained_share(matcher, estimate[0], sonar)
             if share >= best_share:
                 best, best_share = _origin_seen_from(pose, estimate[0]), share
         return best

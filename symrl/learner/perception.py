@@ -50,6 +50,32 @@ PERCEPTION_KEYS = ("pose", "belief_goal", "region", "expert", "x")
 INIT_KEY = "is_init"
 
 
+def _tracker(
+    knowledge: Knowledge,
+    batch: int,
+    robot: RobotConfig,
+    localize: LocalizeSection,
+    scan_odometry: ScanOdometrySection | None,
+) -> PoseTracker | ScanOdometry | None:
+    """Where the believed pose comes from: the map localiser (told the map), the scan odometry,
+    or None (the odometry as observed)."""
+    if localize.enabled:
+        walls = Walls(knowledge.geometry("localize").segments)
+        localizer = MapLocalizer(
+            walls,
+            robot,
+            localize.iterations,
+            localize.prior_xy,
+            localize.prior_heading,
+            max_move=localize.max_move,
+            outlier=localize.outlier,
+        )
+        return PoseTracker(localizer, batch)
+    if scan_odometry is not None and scan_odometry.enabled:
+        return ScanOdometry(robot, batch, scan_odometry.keyframe_actions, scan_odometry.iterations)
+    return None
+
+
 class Perception(Transform):
     """The robot's perception of B observations (see the module docstring), written into the
     TensorDict by a TorchRL env (``env.append_transform(perception)``) or by a direct call
@@ -71,28 +97,10 @@ class Perception(Transform):
         super().__init__(
             in_keys=["sonar", "odometry", "goal"], out_keys=[*PERCEPTION_KEYS, INIT_KEY]
         )
-        xc, lc = experts, localize
+        xc = experts
         self.batch = batch
         self.goal = (float(knowledge.goal.x), float(knowledge.goal.y))
-        so = scan_odometry
-        self.tracker: PoseTracker | ScanOdometry | None = (
-            PoseTracker(
-                MapLocalizer(
-                    Walls(knowledge.geometry("localize").segments),
-                    robot,
-                    lc.iterations,
-                    lc.prior_xy,
-                    lc.prior_heading,
-                    max_move=lc.max_move,
-                    outlier=lc.outlier,
-                ),
-                batch,
-            )
-            if lc.enabled
-            else ScanOdometry(robot, batch, so.keyframe_actions, so.iterations)
-            if so is not None and so.enabled
-            else None
-        )
+        self.tracker = _tracker(knowledge, batch, robot, localize, scan_odometry)
         self.mapper = RegionMapper(knowledge.regions)
         self.partition = bool(partition)
         self.pose_input = xc.input == "pose"
@@ -144,6 +152,11 @@ class Perception(Transform):
         expert = region if self.partition else torch.zeros_like(region)
         x = self.encode_pose(pose) if self.pose_input else self.encode(sonar, seen[:, 0])
         return {"pose": pose, "belief_goal": seen, "region": region, "expert": expert, "x": x}
+
+    def summary(self, row: int) -> dict[str, float]:
+        """Robot ``row``'s last finished trial as its pose tracker saw it, for its trial record
+        (the scan odometry's correction; nothing for the odometry or the map localiser)."""
+        return self.tracker.summary(row) if isinstance(self.tracker, ScanOdometry) else {}
 
     def begin_trial(self, rows: np.ndarray) -> None:
         """Robots ``rows`` start a new trial: their localisation starts afresh."""
