@@ -48,6 +48,7 @@ import numpy as np
 from symrl.world.geometry import Walls
 from symrl.world.physics import wrap_angle
 from symrl.world.robot import RobotConfig
+from symrl.world.wall_sets import WallSets
 
 __all__ = ["MapLocalizer", "PoseTracker"]
 
@@ -60,12 +61,13 @@ class MapLocalizer:
     beyond which a reading counts less, ``min_incidence`` the smallest |cos| between a ray
     and the wall's normal that is used, ``edge`` (m) how near a wall's end a ray may hit and
     still be used, ``max_move`` (m; None: no bound) the largest position change of one step
-    (the step is scaled down to it, heading included).
+    (the step is scaled down to it, heading included). ``walls``: one map for every robot, or
+    (:class:`~symrl.world.wall_sets.WallSets`) a map per robot, row b's poses matched in set b.
     """
 
     def __init__(
         self,
-        walls: Walls,
+        walls: Walls | WallSets,
         robot: RobotConfig,
         iterations: int = 5,
         prior_xy: float = 0.5,
@@ -142,18 +144,20 @@ class MapLocalizer:
         """``odometry`` (B, 3) poses and ``sonar`` (B, n) readings normalised by the sonar
         range, as the env gives them; returns the believed poses (B, 3) float64. ``start``:
         where the Gauss-Newton steps begin (default: the odometry pose); ``iterations``: how
-        many (default: the localiser's); ``prior``: the prior's (3, 3) weights for this call
-        (default: the localiser's, from ``prior_xy`` and ``prior_heading``)."""
+        many (default: the localiser's); ``prior``: the prior's (3, 3) weights for this call, or
+        (B, 3, 3) one per robot (default: the localiser's, from ``prior_xy`` and
+        ``prior_heading``)."""
         prior_pose = np.asarray(odometry, dtype=np.float64)
         measured = np.asarray(sonar, dtype=np.float64) * self.robot.sonar_range
         # a reading at the range cap says only "nothing nearer": no information on the pose
         usable = measured < self.robot.sonar_range * 0.999
+        geometry: tuple[np.ndarray, ...] | None = None
         if start is None:
             pose = prior_pose.copy()
-            geometry: tuple[np.ndarray, ...] | None = self._geometry_at_odometry(pose)
+            if isinstance(self.walls, Walls):  # per-robot maps: a pose alone is not the key
+                geometry = self._geometry_at_odometry(pose)
         else:
             pose = np.array(start, dtype=np.float64)
-            geometry = None
         for _ in range(self.iterations if iterations is None else iterations):
             pose = self._step(pose, prior_pose, measured, usable, geometry, prior)
             geometry = None
@@ -239,7 +243,9 @@ class MapLocalizer:
         offset = pose - prior_pose
         offset[:, 2] = wrap_angle(offset[:, 2])
         weights = self.prior if prior is None else prior
-        gradient = (jw_t @ residual[..., None])[..., 0] + offset @ weights
+        # per robot's weights: one (1, 3) @ (3, 3) product per row, a single one's numbers
+        pulled = offset @ weights if weights.ndim == 2 else (offset[:, None] @ weights)[:, 0]
+        gradient = (jw_t @ residual[..., None])[..., 0] + pulled
         move = np.linalg.solve(jw_t @ jac + weights, -gradient[..., None])[..., 0]
         if self.max_move is not None:  # a trust region: the whole step scaled down to it
             shift = np.hypot(move[:, 0], move[:, 1])

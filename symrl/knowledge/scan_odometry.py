@@ -31,16 +31,19 @@ from symrl.knowledge.localize import MapLocalizer
 from symrl.world.geometry import Walls
 from symrl.world.physics import wrap_angle
 from symrl.world.robot import RobotConfig, odometry_drift
+from symrl.world.wall_sets import WallSets
 
 __all__ = [
     "GOOD",
     "MIN_RAYS",
     "NEAR",
     "ScanOdometry",
+    "echo_localizer",
     "echo_matcher",
     "echo_points",
     "echo_segments",
     "explained_share",
+    "explained_shares",
     "relative_pose",
 ]
 
@@ -96,26 +99,30 @@ def _moved(frame: np.ndarray, offset: np.ndarray) -> np.ndarray:
     )
 
 
-def explained_share(matcher: MapLocalizer, estimate: np.ndarray, sonar: np.ndarray) -> float:
-    """The share of one scan's usable rays (``sonar`` (n,) over the range) that ``matcher``'s
-    echoes predict to within :data:`NEAR` at ``estimate`` (3,); 0 with fewer than
-    :data:`MIN_RAYS` rays to go by."""
+def explained_shares(matcher: MapLocalizer, estimates: np.ndarray, sonar: np.ndarray) -> np.ndarray:
+    """Per robot (k,), the share of its scan's usable rays (``sonar`` (k, n) over the range)
+    that ``matcher``'s echoes predict to within :data:`NEAR` at ``estimates`` (k, 3); 0 with
+    fewer than :data:`MIN_RAYS` rays to go by."""
     robot = matcher.robot
     reading = sonar * robot.sonar_range
-    explained, predicted = matcher.predict(estimate[None])
-    used = (reading < robot.sonar_range * 0.999) & explained[0]
-    if used.sum() < MIN_RAYS:
-        return 0.0
-    return float(np.mean(np.abs(predicted[0][used] - reading[used]) < NEAR))
+    explained, predicted = matcher.predict(estimates)
+    used = (reading < robot.sonar_range * 0.999) & explained
+    count = used.sum(axis=1)
+    near = (np.abs(predicted - reading) < NEAR) & used
+    return np.where(count < MIN_RAYS, 0.0, near.sum(axis=1) / np.maximum(count, 1))
 
 
-def echo_matcher(robot: RobotConfig, sonar: np.ndarray, iterations: int) -> MapLocalizer | None:
-    """The Gauss-Newton matcher on one scan's echoes (None: too few segments to match by)."""
-    segments = echo_segments(robot, sonar)
-    if len(segments) < 3:
-        return None
+def explained_share(matcher: MapLocalizer, estimate: np.ndarray, sonar: np.ndarray) -> float:
+    """:func:`explained_shares` of one scan (``sonar`` (n,)) at ``estimate`` (3,)."""
+    return float(explained_shares(matcher, estimate[None], np.asarray(sonar)[None])[0])
+
+
+def echo_localizer(walls: Walls | WallSets, robot: RobotConfig, iterations: int) -> MapLocalizer:
+    """The Gauss-Newton matcher on echoes joined into ``walls`` (one scan's, or one per robot):
+    a loose prior (the caller's per-call prior sets it), a 0.2 m trust region, and readings
+    more than 0.5 m off left out (a wall one scan saw and the other did not)."""
     return MapLocalizer(
-        Walls(segments),
+        walls,
         robot,
         iterations=iterations,
         prior_xy=1.0,
@@ -123,6 +130,14 @@ def echo_matcher(robot: RobotConfig, sonar: np.ndarray, iterations: int) -> MapL
         max_move=0.2,
         outlier=0.5,
     )
+
+
+def echo_matcher(robot: RobotConfig, sonar: np.ndarray, iterations: int) -> MapLocalizer | None:
+    """The Gauss-Newton matcher on one scan's echoes (None: too few segments to match by)."""
+    segments = echo_segments(robot, sonar)
+    if len(segments) < 3:
+        return None
+    return echo_localizer(Walls(segments), robot, iterations)
 
 
 class ScanOdometry:
@@ -164,7 +179,7 @@ class ScanOdometry:
         # how far (m) the belief lay from the odometry at the last observation of each robot's
         # last finished trial: what the scans corrected (its trial record)
         self.correction = np.zeros(batch)
-        self._matchers: dict[int, tuple[bytes, MapLocalizer | None]] = {}
+        self._echoes: dict[int, tuple[bytes, np.ndarray | None]] = {}
 
     def begin_trial(self, rows: np.ndarray) -> None:
         """Robots ``rows`` start a trial (the env's reset, after their last trial's final
@@ -185,44 +200,50 @@ class ScanOdometry:
         obs = np.concatenate((odometry, sonar), axis=1, dtype=np.float32)
         match = np.all(obs == self.seen, axis=2)  # (2, B): the last, the one before
         out = np.where(match[0][:, None], self.estimate[0], self.estimate[1])
-        pose = np.asarray(odometry, dtype=np.float64)
-        scans = np.asarray(sonar, dtype=np.float64)
-        for b in np.flatnonzero(~(match[0] | match[1])).tolist():
-            out[b] = self._advance(b, pose[b], scans[b])
-            self.seen[1, b], self.estimate[1, b] = self.seen[0, b], self.estimate[0, b]
-            self.seen[0, b], self.estimate[0, b] = obs[b], out[b]
+        new = np.flatnonzero(~(match[0] | match[1]))
+        if len(new):
+            pose = np.asarray(odometry, dtype=np.float64)[new]
+            out[new] = self._advance(new, pose, np.asarray(sonar, dtype=np.float64)[new])
+            self.seen[1, new], self.estimate[1, new] = self.seen[0, new], self.estimate[0, new]
+            self.seen[0, new], self.estimate[0, new] = obs[new], out[new]
         return out
 
-    def _advance(self, b: int, odometry: np.ndarray, sonar: np.ndarray) -> np.ndarray:
-        """Robot ``b``'s belief at a new observation; its keyframe renewed when due."""
-        if self.since[b] < 0:  # a trial's first observation: the odometry is the start pose
-            self._keep(b, odometry, odometry, sonar)
-            return odometry.copy()
-        self.since[b] += 1
-        step = relative_pose(self.key_odometry[b], odometry)
-        good = False
-        matcher = self._matcher(b)
-        if matcher is not None:
-            fit = matcher(step[None], sonar[None], prior=self._priors[int(self.since[b])])[0]
-            good = explained_share(matcher, fit, sonar) >= GOOD
-            if good:
-                step = fit
-        belief = _moved(self.key_belief[b], step)
-        if not good or self.since[b] >= self.keyframe_actions:
-            self._keep(b, belief, odometry, sonar)
+    def _advance(self, rows: np.ndarray, odometry: np.ndarray, sonar: np.ndarray) -> np.ndarray:
+        """Robots ``rows``' beliefs (k, 3) at new observations (``odometry`` (k, 3), ``sonar``
+        (k, n)); each one's keyframe renewed when due. The matches are one batched fit, each
+        robot's scan against its own keyframe's echoes (:class:`WallSets`): the numbers of one
+        fit per robot, at a fraction of the numpy calls."""
+        belief = odometry.copy()  # a trial's first observation: the odometry is the start pose
+        good = np.zeros(len(rows), dtype=bool)
+        later = np.flatnonzero(self.since[rows] >= 0)
+        self.since[rows[later]] += 1
+        steps = np.zeros((len(rows), 3))
+        for i in later.tolist():
+            steps[i] = relative_pose(self.key_odometry[rows[i]], odometry[i])
+        echoes = {i: self._segments(int(rows[i])) for i in later.tolist()}
+        segments = [s for s in echoes.values() if s is not None]
+        fitted = np.array([i for i, s in echoes.items() if s is not None], dtype=np.int64)
+        if len(fitted):
+            matcher = echo_localizer(WallSets(segments), self.robot, self.iterations)
+            prior = np.stack([self._priors[int(self.since[rows[i]])] for i in fitted.tolist()])
+            fit = matcher(steps[fitted], sonar[fitted], start=steps[fitted], prior=prior)
+            good[fitted] = explained_shares(matcher, fit, sonar[fitted]) >= GOOD
+            steps[fitted] = np.where(good[fitted][:, None], fit, steps[fitted])
+        for i in later.tolist():
+            belief[i] = _moved(self.key_belief[rows[i]], steps[i])
+        renew = ~good | (self.since[rows] >= self.keyframe_actions)
+        for i in np.flatnonzero(renew).tolist():
+            b = int(rows[i])
+            self.key_belief[b], self.key_odometry[b] = belief[i], odometry[i]
+            self.key_scan[b], self.since[b] = sonar[i], 0
         return belief
 
-    def _keep(self, b: int, belief: np.ndarray, odometry: np.ndarray, sonar: np.ndarray) -> None:
-        self.key_belief[b], self.key_odometry[b], self.key_scan[b] = belief, odometry, sonar
-        self.since[b] = 0
-
-    def _matcher(self, b: int) -> MapLocalizer | None:
-        """Robot ``b``'s matcher on its keyframe's echoes (rebuilt when the keyframe changes)."""
+    def _segments(self, b: int) -> np.ndarray | None:
+        """Robot ``b``'s keyframe's echo segments (None: too few to match by), kept until its
+        keyframe changes."""
         key = self.key_scan[b].tobytes()
-        kept = self._matchers.get(b)
+        kept = self._echoes.get(b)
         if kept is None or kept[0] != key:
-            kept = self._matchers[b] = (
-                key,
-                echo_matcher(self.robot, self.key_scan[b], self.iterations),
-            )
+            segments = echo_segments(self.robot, self.key_scan[b])
+            kept = self._echoes[b] = (key, segments if len(segments) >= 3 else None)
         return kept[1]
