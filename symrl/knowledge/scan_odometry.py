@@ -179,7 +179,12 @@ class ScanOdometry:
         # how far (m) the belief lay from the odometry at the last observation of each robot's
         # last finished trial: what the scans corrected (its trial record)
         self.correction = np.zeros(batch)
-        self._echoes: dict[int, tuple[bytes, np.ndarray | None]] = {}
+        # per robot, its keyframe's scan (as bytes), echo segments and their serial number;
+        # the matcher on the last fit's segments, by their serial numbers (rebuilt when one
+        # robot's keyframe changes)
+        self._echoes: dict[int, tuple[bytes, np.ndarray | None, int]] = {}
+        self._serial = 0
+        self._matcher: tuple[tuple[int, ...], MapLocalizer] | None = None
 
     def begin_trial(self, rows: np.ndarray) -> None:
         """Robots ``rows`` start a trial (the env's reset, after their last trial's final
@@ -221,10 +226,9 @@ class ScanOdometry:
         for i in later.tolist():
             steps[i] = relative_pose(self.key_odometry[rows[i]], odometry[i])
         echoes = {i: self._segments(int(rows[i])) for i in later.tolist()}
-        segments = [s for s in echoes.values() if s is not None]
-        fitted = np.array([i for i, s in echoes.items() if s is not None], dtype=np.int64)
+        fitted = np.array([i for i, e in echoes.items() if e[0] is not None], dtype=np.int64)
         if len(fitted):
-            matcher = echo_localizer(WallSets(segments), self.robot, self.iterations)
+            matcher = self._matcher_for([echoes[i] for i in fitted.tolist()])
             prior = np.stack([self._priors[int(self.since[rows[i]])] for i in fitted.tolist()])
             fit = matcher(steps[fitted], sonar[fitted], start=steps[fitted], prior=prior)
             good[fitted] = explained_shares(matcher, fit, sonar[fitted]) >= GOOD
@@ -238,12 +242,23 @@ class ScanOdometry:
             self.key_scan[b], self.since[b] = sonar[i], 0
         return belief
 
-    def _segments(self, b: int) -> np.ndarray | None:
-        """Robot ``b``'s keyframe's echo segments (None: too few to match by), kept until its
-        keyframe changes."""
+    def _segments(self, b: int) -> tuple[np.ndarray | None, int]:
+        """Robot ``b``'s keyframe's echo segments (None: too few to match by) and their serial
+        number, kept until its keyframe changes."""
         key = self.key_scan[b].tobytes()
         kept = self._echoes.get(b)
         if kept is None or kept[0] != key:
             segments = echo_segments(self.robot, self.key_scan[b])
-            kept = self._echoes[b] = (key, segments if len(segments) >= 3 else None)
-        return kept[1]
+            usable = segments if len(segments) >= 3 else None
+            self._serial += 1
+            kept = self._echoes[b] = (key, usable, self._serial)
+        return kept[1], kept[2]
+
+    def _matcher_for(self, echoes: list[tuple[np.ndarray | None, int]]) -> MapLocalizer:
+        """The matcher on these robots' keyframe echoes (segments and serial numbers), one row
+        each: the last one again while no keyframe among them has changed (a few steps)."""
+        serials = tuple(serial for _, serial in echoes)
+        if self._matcher is None or self._matcher[0] != serials:
+            walls = WallSets([segments for segments, _ in echoes if segments is not None])
+            self._matcher = (serials, echo_localizer(walls, self.robot, self.iterations))
+        return self._matcher[1]

@@ -62,6 +62,13 @@ class WallSets:
         self.a_perp = np.stack([-self.ay, self.ax], axis=1).reshape(*shape, 2)
         self.a_cross_d = (self.ax * self.dy - self.ay * self.dx).reshape(shape)
         self._first = (n * np.arange(self.batch))[:, None]  # row b's first wall
+        # scratch for the casts (the same few shapes every call): the product's matrix, its
+        # first block the normals, and the origins as columns and as rows
+        self._k = np.empty((self.batch, 3 * n, 2))
+        self._k[:, :n] = self.normals
+        self._xy = np.empty((self.batch, 2, 1))
+        self._yx = np.empty((self.batch, 1, 2))
+        self._rows: dict[int, np.ndarray] = {}  # per ray count: each ray's wall 0 in the flat hits
 
     def __len__(self) -> int:
         return self.batch
@@ -87,11 +94,8 @@ class WallSets:
             u = np.empty((2, b, r))
             np.cos(angles, out=u[0])
             np.sin(angles, out=u[1])
-        k = np.empty((b, 3 * n, 2))
-        k[:, :n] = self.normals
-        xy = np.empty((b, 2, 1))
+        k, xy, yx = self._k, self._xy, self._yx
         xy[:, 0, 0], xy[:, 1, 0] = x, y
-        yx = np.empty((b, 1, 2))
         yx[:, 0, 0] = y
         np.negative(x, out=yx[:, 0, 1])
         np.add(self.a_perp, yx, out=k[:, n : 2 * n])
@@ -105,6 +109,9 @@ class WallSets:
         ok = (s >= -S_EPS) & (s <= 1.0 + S_EPS)
         hits = np.where(ok, prod[:, 2 * n :], -np.inf)  # 1 / range, -inf for a miss
         wall = np.argmax(hits, axis=1)
-        inv_t = np.take_along_axis(hits, wall[:, None], axis=1)[:, 0]
+        rows = self._rows.get(r)
+        if rows is None:
+            rows = self._rows[r] = n * r * np.arange(b)[:, None] + np.arange(r)
+        inv_t = hits.reshape(-1).take(wall * r + rows)  # the maximum, gathered
         floor = 1.0 / max_range
         return 1.0 / np.fmax(inv_t, floor), np.where(inv_t > floor, wall + self._first, -1)

@@ -92,6 +92,30 @@ def test_a_robot_believes_the_same_alone_and_in_a_batch():
         assert np.array_equal(belief[1], alone[k])
 
 
+def test_robots_at_different_keyframes_in_one_batch_believe_as_each_alone():
+    """Three robots fitted in one call, each against its own keyframe: one a few actions into
+    its trial when another starts (their keyframes renew at different steps), one with no echo
+    in range (its odometry stands); each robot's beliefs are bitwise its beliefs alone."""
+    true = drive(START, np.zeros(3), 14)
+    odometry = drive(START, np.array([0.01, -0.005, 0.01]), 14)
+    late = drive(START + np.array([0.3, 0.5, 0.4]), np.array([0.0, 0.01, -0.01]), 11)
+    blind = drive(START, np.array([0.02, 0.0, 0.0]), 14)
+    alone = beliefs(ScanOdometry(ROBOT, 1), true, odometry)
+    alone_late = beliefs(ScanOdometry(ROBOT, 1), late, late)
+    batch = ScanOdometry(ROBOT, 3)
+    for k in range(15):
+        j = max(k - 3, 0)  # the late robot's trial starts at the batch's fourth observation
+        if k == 3:
+            batch.begin_trial(np.array([1]))
+        odo = np.stack((odometry[k], late[j], blind[k])).astype(np.float32)
+        sonar = np.stack((scan(true[k]), scan(late[j]), np.ones(ROBOT.n_sensors)))
+        belief = batch(odo, sonar)
+        assert np.array_equal(belief[0], alone[k])
+        if k >= 3:
+            assert np.array_equal(belief[1], alone_late[j])
+        np.testing.assert_allclose(belief[2], odo[2], atol=1e-9)
+
+
 def test_an_observation_seen_again_gives_its_estimate_again():
     """The policy and the update perceive the same observation in turn: the second time
     returns the first's belief and does not move the keyframe on."""
