@@ -24,7 +24,15 @@ import numpy as np
 
 from symrl.world.wall_queries import S_EPS, TWO_PI, WallQueries
 
-__all__ = ["Walls", "ray_cast", "clearance", "sector_distances", "swept_disc_contact"]
+__all__ = [
+    "Walls",
+    "clearance",
+    "inverse_hits",
+    "nearest_hits",
+    "ray_cast",
+    "sector_distances",
+    "swept_disc_contact",
+]
 
 
 class Walls(WallQueries):
@@ -81,48 +89,22 @@ class Walls(WallQueries):
         ``directions``: ``(2, B, R)``, the cosines and sines of ``angles`` if the caller has
         them (the localiser needs them too; computing them once saves two calls)."""
         hits = self._inverse_hits(x, y, angles, directions)
-        wall = np.argmax(hits, axis=1)
-        # the value at the argmax, gathered from the flat array: the maximum (a NaN included,
-        # as argmax picks the first NaN), for 3 small calls instead of a reduction over the
-        # walls (measured: 4.3 -> 1.9 us at B = 10, 24 rays)
         b, r = angles.shape
-        inv_t = hits.reshape(-1).take(wall * r + self._flat_rows(b, r))
-        floor = 1.0 / max_range
-        # fmax(inv_t, floor) is where(~(inv_t > floor), floor, inv_t), a NaN included
-        return 1.0 / np.fmax(inv_t, floor), np.where(inv_t > floor, wall, -1)
+        return nearest_hits(hits, self._flat_rows(b, r), max_range)
 
     def _inverse_hits(
         self, x: np.ndarray, y: np.ndarray, angles: np.ndarray, u: np.ndarray | None = None
     ) -> np.ndarray:
-        """``(B, n, R)``: 1 / distance along each ray to each wall it hits, -inf for a miss
-        (``u``: the rays' directions ``(2, B, R)``, cosines then sines, if known).
-
-        The directions are kept as two contiguous ``(B, R)`` blocks (a caller's element-wise
-        work on a strided block costs twice as much); the product reads them as each row's
-        ``(2, R)`` matrix with a leading dimension of ``B * R``, the same BLAS call."""
-        n = self.n_walls
+        """``(B, n, R)``: :func:`inverse_hits` of these walls (``u``: the rays' directions
+        ``(2, B, R)``, cosines then sines, if known)."""
         b, r = angles.shape
-        k, xy, yx = self._cast_buffers(b)
         if u is None:
             u = np.empty((2, b, r))
             np.cos(angles, out=u[0])
             np.sin(angles, out=u[1])
-        xy[:, 0, 0] = x
-        xy[:, 1, 0] = y
-        yx[:, 0, 0] = y
-        np.negative(x, out=yx[:, 0, 1])
-        np.add(self.a_perp, yx, out=k[:, n : 2 * n])  # one add of (y, -x), not one per column
-        tnum = (
-            self.a_cross_d - np.matmul(self.normals, xy)[:, :, 0]
-        )  # w x d, one (n,2)@(2,) per row
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            inv_tnum = 1.0 / tnum
-            inv_tnum[tnum == 0.0] = 0.0
-            np.multiply(self.normals, inv_tnum[:, :, None], out=k[:, 2 * n :])
-            prod = np.matmul(k, u.transpose(1, 0, 2))  # (B, 3n, R)
-            s = prod[:, n : 2 * n] / prod[:, :n]
-        ok = (s >= -S_EPS) & (s <= 1.0 + S_EPS)
-        return np.where(ok, prod[:, 2 * n :], -np.inf)
+        return inverse_hits(
+            self.normals, self.a_perp, self.a_cross_d, self._cast_buffers(b), x, y, u
+        )
 
     def _keep(self, key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
         """``make()``, made once per ``key`` and kept for the next calls: the index arrays and
@@ -320,3 +302,56 @@ def swept_disc_contact(
     return _walls(walls).swept_disc_contact(
         float(start[0]), float(start[1]), float(end[0]), float(end[1]), radius
     )
+
+
+def inverse_hits(
+    normals: np.ndarray,
+    a_perp: np.ndarray,
+    a_cross_d: np.ndarray,
+    buffers: tuple[np.ndarray, np.ndarray, np.ndarray],
+    x: np.ndarray,
+    y: np.ndarray,
+    u: np.ndarray,
+) -> np.ndarray:
+    """``(B, n, R)``: 1 / distance along each ray from ``(x[b], y[b])`` in directions ``u``
+    ``(2, B, R)`` (cosines, then sines) to each of n walls it hits, -inf for a miss. The walls
+    are :class:`~symrl.world.wall_queries.WallQueries`' per-wall terms, one set for every row
+    (``normals`` (n, 2), ``a_perp`` (n, 2), ``a_cross_d`` (n,)) or one per row (``(B, n, 2)``,
+    ``(B, n)``); ``buffers``: scratch ``k`` (B, 3n, 2) with the normals in its first n rows,
+    ``xy`` (B, 2, 1) and ``yx`` (B, 1, 2), overwritten.
+
+    The directions are kept as two contiguous ``(B, R)`` blocks (a caller's element-wise work
+    on a strided block costs twice as much); the product reads them as each row's ``(2, R)``
+    matrix with a leading dimension of ``B * R``, the same BLAS call."""
+    k, xy, yx = buffers
+    n = normals.shape[-2]
+    xy[:, 0, 0] = x
+    xy[:, 1, 0] = y
+    yx[:, 0, 0] = y
+    np.negative(x, out=yx[:, 0, 1])
+    np.add(a_perp, yx, out=k[:, n : 2 * n])  # one add of (y, -x), not one per column
+    tnum = a_cross_d - np.matmul(normals, xy)[:, :, 0]  # w x d, one (n,2)@(2,) per row
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        inv_tnum = 1.0 / tnum
+        inv_tnum[tnum == 0.0] = 0.0
+        np.multiply(normals, inv_tnum[:, :, None], out=k[:, 2 * n :])
+        prod = np.matmul(k, u.transpose(1, 0, 2))  # (B, 3n, R)
+        s = prod[:, n : 2 * n] / prod[:, :n]
+    ok = (s >= -S_EPS) & (s <= 1.0 + S_EPS)
+    return np.where(ok, prod[:, 2 * n :], -np.inf)
+
+
+def nearest_hits(
+    hits: np.ndarray, rows: np.ndarray, max_range: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ranges ``(B, R)`` (at most ``max_range``) and the wall each ray hits ``(B, R)`` (-1
+    for none within range) from :func:`inverse_hits`' ``hits`` ``(B, n, R)``; ``rows``
+    ``(B, R)``: each ray's wall 0 in the flat ``hits`` (``n * R * b + ray``)."""
+    wall = np.argmax(hits, axis=1)
+    # the value at the argmax, gathered from the flat array: the maximum (a NaN included, as
+    # argmax picks the first NaN), for 3 small calls instead of a reduction over the walls
+    # (measured: 4.3 -> 1.9 us at B = 10, 24 rays)
+    inv_t = hits.reshape(-1).take(wall * hits.shape[2] + rows)
+    floor = 1.0 / max_range
+    # fmax(inv_t, floor) is where(~(inv_t > floor), floor, inv_t), a NaN included
+    return 1.0 / np.fmax(inv_t, floor), np.where(inv_t > floor, wall, -1)

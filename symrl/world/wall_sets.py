@@ -4,12 +4,13 @@ own set only, all rows in the same few numpy calls.
 The scan odometry matches each robot's scan against walls of its own (the echoes of its last
 keyframe): one :class:`~symrl.world.geometry.Walls` per robot would cast one robot at a time,
 a Python loop over the batch whose numpy calls, not their arithmetic, are the cost. Here the
-sets are padded to one count with walls no ray reaches and stacked, so the cast is the batched
-one of :meth:`Walls.cast_many_walls <symrl.world.geometry.Walls.cast_many_walls>`, written
-with the same floating-point operations per row: row b's ranges and walls are bitwise those of
-``Walls(sets[b])`` at the same pose, whatever the other rows hold (for sets of two walls or
-more: a one-wall ``Walls`` takes numpy's dot path for its (1, 2) @ (2, 1) product, which
-rounds differently in the last bit).
+sets are padded to one count with walls no ray reaches and stacked, and cast by the functions
+of :meth:`Walls.cast_many_walls <symrl.world.geometry.Walls.cast_many_walls>`
+(:func:`~symrl.world.geometry.inverse_hits`, :func:`~symrl.world.geometry.nearest_hits`) with
+per-row wall terms: row b's ranges and walls are bitwise those of ``Walls(sets[b])`` at the
+same pose, whatever the other rows hold (for sets of two walls or more: a one-wall ``Walls``
+takes numpy's dot path for its (1, 2) @ (2, 1) product, which rounds differently in the last
+bit).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from symrl.world.wall_queries import S_EPS
+from symrl.world.geometry import inverse_hits, nearest_hits
 
 __all__ = ["WallSets"]
 
@@ -54,7 +55,9 @@ class WallSets:
         len2 = self.dx**2 + self.dy**2
         if np.any(len2 <= 0.0):
             bad = int(np.argmax(len2 <= 0.0))
-            raise ValueError(f"WallSets: segment {bad} {seg[bad].tolist()} has zero length")
+            raise ValueError(
+                f"WallSets: row {bad // n}'s segment {bad % n} {seg[bad].tolist()} has zero length"
+            )
         self.inv_len2 = 1.0 / len2
         # as Walls', per row (B, n, ...): see WallQueries for the terms of the product
         shape = (self.batch, n)
@@ -85,7 +88,6 @@ class WallSets:
         ranges (B, R), at most ``max_range``, and the wall each ray hits (B, R) (an index into
         the per-wall arrays; -1 for a ray that reaches ``max_range``). ``directions``: the
         rays' cosines and sines (2, B, R), if the caller has them."""
-        n = self.n_walls
         b, r = angles.shape
         if b != self.batch:
             raise ValueError(f"WallSets.cast_many_walls: {b} rows of rays for {self.batch} sets")
@@ -94,24 +96,10 @@ class WallSets:
             u = np.empty((2, b, r))
             np.cos(angles, out=u[0])
             np.sin(angles, out=u[1])
-        k, xy, yx = self._k, self._xy, self._yx
-        xy[:, 0, 0], xy[:, 1, 0] = x, y
-        yx[:, 0, 0] = y
-        np.negative(x, out=yx[:, 0, 1])
-        np.add(self.a_perp, yx, out=k[:, n : 2 * n])
-        tnum = self.a_cross_d - np.matmul(self.normals, xy)[:, :, 0]  # w x d
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            inv_tnum = 1.0 / tnum
-            inv_tnum[tnum == 0.0] = 0.0
-            np.multiply(self.normals, inv_tnum[:, :, None], out=k[:, 2 * n :])
-            prod = np.matmul(k, u.transpose(1, 0, 2))  # (B, 3n, R)
-            s = prod[:, n : 2 * n] / prod[:, :n]
-        ok = (s >= -S_EPS) & (s <= 1.0 + S_EPS)
-        hits = np.where(ok, prod[:, 2 * n :], -np.inf)  # 1 / range, -inf for a miss
-        wall = np.argmax(hits, axis=1)
+        buffers = (self._k, self._xy, self._yx)
+        hits = inverse_hits(self.normals, self.a_perp, self.a_cross_d, buffers, x, y, u)
         rows = self._rows.get(r)
         if rows is None:
-            rows = self._rows[r] = n * r * np.arange(b)[:, None] + np.arange(r)
-        inv_t = hits.reshape(-1).take(wall * r + rows)  # the maximum, gathered
-        floor = 1.0 / max_range
-        return 1.0 / np.fmax(inv_t, floor), np.where(inv_t > floor, wall + self._first, -1)
+            rows = self._rows[r] = self.n_walls * r * np.arange(b)[:, None] + np.arange(r)
+        ranges, wall = nearest_hits(hits, rows, max_range)
+        return ranges, np.where(wall >= 0, wall + self._first, -1)

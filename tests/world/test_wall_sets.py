@@ -60,7 +60,7 @@ def test_a_row_equals_its_own_walls_bitwise(sizes, seed):
     [
         ([], "need at least one row"),
         ([np.zeros((0, 4))], "need at least one wall segment"),
-        ([SQUARE, np.array([[0.0, 0.0, 0.0, 0.0]])], "segment 4 .* has zero length"),
+        ([SQUARE, np.array([[0.0, 0.0, 0.0, 0.0]])], "row 1's segment 0 .* has zero length"),
         ([np.array([[0.0, 0.0, np.nan, 1.0]])], "must be finite"),
     ],
 )
