@@ -11,7 +11,15 @@ import pytest
 from test_localize import scan as localize_scan
 
 from symrl.knowledge.localize import MapLocalizer
-from symrl.knowledge.scan_odometry import ScanOdometry, relative_pose
+from symrl.knowledge.scan_odometry import (
+    GOOD,
+    MIN_RAYS,
+    ScanOdometry,
+    echo_matcher,
+    explained_share,
+    explained_shares,
+    relative_pose,
+)
 from symrl.learner.config import ConfigError, RunConfig, load_config
 from symrl.world import load_map
 from symrl.world.geometry import Walls
@@ -185,3 +193,28 @@ def test_a_finished_trials_record_holds_how_far_the_scans_moved_the_belief():
 def test_a_config_with_both_pose_sources_is_one_line_refused():
     with pytest.raises(ConfigError, match="scan_odometry.enabled=true and localize.enabled=true"):
         load_config("paper_map", ["scan_odometry.enabled=true"])
+
+
+def test_the_explained_share_of_a_scan_against_a_kept_ones_echoes():
+    """The paper's start scan kept; 0.1 m further ahead, a new scan at its true pose relative
+    to the kept one is explained ray for ray (share 1), and 0.3 m off it, under GOOD (most rays
+    miss by more than NEAR). At the kept pose itself every ray ends on a segment's end, which
+    the matcher does not judge (share 0, too few rays); nor with fewer than MIN_RAYS echoes.
+    The batched shares are the single ones row by row."""
+    kept = scan(START)
+    matcher = echo_matcher(ROBOT, kept, 4)
+    assert matcher is not None
+    true = START + np.array([0.1 * math.cos(START[2]), 0.1 * math.sin(START[2]), 0.0])
+    later = scan(true)
+    at, off = relative_pose(START, true), relative_pose(START, true) + np.array([0.3, 0, 0])
+    assert explained_share(matcher, at, later) == 1.0
+    assert explained_share(matcher, off, later) < GOOD
+    assert explained_share(matcher, np.zeros(3), kept) == 0.0
+    few = np.ones(ROBOT.n_sensors)
+    few[: MIN_RAYS - 1] = later[: MIN_RAYS - 1]
+    assert explained_share(matcher, at, few) == 0.0
+    shares = explained_shares(matcher, np.stack((at, off)), np.stack((later, later)))
+    assert shares.tolist() == [
+        explained_share(matcher, at, later),
+        explained_share(matcher, off, later),
+    ]
