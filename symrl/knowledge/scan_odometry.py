@@ -117,10 +117,12 @@ def explained_share(matcher: MapLocalizer, estimate: np.ndarray, sonar: np.ndarr
     return float(explained_shares(matcher, estimate[None], np.asarray(sonar)[None])[0])
 
 
-def echo_localizer(walls: Walls | WallSets, robot: RobotConfig, iterations: int) -> MapLocalizer:
+def echo_localizer(
+    walls: Walls | WallSets, robot: RobotConfig, iterations: int, outlier: float = 0.5
+) -> MapLocalizer:
     """The Gauss-Newton matcher on echoes joined into ``walls`` (one scan's, or one per robot):
     a loose prior (the caller's per-call prior sets it), a 0.2 m trust region, and readings
-    more than 0.5 m off left out (a wall one scan saw and the other did not)."""
+    more than ``outlier`` (m) off left out (a wall one scan saw and the other did not)."""
     return MapLocalizer(
         walls,
         robot,
@@ -128,7 +130,7 @@ def echo_localizer(walls: Walls | WallSets, robot: RobotConfig, iterations: int)
         prior_xy=1.0,
         prior_heading=0.3,
         max_move=0.2,
-        outlier=0.5,
+        outlier=outlier,
     )
 
 
@@ -149,16 +151,24 @@ class ScanOdometry:
     puts the odometry on the start pose)."""
 
     def __init__(
-        self, robot: RobotConfig, batch: int, keyframe_actions: int = 5, iterations: int = 4
+        self,
+        robot: RobotConfig,
+        batch: int,
+        keyframe_actions: int = 5,
+        iterations: int = 4,
+        outlier: float = 0.5,
     ) -> None:
         if keyframe_actions < 1 or iterations < 1:
             raise ValueError(
                 "ScanOdometry: keyframe_actions and iterations must be >= 1, got "
                 f"{keyframe_actions} and {iterations}"
             )
+        if not outlier > 0:
+            raise ValueError(f"ScanOdometry: outlier must be > 0, got {outlier}")
         self.robot = robot
         self.keyframe_actions = int(keyframe_actions)
         self.iterations = int(iterations)
+        self.outlier = float(outlier)
         n = robot.n_sensors
         # the prior's weights per action count since the keyframe: the odometry's own drift
         # over those actions (position and heading), floored at the sonar's resolution
@@ -260,5 +270,6 @@ class ScanOdometry:
         serials = tuple(serial for _, serial in echoes)
         if self._matcher is None or self._matcher[0] != serials:
             walls = WallSets([segments for segments, _ in echoes if segments is not None])
-            self._matcher = (serials, echo_localizer(walls, self.robot, self.iterations))
+            matcher = echo_localizer(walls, self.robot, self.iterations, self.outlier)
+            self._matcher = (serials, matcher)
         return self._matcher[1]

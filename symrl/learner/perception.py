@@ -72,7 +72,13 @@ def _tracker(
         )
         return PoseTracker(localizer, batch)
     if scan_odometry is not None and scan_odometry.enabled:
-        return ScanOdometry(robot, batch, scan_odometry.keyframe_actions, scan_odometry.iterations)
+        return ScanOdometry(
+            robot,
+            batch,
+            scan_odometry.keyframe_actions,
+            scan_odometry.iterations,
+            scan_odometry.outlier,
+        )
     return None
 
 

@@ -79,6 +79,23 @@ def test_a_drifting_heading_is_pulled_back_by_the_walls_the_kept_scan_saw():
     assert abs(believed[-1][2] - true[-1][2]) < 0.5 * abs(odometry[-1][2] - true[-1][2])
 
 
+def test_readings_beyond_the_outlier_gate_are_left_out_of_the_match():
+    """The drifting drive above: with a gate no reading passes (1 micrometre) the match has
+    nothing but its prior, the odometry's increment, and the belief ends where the odometry
+    does; with a gate of 7.5 cm, which passes the readings a drift of a few degrees moves, the
+    walls pull the heading back as with the default."""
+    true = drive(START, np.zeros(3), 8)
+    drift = np.array([0.0, 0.0, math.radians(1.0)])
+    odometry = [t + k * drift for k, t in enumerate(true)]
+    for k in range(1, len(odometry)):
+        h = odometry[k - 1][2]
+        odometry[k][:2] = odometry[k - 1][:2] + 0.2 * np.array([math.cos(h), math.sin(h)])
+    shut = beliefs(ScanOdometry(ROBOT, 1, keyframe_actions=3, outlier=1e-6), true, odometry)
+    assert shut[-1] == pytest.approx(odometry[-1], abs=1e-4)
+    gated = beliefs(ScanOdometry(ROBOT, 1, keyframe_actions=3, outlier=0.075), true, odometry)
+    assert abs(gated[-1][2] - true[-1][2]) < 0.5 * abs(odometry[-1][2] - true[-1][2])
+
+
 def test_without_echoes_the_odometry_stands():
     """Nothing within range: no match, every observation believed as the odometry gives it."""
     tracker = ScanOdometry(ROBOT, 1)
@@ -168,12 +185,14 @@ def test_relative_pose_is_the_pose_in_the_frames_own_axes():
     )
 
 
-@pytest.mark.parametrize("key", ["keyframe_actions", "iterations"])
+@pytest.mark.parametrize("key", ["keyframe_actions", "iterations", "outlier"])
 def test_bad_settings_are_named(key):
     with pytest.raises(ValueError, match=key):
         RunConfig.model_validate({"scan_odometry": {key: 0}})
     with pytest.raises(ValueError, match="keyframe_actions"):
         ScanOdometry(ROBOT, 1, keyframe_actions=0)
+    with pytest.raises(ValueError, match="outlier must be > 0, got -1"):
+        ScanOdometry(ROBOT, 1, outlier=-1)
 
 
 def test_a_finished_trials_record_holds_how_far_the_scans_moved_the_belief():

@@ -315,6 +315,9 @@ class ScanOdometrySection(Section):
     sight."""
     iterations: StrictInt = Field(4, ge=1, le=20)
     """Gauss-Newton steps of each match."""
+    outlier: float = Field(0.5, gt=0, le=5)
+    """A reading predicted farther off than this (m) by the kept scan's echoes is left out of
+    the match (a wall one scan saw and the other did not, or a corner the kept echoes cut)."""
 
 
 class ShieldSection(Section):
