@@ -148,7 +148,9 @@ class ScanOdometry:
     is; an observation seen before returns its estimate again (the policy and the update ask
     for the same observations in turn). Per robot, so a robot's beliefs are the same alone or
     in a batch. :meth:`begin_trial` starts a robot's belief afresh on its odometry (a reset
-    puts the odometry on the start pose)."""
+    puts the odometry on the start pose). ``keyframe_actions``: actions between kept scans;
+    ``iterations``: Gauss-Newton steps of a match; ``outlier`` (m): a reading the kept echoes
+    predict farther off is left out of the match."""
 
     def __init__(
         self,
