@@ -47,17 +47,22 @@ import numpy as np
 import torch
 
 from symrl.buffers import BufferViews
-from symrl.knowledge.localize import MapLocalizer
 from symrl.knowledge.scan_odometry import (
     GOOD,
-    echo_matcher,
+    echo_localizer,
     echo_points,
-    explained_share,
+    echo_segments,
+    explained_shares,
     relative_pose,
 )
 from symrl.world.robot import RobotConfig, odometry_drift
+from symrl.world.wall_sets import WallSets
 
 __all__ = ["GoalScans"]
+
+MATCH_ITERATIONS = 20
+"""Gauss-Newton steps of a match: the arrival may lie a metre or more off, not the few
+centimetres of the scan odometry's keyframe."""
 
 BESIDE_STEPS = 10
 """Actions (2 m) a belief that passed beside its goal searches for it after each pass (the
@@ -126,8 +131,9 @@ class GoalScans(BufferViews):
         self.beside_steps = np.zeros(batch, dtype=np.int64)  # search steps left from beside
         self.found = np.full((batch, 2), np.nan)
         self.steps = np.zeros(batch, dtype=np.int64)  # the trial's actions so far
-        # per robot and slot: the matcher on that arrival's echoes (built when first needed)
-        self._matchers: dict[tuple[int, int], MapLocalizer | None] = {}
+        # per robot and slot: that arrival's echo segments (None: too few to match by; built
+        # when first needed)
+        self._echoes: dict[tuple[int, int], np.ndarray | None] = {}
 
     def begin_trial(self, rows: np.ndarray) -> None:
         """Robots ``rows`` start a trial: their belief is trusted again."""
@@ -188,14 +194,15 @@ class GoalScans(BufferViews):
         if sonar is None or not searching.any():
             return aim
         out = aim.copy()
+        # from beside: just after passing; within the drift: while there
+        matching = searching & (self.through | (self.beside_steps > 0) | close)
+        points = self._match(np.flatnonzero(matching), pose, sonar)
         for b in np.flatnonzero(searching).tolist():
-            # from beside: just after passing; within the drift: while there
-            if self.through[b] or self.beside_steps[b] > 0 or close[b]:
-                point = self._match(b, pose[b], sonar[b])
-                if point is not None and (
-                    self.through[b] or self._plausible(b, pose[b], sonar[b], point)
-                ):
-                    found[b] = point
+            point = points.get(b)
+            if point is not None and (
+                self.through[b] or self._plausible(b, pose[b], sonar[b], point)
+            ):
+                found[b] = point
             if not np.isnan(found[b, 0]):
                 out[b] = found[b]
         return out
@@ -228,27 +235,44 @@ class GoalScans(BufferViews):
         across = np.abs(rx * ey - ry * ex)
         return not bool(((along > 0) & (along < length) & (across < self.robot.radius)).any())
 
-    def _match(self, b: int, pose: np.ndarray, sonar: np.ndarray) -> np.ndarray | None:
-        """The arrival point that robot ``b``'s scan matches best, in its odometry frame
-        (None: no arrival explains the scan)."""
+    def _match(
+        self, rows: np.ndarray, pose: np.ndarray, sonar: np.ndarray
+    ) -> dict[int, np.ndarray]:
+        """Per robot of ``rows``, the arrival point its scan matches best, in its odometry
+        frame (absent: no arrival explains the scan). Every robot's scan is matched against
+        each of its kept arrivals' echoes in one batched fit, one row per pair (the arrivals'
+        echoes a :class:`WallSets`): each row's numbers are those of that pair's match alone."""
         a = self.arrays
-        best, best_share = None, GOOD
-        for slot in range(min(int(a["count"][b]), a["poses"].shape[1])):
-            matcher = self._matcher(b, slot)
-            if matcher is None:
-                continue
-            start = relative_pose(a["poses"][b, slot], pose)[None]
-            estimate = matcher(start, sonar[None])
-            share = explained_share(matcher, estimate[0], sonar)
-            if share >= best_share:
-                best, best_share = _origin_seen_from(pose, estimate[0]), share
+        pairs: list[tuple[int, int]] = []
+        sets: list[np.ndarray] = []
+        for b in rows.tolist():
+            for slot in range(min(int(a["count"][b]), a["poses"].shape[1])):
+                segments = self._segments(b, slot)
+                if segments is not None:
+                    pairs.append((b, slot))
+                    sets.append(segments)
+        if not pairs:
+            return {}
+        walls = WallSets(sets)
+        matcher = echo_localizer(walls, self.robot, MATCH_ITERATIONS)
+        robots = np.array([b for b, _ in pairs])
+        start = np.stack([relative_pose(a["poses"][b, slot], pose[b]) for b, slot in pairs])
+        estimates = matcher(start, sonar[robots])
+        shares = explained_shares(matcher, estimates, sonar[robots])
+        best: dict[int, np.ndarray] = {}
+        best_share: dict[int, float] = {}
+        for i, b in enumerate(robots.tolist()):  # slot order: the later of equal shares wins
+            if shares[i] >= best_share.get(b, GOOD):
+                best[b], best_share[b] = _origin_seen_from(pose[b], estimates[i]), shares[i]
         return best
 
-    def _matcher(self, b: int, slot: int) -> MapLocalizer | None:
+    def _segments(self, b: int, slot: int) -> np.ndarray | None:
+        """Robot ``b``'s arrival ``slot``'s echo segments (None: too few to match by)."""
         key = (b, slot)
-        if key not in self._matchers:
-            self._matchers[key] = echo_matcher(self.robot, self.arrays["scans"][b, slot], 20)
-        return self._matchers[key]
+        if key not in self._echoes:
+            segments = echo_segments(self.robot, self.arrays["scans"][b, slot])
+            self._echoes[key] = segments if len(segments) >= 3 else None
+        return self._echoes[key]
 
     # -- learning (the update calls this at a trial's end) --------------------------------
     def learn(self, row: int, pose: np.ndarray, sonar: np.ndarray) -> None:
@@ -258,8 +282,8 @@ class GoalScans(BufferViews):
         a["poses"][row, slot] = pose
         a["scans"][row, slot] = sonar
         a["count"][row] += 1
-        self._matchers.pop((row, slot), None)
+        self._echoes.pop((row, slot), None)
 
     def _load_from_state_dict(self, *args, **kwargs):  # type: ignore[no-untyped-def]
-        self._matchers.clear()  # the arrivals are replaced: matchers built again
+        self._echoes.clear()  # the arrivals are replaced: their echoes found again
         super()._load_from_state_dict(*args, **kwargs)

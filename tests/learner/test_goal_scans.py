@@ -9,8 +9,14 @@ import numpy as np
 import pytest
 from learner_helpers import whole_and_resumed
 
-from symrl.knowledge.scan_odometry import echo_segments
-from symrl.learner.goal_scans import BESIDE_STEPS, GoalScans
+from symrl.knowledge.scan_odometry import (
+    GOOD,
+    echo_matcher,
+    echo_segments,
+    explained_share,
+    relative_pose,
+)
+from symrl.learner.goal_scans import BESIDE_STEPS, MATCH_ITERATIONS, GoalScans
 from symrl.world import load_map
 from symrl.world.geometry import Walls
 from symrl.world.robot import RobotConfig
@@ -191,6 +197,55 @@ def test_passing_by_farther_than_the_body_and_clearance_is_no_pass():
     for dx in (-2.0, 0.0, 2.0):
         goal_scans.aim(np.array([[GOAL[0] + dx, GOAL[1] + wide, 0.0]]), np.array([GOAL]), None)
     assert goal_scans.summary(0)["goal_passed"] == 0
+
+
+def _one_match(arrivals: list[tuple[float, float, float]], pose: np.ndarray, readings: np.ndarray):
+    """The goal point one robot finds matching ``readings`` at odometry ``pose`` against each
+    arrival alone (its own matcher on that arrival's echoes), the best share winning."""
+    best, best_share = None, GOOD
+    for arrival in arrivals:
+        matcher = echo_matcher(ROBOT, scan(arrival), MATCH_ITERATIONS)
+        assert matcher is not None
+        estimate = matcher(relative_pose(np.array(arrival), pose)[None], readings[None])[0]
+        share = explained_share(matcher, estimate, readings)
+        if share >= best_share:
+            x, y, h = estimate  # the arrival frame's origin, seen from the robot at ``pose``
+            c, s = math.cos(h), math.sin(h)
+            lx, ly = -(c * x + s * y), s * x - c * y
+            cp, sp = math.cos(pose[2]), math.sin(pose[2])
+            best = np.array([pose[0] + cp * lx - sp * ly, pose[1] + sp * lx + cp * ly])
+            best_share = share
+    return best
+
+
+def test_robots_searching_in_one_batch_each_find_what_they_find_alone():
+    """Three robots that drove through their believed goal search in one step: one with two
+    arrivals kept (its odometry 0.6 m off), one with one (off the other way), one in the room
+    whose scan no arrival explains. Matched together, each finds bitwise the point it finds matched
+    against each arrival alone; a fault that mixed the robots' arrivals would not."""
+    second = (GOAL[0] - 0.2, GOAL[1] + 0.1, 1.6)  # on the disc, driving north
+    kept = [[second, ARRIVAL], [ARRIVAL], [ARRIVAL]]
+    up_the_corridor = (GOAL[0] + 0.6, GOAL[1] + 1.1, -1.3)
+    true = [up_the_corridor, (GOAL[0] + 0.3, GOAL[1] + 1.4, -1.6), (-2.0, 1.0, 0.0)]
+    shift = [(0.5, -0.3, 0.0), (-0.5, 0.4, 0.0), (0.0, 0.0, 0.0)]
+    batch = scans(batch=3)
+    for row, arrivals in enumerate(kept):
+        for arrival in arrivals:
+            batch.learn(row, np.array(arrival), scan(arrival))
+    options_aim = np.tile(GOAL, (3, 1))
+    batch.aim(np.tile([GOAL[0], GOAL[1], 0.0], (3, 1)), options_aim, None)  # on the disc
+    pose = np.array(true) + np.array(shift)
+    readings = np.stack([scan(t) for t in true])
+    aim = batch.aim(pose, options_aim, readings)
+    for row in range(3):
+        alone = _one_match(kept[row], pose[row], readings[row])
+        if alone is None:
+            assert aim[row].tolist() == list(GOAL)
+        else:
+            assert aim[row].tolist() == alone.tolist()
+    assert aim[0] == pytest.approx(np.array(ARRIVAL[:2]) + shift[0][:2], abs=0.05)
+    assert aim[1] == pytest.approx(np.array(ARRIVAL[:2]) + shift[1][:2], abs=0.05)
+    assert aim[2].tolist() == list(GOAL)
 
 
 def test_a_scan_the_arrivals_do_not_explain_keeps_the_aim():
