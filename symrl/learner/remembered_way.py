@@ -323,7 +323,7 @@ class RememberedWay(BufferViews):
         while True:
             # the pose before is always a way there: the robot drove it (a door post nearer
             # than the clearance hides nothing)
-            i = self._first_clear(pose[:end, :2], target, echoes)
+            i = next((i for i in range(end) if self._clear(pose[i, :2], target, echoes)), end - 1)
             if i == 0:
                 return vias[::-1]
             target = pose[i, :2].copy()
@@ -388,33 +388,6 @@ class RememberedWay(BufferViews):
         y = pose[:, 1:2] + reach * np.sin(angle)
         return np.stack((x[echoed], y[echoed]), axis=-1)
 
-    def _first_clear(self, starts: np.ndarray, target: np.ndarray, echoes: np.ndarray) -> int:
-        """The first of ``starts`` (k, 2) from which :meth:`_clear` finds the straight way to
-        ``target`` clear, else the last (the pose before ``target``: the robot drove it). The
-        same test, a block of starts at a time against every echo at once: the trial's poses
-        times its echoes in Python calls was most of a trial's end."""
-        margin = self.radius + self.clearance
-        for first in range(0, len(starts) - 1, _BLOCK):
-            block = starts[first : first + _BLOCK]
-            d = target - block
-            length = np.array([math.hypot(x, y) for x, y in d.tolist()])
-            near = length <= self.sonar_range
-            ok = near & (length < 1e-9)
-            test = np.flatnonzero(near & ~ok)
-            if len(test):
-                ex, ey = (d[test] / length[test, None]).T
-                rx = echoes[None, :, 0] - block[test, 0:1]
-                ry = echoes[None, :, 1] - block[test, 1:2]
-                along = rx * ex[:, None] + ry * ey[:, None]
-                across = np.abs(rx * ey[:, None] - ry * ex[:, None])
-                need = self.radius + self.clearance * np.minimum(along / margin, 1.0)
-                inside = (along > 0) & (along < length[test, None]) & (across < need)
-                ok[test] = ~inside.any(axis=1)
-            hits = np.flatnonzero(ok[: len(starts) - 1 - first])
-            if len(hits):
-                return first + int(hits[0])
-        return len(starts) - 1
-
     def _clear(
         self, start: np.ndarray, target: np.ndarray, echoes: np.ndarray, both_ends: bool = False
     ) -> bool:
@@ -437,11 +410,6 @@ class RememberedWay(BufferViews):
         room = np.minimum(along, length - along) if both_ends else along
         need = self.radius + self.clearance * np.minimum(room / margin, 1.0)
         return not bool(((along > 0) & (along < length) & (across < need)).any())
-
-
-_BLOCK = 32
-"""Starts tested together by :meth:`RememberedWay._first_clear`: the way is usually clear from
-one of the first few dozen poses within the sonar's range of the target."""
 
 
 def _gap(p: np.ndarray, start: np.ndarray, end: np.ndarray) -> float:

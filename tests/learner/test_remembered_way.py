@@ -604,28 +604,3 @@ def test_the_update_tells_the_way_whether_the_trial_searched_for_its_goal(
     monkeypatch.setattr(TeseoUpdate, "end_trial", flagged)
     paper_trials("hailu2001", 6000, 2)
     assert told == [searched, searched]
-
-
-@settings(max_examples=60, deadline=None)
-@given(
-    seed=st.integers(0, 2**32 - 1),
-    starts=st.integers(1, 90),
-    echoes=st.integers(0, 300),
-    spread=st.floats(1.0, 8.0),
-)
-def test_the_first_clear_start_is_the_first_the_single_test_finds_clear(
-    seed: int, starts: int, echoes: int, spread: float
-) -> None:
-    """The pulling tight tests its starts a block at a time: it returns the first start from
-    which the single-start test finds the way to the target clear, else the last start, on
-    random starts and echoes (some within the sonar's range, some beyond it, some on it)."""
-    rng = np.random.default_rng(seed)
-    remembered = way()
-    target = np.array([4.0, 3.0])
-    points = target + rng.uniform(-spread, spread, size=(starts, 2))
-    points[rng.random(starts) < 0.1] = target  # on the target itself
-    walls = target + rng.uniform(-spread, spread, size=(echoes, 2))
-    expected = next(
-        (i for i in range(starts) if remembered._clear(points[i], target, walls)), starts - 1
-    )
-    assert remembered._first_clear(points, target, walls) == expected
