@@ -1,6 +1,6 @@
 """Training throughput, side by side in one run (a script, not a test).
 
-    python benchmarks/bench_train.py [--recipe paper] [--sizes 1,10,100] [--trials 12]
+    python benchmarks/bench_train.py [--recipe paper] [--sizes 1,10,100] [--trials 12] [--map WORLD]
 
 Rows, all in robot-steps per CPU second of this process, and as a ratio to the raw env:
 - raw env: the Gymnasium env (``Hailu2001Env``) stepped with fixed random actions, no learner;
@@ -70,7 +70,7 @@ class _Learner:
         from symrl.learner.config import load_config
         from symrl.train import TrialRecorder, make_env
 
-        config = load_config(recipe, [f"run.trials={trials}"])
+        config = load_config(recipe, [f"run.trials={trials}", *OVERRIDES])
         self.size, self.trials = size, trials
         seeds = list(range(size))
         env = make_env(config, seeds)
@@ -187,13 +187,16 @@ def train_loop(recipe: str, size: int, trials: int) -> tuple[float, list[list[in
     from symrl.learner.config import load_config
     from symrl.train import train_batch
 
-    config = load_config(recipe, [f"run.trials={trials}"])
+    config = load_config(recipe, [f"run.trials={trials}", *OVERRIDES])
     results = train_batch(config, list(range(size)), progress=False)
     timings = results[0].timings
     return timings["frames"] / timings["cpu_seconds"], [
         [t["steps"] for t in r.trials] for r in results
     ]
 
+
+OVERRIDES: list[str] = []
+"""Overrides every loop's config takes (``--map``: ``env.map=WORLD``)."""
 
 LOOPS = {
     "bare loop": bare_loop,
@@ -228,6 +231,7 @@ def other_round(checkout: str, recipe: str, sizes: list[int], trials: int) -> di
         "--trials",
         str(trials),
         "--one-round",
+        *(["--map", OVERRIDES[0].split("=", 1)[1]] if OVERRIDES else []),
     ]
     out = subprocess.run(args, env=env, check=True, capture_output=True, text=True).stdout
     return json.loads(out.splitlines()[-1])
@@ -281,8 +285,24 @@ def main() -> None:
         metavar="RECIPE",
         help="the recipe (name or file) the --compare checkout runs (default: --recipe)",
     )
+    parser.add_argument(
+        "--map",
+        default=None,
+        metavar="WORLD",
+        help="the world every loop trains on (env.map; default: the recipe's); the raw env row "
+        "stays the paper's world",
+    )
     parser.add_argument("--one-round", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.map:
+        from symrl.world import load_map
+        from symrl.world.map_fields import MapError
+
+        try:
+            load_map(args.map)
+        except MapError as error:
+            parser.error(f"--map: {error}")
+        OVERRIDES.append(f"env.map={args.map}")
     torch.set_num_threads(1)
     sizes = [int(s) for s in args.sizes.split(",")]
     loops = [name.strip() for name in args.loops.split(",")]
@@ -305,7 +325,8 @@ def main() -> None:
         mine.append(one_round(args.recipe, sizes, args.trials, loops))
     load = ", ".join(f"{v:.2f}" for v in os.getloadavg())
     how = (
-        f"recipe {args.recipe}, {args.trials} trials a robot; robot-steps per CPU second, "
+        f"recipe {args.recipe}{', map ' + args.map if args.map else ''}, {args.trials} trials "
+        "a robot; robot-steps per CPU second, "
         f"best of {args.rounds} rounds; load average {load} (1, 5, 15 min)"
     )
     if args.compare:
