@@ -44,6 +44,9 @@ from typing import Any
 import numpy as np
 import torch
 
+OVERRIDES: list[str] = []
+"""Overrides every loop's config takes (``--map``: ``env.map=WORLD``)."""
+
 
 def raw_env(steps: int) -> float:
     """Robot-steps per CPU second of the Gymnasium env alone."""
@@ -195,9 +198,6 @@ def train_loop(recipe: str, size: int, trials: int) -> tuple[float, list[list[in
     ]
 
 
-OVERRIDES: list[str] = []
-"""Overrides every loop's config takes (``--map``: ``env.map=WORLD``)."""
-
 LOOPS = {
     "bare loop": bare_loop,
     "TorchRL Collector": torchrl_collector_loop,
@@ -217,7 +217,9 @@ def one_round(recipe: str, sizes: list[int], trials: int, loops: list[str]) -> d
     return row
 
 
-def other_round(checkout: str, recipe: str, sizes: list[int], trials: int) -> dict[str, Any]:
+def other_round(
+    checkout: str, recipe: str, sizes: list[int], trials: int, world: str | None
+) -> dict[str, Any]:
     """:func:`one_round` of the bare loop and train.py's loop with the ``symrl`` of another
     checkout, in a child process (the child's own warm-up is not counted)."""
     env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve())}
@@ -231,7 +233,7 @@ def other_round(checkout: str, recipe: str, sizes: list[int], trials: int) -> di
         "--trials",
         str(trials),
         "--one-round",
-        *(["--map", OVERRIDES[0].split("=", 1)[1]] if OVERRIDES else []),
+        *(["--map", world] if world else []),
     ]
     out = subprocess.run(args, env=env, check=True, capture_output=True, text=True).stdout
     return json.loads(out.splitlines()[-1])
@@ -321,7 +323,7 @@ def main() -> None:
     for _ in range(args.rounds):
         if args.compare:
             recipe = args.compare_recipe or args.recipe
-            other.append(other_round(args.compare, recipe, sizes, args.trials))
+            other.append(other_round(args.compare, recipe, sizes, args.trials, args.map))
         mine.append(one_round(args.recipe, sizes, args.trials, loops))
     load = ", ".join(f"{v:.2f}" for v in os.getloadavg())
     how = (

@@ -48,6 +48,7 @@ import numpy as np
 from symrl.world.geometry import Walls
 from symrl.world.physics import wrap_angle
 from symrl.world.robot import RobotConfig
+from symrl.world.wall_queries import ray_directions
 from symrl.world.wall_sets import WallSets
 
 __all__ = ["MapLocalizer", "PoseTracker"]
@@ -191,8 +192,8 @@ class MapLocalizer:
         map can explain (a wall hit inside its ends, not grazing), u x d, the numerators of the
         range's derivative (x, y, heading) and the predicted readings."""
         angles = pose[:, 2:3] + self.offsets
-        u = np.empty((2, *angles.shape))  # the rays' directions, for the cast and here
-        ux, uy = np.cos(angles, out=u[0]), np.sin(angles, out=u[1])
+        u = ray_directions(angles)  # the rays' directions, for the cast and here
+        ux, uy = u[0], u[1]
         t, wall = self.walls.cast_many_walls(pose[:, 0], pose[:, 1], angles, self.cast_range, u)
         if self.cone_rays > 1:  # per sensor, the nearest sub-ray
             b, m = len(pose), self.cone_rays

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from symrl.world.wall_queries import S_EPS, TWO_PI, WallQueries
+from symrl.world.wall_queries import S_EPS, TWO_PI, WallQueries, ray_directions
 
 __all__ = [
     "Walls",
@@ -97,11 +97,9 @@ class Walls(WallQueries):
     ) -> np.ndarray:
         """``(B, n, R)``: :func:`inverse_hits` of these walls (``u``: the rays' directions
         ``(2, B, R)``, cosines then sines, if known)."""
-        b, r = angles.shape
+        b, _ = angles.shape
         if u is None:
-            u = np.empty((2, b, r))
-            np.cos(angles, out=u[0])
-            np.sin(angles, out=u[1])
+            u = ray_directions(angles)
         return inverse_hits(
             self.normals, self.a_perp, self.a_cross_d, self._cast_buffers(b), x, y, u
         )

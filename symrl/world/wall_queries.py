@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-__all__ = ["WallQueries"]
+__all__ = ["WallQueries", "ray_directions"]
 
 S_EPS = 1e-9
 """Tolerance on the segment parameter so rays never slip through a shared vertex."""
@@ -74,9 +74,7 @@ class WallQueries:
         """
         n = self.n_walls
         k = self._k
-        u = np.empty((2, len(angles)))
-        np.cos(angles, out=u[0])
-        np.sin(angles, out=u[1])
+        u = ray_directions(angles)
         np.add(self.a_perp, (y, -x), out=k[n : 2 * n])
         tnum = self.a_cross_d - self.normals @ (
             x,
@@ -240,3 +238,11 @@ class WallQueries:
         o3 = self.dx * (y0 - self.ay) - self.dy * (x0 - self.ax)
         o4 = self.dx * (y1 - self.ay) - self.dy * (x1 - self.ax)
         return bool(np.any((o1 * o2 < 0.0) & (o3 * o4 < 0.0)))
+
+
+def ray_directions(angles: np.ndarray) -> np.ndarray:
+    """``(2, *angles.shape)``: the rays' cosines, then sines, each a contiguous block."""
+    u = np.empty((2, *np.shape(angles)))
+    np.cos(angles, out=u[0])
+    np.sin(angles, out=u[1])
+    return u

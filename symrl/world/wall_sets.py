@@ -20,6 +20,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from symrl.world.geometry import inverse_hits, nearest_hits
+from symrl.world.wall_queries import ray_directions
 
 __all__ = ["WallSets"]
 
@@ -93,9 +94,7 @@ class WallSets:
             raise ValueError(f"WallSets.cast_many_walls: {b} rows of rays for {self.batch} sets")
         u = directions
         if u is None:
-            u = np.empty((2, b, r))
-            np.cos(angles, out=u[0])
-            np.sin(angles, out=u[1])
+            u = ray_directions(angles)
         buffers = (self._k, self._xy, self._yx)
         hits = inverse_hits(self.normals, self.a_perp, self.a_cross_d, buffers, x, y, u)
         rows = self._rows.get(r)
