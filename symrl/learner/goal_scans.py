@@ -47,7 +47,6 @@ import numpy as np
 import torch
 
 from symrl.buffers import BufferViews
-from symrl.knowledge.localize import MapLocalizer
 from symrl.knowledge.scan_odometry import (
     GOOD,
     echo_localizer,
@@ -133,10 +132,8 @@ class GoalScans(BufferViews):
         self.found = np.full((batch, 2), np.nan)
         self.steps = np.zeros(batch, dtype=np.int64)  # the trial's actions so far
         # per robot and slot: that arrival's echo segments (None: too few to match by; built
-        # when first needed); the matcher on the last match's (robot, slot) pairs, kept while
-        # the same robots search (rebuilt when the pairs or an arrival change)
+        # when first needed)
         self._echoes: dict[tuple[int, int], np.ndarray | None] = {}
-        self._matcher: tuple[tuple[tuple[int, int], ...], MapLocalizer] | None = None
 
     def begin_trial(self, rows: np.ndarray) -> None:
         """Robots ``rows`` start a trial: their belief is trusted again."""
@@ -246,15 +243,17 @@ class GoalScans(BufferViews):
         each of its kept arrivals' echoes in one batched fit, one row per pair (the arrivals'
         echoes a :class:`WallSets`): each row's numbers are those of that pair's match alone."""
         a = self.arrays
-        pairs = tuple(
-            (b, slot)
-            for b in rows.tolist()
-            for slot in range(min(int(a["count"][b]), a["poses"].shape[1]))
-            if self._segments(b, slot) is not None
-        )
+        pairs: list[tuple[int, int]] = []
+        sets: list[np.ndarray] = []
+        for b in rows.tolist():
+            for slot in range(min(int(a["count"][b]), a["poses"].shape[1])):
+                segments = self._segments(b, slot)
+                if segments is not None:
+                    pairs.append((b, slot))
+                    sets.append(segments)
         if not pairs:
             return {}
-        matcher = self._matcher_for(pairs)
+        matcher = echo_localizer(WallSets(sets), self.robot, MATCH_ITERATIONS)
         robots = [b for b, _ in pairs]
         start = np.stack([relative_pose(a["poses"][b, slot], pose[b]) for b, slot in pairs])
         estimates = matcher(start, sonar[robots])
@@ -265,15 +264,6 @@ class GoalScans(BufferViews):
             if shares[i] >= best_share.get(b, GOOD):
                 best[b], best_share[b] = _origin_seen_from(pose[b], estimates[i]), shares[i]
         return best
-
-    def _matcher_for(self, pairs: tuple[tuple[int, int], ...]) -> MapLocalizer:
-        """The matcher on these (robot, slot) pairs' arrival echoes, one row each: the last one
-        again while the same robots search the same arrivals."""
-        if self._matcher is None or self._matcher[0] != pairs:
-            sets = [self._echoes[pair] for pair in pairs]
-            walls = WallSets([segments for segments in sets if segments is not None])
-            self._matcher = (pairs, echo_localizer(walls, self.robot, MATCH_ITERATIONS))
-        return self._matcher[1]
 
     def _segments(self, b: int, slot: int) -> np.ndarray | None:
         """Robot ``b``'s arrival ``slot``'s echo segments (None: too few to match by)."""
@@ -292,9 +282,7 @@ class GoalScans(BufferViews):
         a["scans"][row, slot] = sonar
         a["count"][row] += 1
         self._echoes.pop((row, slot), None)
-        self._matcher = None  # an arrival replaced: the matcher on it is stale
 
     def _load_from_state_dict(self, *args, **kwargs):  # type: ignore[no-untyped-def]
         self._echoes.clear()  # the arrivals are replaced: their echoes found again
-        self._matcher = None
         super()._load_from_state_dict(*args, **kwargs)
